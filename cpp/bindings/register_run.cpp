@@ -1,0 +1,149 @@
+#include <chrono>
+#include <cstring>
+#include <string>
+
+#include "common.hpp"
+#include "crandall/accumulators.hpp"
+#include "crandall/plan.hpp"
+#include "crandall/run.hpp"
+
+namespace {
+
+using crandall::Method;
+using crandall::Moments;
+
+py::array_t<double> to_array(const std::vector<double>& v, std::size_t rows, std::size_t cols) {
+  py::array_t<double> out(cols == 0 ? std::vector<py::ssize_t>{static_cast<py::ssize_t>(rows)}
+                                    : std::vector<py::ssize_t>{static_cast<py::ssize_t>(rows),
+                                                               static_cast<py::ssize_t>(cols)});
+  if (!v.empty()) std::memcpy(out.mutable_data(), v.data(), v.size() * sizeof(double));
+  return out;
+}
+
+std::vector<double> from_array(const py::array_t<double, py::array::c_style | py::array::forcecast>& a,
+                               std::size_t expected, const char* name) {
+  if (static_cast<std::size_t>(a.size()) != expected)
+    throw std::invalid_argument(std::string(name) + " has the wrong size for these slots");
+  return std::vector<double>(a.data(), a.data() + a.size());
+}
+
+Moments moments_from(std::size_t slots, const py::array_t<double, py::array::c_style | py::array::forcecast>& counts,
+                     const py::array_t<double, py::array::c_style | py::array::forcecast>& means,
+                     const py::array_t<double, py::array::c_style | py::array::forcecast>& central) {
+  Moments m(slots);
+  m.counts() = from_array(counts, slots, "counts");
+  m.means() = from_array(means, slots * crandall::kVariables, "means");
+  m.central() = from_array(central, slots * crandall::kMonomials, "central");
+  return m;
+}
+
+}  // namespace
+
+void register_run(py::module_& m) {
+  m.attr("CHUNK_PATHS") = crandall::kChunkPaths;
+  m.attr("BLOCK_PATHS") = crandall::kBlockPaths;
+  m.attr("LANES") = crandall::kLanes;
+  m.def("monomial_exponents", [] {
+    py::list out;
+    for (const auto& e : crandall::monomial_exponents()) out.append(py::make_tuple(e[0], e[1], e[2]));
+    return out;
+  }, "Exponent triples (a, b, c) of the central sums, in storage order.");
+
+  py::class_<crandall::Options>(m, "Options", "Options of a run (validated by Plan).")
+      .def(py::init<>())
+      .def_readwrite("drift", &crandall::Options::drift)
+      .def_readwrite("noise", &crandall::Options::noise)
+      .def_readwrite("switch_off", &crandall::Options::switch_off)
+      .def_readwrite("times", &crandall::Options::times)
+      .def_readwrite("dt", &crandall::Options::dt)
+      .def_property(
+          "method",
+          [](const crandall::Options& o) { return o.method == Method::exact ? "exact" : "euler"; },
+          [](crandall::Options& o, const std::string& name) {
+            if (name == "exact") o.method = Method::exact;
+            else if (name == "euler") o.method = Method::euler;
+            else throw std::invalid_argument("method must be 'exact' or 'euler', got '" + name + "'");
+          })
+      .def_readwrite("velocity", &crandall::Options::velocity)
+      .def_readwrite("displacement", &crandall::Options::displacement)
+      .def_readwrite("distance", &crandall::Options::distance)
+      .def_readwrite("stop", &crandall::Options::stop)
+      .def_readwrite("seed", &crandall::Options::seed)
+      .def_readwrite("paths", &crandall::Options::paths)
+      .def("validate", &crandall::Options::validate);
+
+  py::class_<crandall::Plan>(m, "Plan", "A validated run: the time grid and the path partition.")
+      .def(py::init<crandall::Options>(), py::arg("options"))
+      .def_property_readonly("steps_per_path", &crandall::Plan::steps_per_path)
+      .def_property_readonly("chunks", &crandall::Plan::chunks)
+      .def("chunk_paths", &crandall::Plan::chunk_paths, py::arg("chunk"))
+      .def_property_readonly("options", &crandall::Plan::options);
+
+  py::class_<Moments>(m, "Moments",
+                      "Count, means and central sums up to order 4 of three variables per slot.")
+      .def(py::init<std::size_t>(), py::arg("slots"))
+      .def(py::init(&moments_from), py::arg("slots"), py::arg("counts"), py::arg("means"),
+           py::arg("central"))
+      .def_property_readonly("slots", &Moments::slots)
+      .def_property_readonly("counts", [](const Moments& a) { return to_array(a.counts(), a.slots(), 0); })
+      .def_property_readonly("means", [](const Moments& a) {
+        return to_array(a.means(), a.slots(), crandall::kVariables);
+      })
+      .def_property_readonly("central", [](const Moments& a) {
+        return to_array(a.central(), a.slots(), crandall::kMonomials);
+      })
+      .def("merge", &Moments::merge, py::arg("other"),
+           "Merge another accumulator into this one (order matters only through rounding).")
+      .def(py::pickle(
+          [](const Moments& a) {
+            return py::make_tuple(a.slots(), to_array(a.counts(), a.slots(), 0),
+                                  to_array(a.means(), a.slots(), crandall::kVariables),
+                                  to_array(a.central(), a.slots(), crandall::kMonomials));
+          },
+          [](const py::tuple& t) {
+            return moments_from(t[0].cast<std::size_t>(), t[1].cast<py::array_t<double>>(),
+                                t[2].cast<py::array_t<double>>(), t[3].cast<py::array_t<double>>());
+          }));
+
+  py::class_<crandall::ChunkResult>(m, "ChunkResult")
+      .def_readonly("times", &crandall::ChunkResult::times)
+      .def_readonly("stop", &crandall::ChunkResult::stop);
+
+  m.def(
+      "run_chunk",
+      [](const crandall::Plan& plan, std::uint64_t chunk, int threads) {
+        using clock = std::chrono::steady_clock;
+        auto last = clock::now();
+        // Called on the calling (main) thread only, so Python's signal handlers can run there.
+        auto interrupted = [&last]() {
+          const auto now = clock::now();
+          if (now - last < std::chrono::milliseconds(50)) return false;
+          last = now;
+          py::gil_scoped_acquire gil;
+          return PyErr_CheckSignals() != 0;
+        };
+        try {
+          // Pure C++ on data owned by the plan and the result: safe without the GIL, and other
+          // Python threads (a progress bar) keep running.
+          py::gil_scoped_release release;
+          return crandall::run_chunk(plan, chunk, threads, interrupted);
+        } catch (const crandall::Interrupted&) {
+          throw py::error_already_set();  // the KeyboardInterrupt set by PyErr_CheckSignals
+        }
+      },
+      py::arg("plan"), py::arg("chunk"), py::arg("threads") = 0,
+      "Simulate one chunk of paths; bitwise the same for any thread count.");
+
+  m.def(
+      "exact_steps",
+      [](const std::vector<double>& start, double h, double drift, double noise, std::uint64_t seed) {
+        std::vector<double> out;
+        {
+          py::gil_scoped_release release;
+          out = crandall::exact_steps(start, h, drift, noise, seed);
+        }
+        return to_array(out, out.size(), 0);
+      },
+      py::arg("start"), py::arg("h"), py::arg("drift"), py::arg("noise"), py::arg("seed"),
+      "One exact velocity step of length h from each start value (path i uses stream i).");
+}

@@ -1,0 +1,36 @@
+// After the noise is switched off at t0 the motion is deterministic (paper eq13a-eq14, here
+// for a general deceleration c; the paper's scaled units have c = 2): the body decelerates at
+// rate c and stops at t_s = t0 + |X(t0)| / c, then stays at rest.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace crandall {
+
+struct State {
+  double velocity;
+  double displacement;
+  double distance;
+};
+
+// State at time t0 + elapsed (elapsed >= 0), from the state at switch-off.
+inline State coast(const State& s0, double drift, double elapsed) {
+  const double speed = std::abs(s0.velocity);
+  const double sign = s0.velocity > 0.0 ? 1.0 : (s0.velocity < 0.0 ? -1.0 : 0.0);
+  // Time spent moving: up to the stop (never stops without friction).
+  const double moving = drift > 0.0 ? std::min(elapsed, speed / drift) : elapsed;
+  const double travelled = speed * moving - 0.5 * drift * moving * moving;
+  return {sign * (speed - drift * moving), s0.displacement + sign * travelled,
+          s0.distance + travelled};
+}
+
+// Time from switch-off to the stop; +inf without friction unless already at rest.
+inline double time_to_stop(double velocity, double drift) {
+  const double speed = std::abs(velocity);
+  if (speed == 0.0) return 0.0;
+  return drift > 0.0 ? speed / drift : std::numeric_limits<double>::infinity();
+}
+
+}  // namespace crandall

@@ -1,0 +1,150 @@
+// The path loop, instantiated per method and per set of observed integrals, so a scene pays
+// only for what it observes. kLanes paths are stepped together (structure of arrays); nothing
+// is allocated inside the loop.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include "crandall/accumulators.hpp"
+#include "crandall/coast.hpp"
+#include "crandall/plan.hpp"
+#include "crandall/rng.hpp"
+#include "crandall/skeleton.hpp"
+
+namespace crandall {
+
+// Raw sums of one block about a centre per slot (the first path's values), then merged into a
+// Moments in block order by the caller.
+struct BlockSums {
+  explicit BlockSums(std::size_t slots)
+      : centre(slots * kVariables), raw(slots * kMonomials), counts(slots) {}
+  void reset() {
+    std::fill(raw.begin(), raw.end(), 0.0);
+    std::fill(counts.begin(), counts.end(), 0.0);
+  }
+  void add(std::size_t slot, const double* a, const double* b, const double* c, int lanes,
+           const std::vector<int>& active);
+  void merge_into(Moments& out) const {
+    for (std::size_t s = 0; s < counts.size(); ++s)
+      out.merge_raw(s, counts[s], &centre[s * kVariables], &raw[s * kMonomials]);
+  }
+  std::vector<double> centre, raw, counts;
+};
+
+inline void BlockSums::add(std::size_t slot, const double* a, const double* b, const double* c,
+                           int lanes, const std::vector<int>& active) {
+  double* cen = &centre[slot * kVariables];
+  if (counts[slot] == 0.0) {
+    cen[0] = a[0];
+    cen[1] = b[0];
+    cen[2] = c[0];
+  }
+  double pa[kMomentOrder + 1][kLanes], pb[kMomentOrder + 1][kLanes], pc[kMomentOrder + 1][kLanes];
+  for (int l = 0; l < lanes; ++l) {
+    pa[0][l] = pb[0][l] = pc[0][l] = 1.0;
+    pa[1][l] = a[l] - cen[0];
+    pb[1][l] = b[l] - cen[1];
+    pc[1][l] = c[l] - cen[2];
+  }
+  for (int p = 2; p <= kMomentOrder; ++p)
+    for (int l = 0; l < lanes; ++l) {
+      pa[p][l] = pa[p - 1][l] * pa[1][l];
+      pb[p][l] = pb[p - 1][l] * pb[1][l];
+      pc[p][l] = pc[p - 1][l] * pc[1][l];
+    }
+  const auto& exps = monomial_exponents();
+  double* r = &raw[slot * kMonomials];
+  for (int k : active) {
+    const auto& e = exps[k];
+    double sum = 0.0;
+    for (int l = 0; l < lanes; ++l) sum += pa[e[0]][l] * pb[e[1]][l] * pc[e[2]][l];
+    r[k] += sum;
+  }
+  counts[slot] += lanes;
+}
+
+// Monomials whose exponents vanish on the variables that are not simulated.
+inline std::vector<int> active_monomials(bool second, bool third) {
+  std::vector<int> out;
+  const auto& exps = monomial_exponents();
+  for (int k = 0; k < kMonomials; ++k)
+    if ((second || exps[k][1] == 0) && (third || exps[k][2] == 0)) out.push_back(k);
+  return out;
+}
+
+struct Workspace {
+  explicit Workspace(const Plan& plan)
+      : times(plan.options().times.size()),
+        stop(plan.options().stop ? 1 : 0),
+        active(active_monomials(plan.options().displacement, plan.options().distance)) {}
+  BlockSums times, stop;
+  std::vector<int> active;
+};
+
+// Simulate paths [first, first + count) (count <= kBlockPaths) into ws (reset by the caller).
+template <Method M, bool kDisp, bool kDist>
+void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, Workspace& ws) {
+  const Options& o = plan.options();
+  const double drift = o.drift, noise = o.noise;
+  for (std::uint64_t offset = 0; offset < count; offset += kLanes) {
+    const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
+    const std::uint64_t path0 = first + offset;
+    double x[kLanes] = {}, u[kLanes] = {}, s[kLanes] = {};
+    StepNoise noise_pair[kLanes][2];
+    std::uint64_t k = 0;  // step index along the path; selects the random numbers
+    for (const Segment& seg : plan.segments()) {
+      const double h = seg.h;
+      for (std::uint64_t i = 0; i < seg.steps; ++i, ++k) {
+        const int half = static_cast<int>(k & 1u);
+        if (half == 0)
+          for (int l = 0; l < lanes; ++l) draw_pair(o.seed, path0 + l, k >> 1, noise_pair[l]);
+        for (int l = 0; l < lanes; ++l) {
+          const StepNoise& z = noise_pair[l][half];
+          const double x0 = x[l];
+          double x1;
+          if constexpr (M == Method::exact) {
+            x1 = exact_step(x0, h, drift, noise, z.normal, z.exponential, z.coin).velocity;
+            // Trapezoid rule on the exact skeleton (docs/integrals.md).
+            if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1);
+            if constexpr (kDist) s[l] += 0.5 * h * (std::abs(x0) + std::abs(x1));
+          } else {
+            x1 = euler_step(x0, h, drift, noise, z.normal);
+            if constexpr (kDisp) u[l] += h * x0;
+            if constexpr (kDist) s[l] += h * std::abs(x0);
+          }
+          x[l] = x1;
+        }
+      }
+      if (seg.slot >= 0) ws.times.add(static_cast<std::size_t>(seg.slot), x, u, s, lanes, ws.active);
+    }
+    if (!plan.needs_switch_state()) continue;
+    const auto& slots = plan.coast_slots();
+    const auto& elapsed = plan.coast_elapsed();
+    for (std::size_t j = 0; j < slots.size(); ++j) {
+      double cx[kLanes], cu[kLanes], cs[kLanes];
+      for (int l = 0; l < lanes; ++l) {
+        const State st = coast({x[l], u[l], s[l]}, drift, elapsed[j]);
+        cx[l] = st.velocity;
+        cu[l] = st.displacement;
+        cs[l] = st.distance;
+      }
+      ws.times.add(static_cast<std::size_t>(slots[j]), cx, cu, cs, lanes, ws.active);
+    }
+    if (o.stop) {
+      double ts[kLanes], us[kLanes], ss[kLanes];
+      for (int l = 0; l < lanes; ++l) {
+        const double to_stop = time_to_stop(x[l], drift);
+        const State st = coast({x[l], u[l], s[l]}, drift, to_stop);
+        ts[l] = o.switch_off + to_stop;
+        us[l] = st.displacement;
+        ss[l] = st.distance;
+      }
+      ws.stop.add(0, ts, us, ss, lanes, ws.active);
+    }
+  }
+}
+
+}  // namespace crandall

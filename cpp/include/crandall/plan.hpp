@@ -1,0 +1,72 @@
+// What a run simulates: the model, the observables, the output times, and the time grid the
+// kernel walks. Options are validated here once; the kernel trusts them.
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+namespace crandall {
+
+enum class Method { exact, euler };
+
+struct Options {
+  // dX = -drift sign(X) dt + noise dW for t < switch_off; no noise afterwards.
+  double drift = 2.0;        // friction deceleration (mu g; 2 in the paper's scaled units)
+  double noise = 1.4142135623730951;  // white-noise intensity (h; sqrt 2 in scaled units)
+  double switch_off = std::numeric_limits<double>::infinity();  // t0; may be +inf
+  std::vector<double> times;  // output times, strictly increasing, >= 0
+  double dt = 0.01;           // longest internal step where integrals are observed
+  Method method = Method::exact;
+  bool velocity = true;
+  bool displacement = false;
+  bool distance = false;
+  bool stop = false;  // stop time, and displacement/distance at the stop if observed
+  std::uint64_t seed = 0;
+  std::uint64_t paths = 1;
+
+  // Throws std::invalid_argument naming the offending field.
+  void validate() const;
+  bool integrals() const { return displacement || distance; }
+};
+
+// A stretch of the grid: `steps` equal steps of length h, then (if slot >= 0) an output.
+struct Segment {
+  double h;
+  std::uint64_t steps;
+  long slot;
+};
+
+// Canonical partition of the paths: chunk c holds paths [c * kChunkPaths, ...), and block b of
+// a chunk holds kBlockPaths of them. Moments are summed per block, blocks are merged in order
+// into their chunk, and chunks in order into the result, so the result is the same bitwise
+// whatever the thread count, the machine, or a resume from a checkpoint.
+constexpr std::uint64_t kBlockPaths = 256;
+constexpr std::uint64_t kChunkPaths = 65536;
+constexpr int kLanes = 16;  // paths stepped together in the kernel
+
+class Plan {
+ public:
+  explicit Plan(Options options);
+
+  const Options& options() const { return options_; }
+  const std::vector<Segment>& segments() const { return segments_; }
+  // Slots of output times after the switch-off (filled in closed form), with the time since it.
+  const std::vector<long>& coast_slots() const { return coast_slots_; }
+  const std::vector<double>& coast_elapsed() const { return coast_elapsed_; }
+  bool needs_switch_state() const { return needs_switch_state_; }
+  std::uint64_t steps_per_path() const { return steps_per_path_; }
+  std::uint64_t chunks() const { return (options_.paths + kChunkPaths - 1) / kChunkPaths; }
+  std::uint64_t chunk_paths(std::uint64_t chunk) const;
+
+ private:
+  Options options_;
+  std::vector<Segment> segments_;
+  std::vector<long> coast_slots_;
+  std::vector<double> coast_elapsed_;
+  bool needs_switch_state_ = false;
+  std::uint64_t steps_per_path_ = 0;
+};
+
+}  // namespace crandall

@@ -1,0 +1,38 @@
+// Running a plan: one chunk of paths at a time (the unit of checkpoints and of distributed
+// tasks), threads inside a chunk, block results merged in block order.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <stdexcept>
+#include <vector>
+
+#include "crandall/accumulators.hpp"
+#include "crandall/plan.hpp"
+
+namespace crandall {
+
+struct ChunkResult {
+  Moments times;  // slot per output time: (velocity, displacement, distance)
+  Moments stop;   // one slot: (stop time, displacement at stop, distance at stop), or none
+};
+
+// Polled by the calling thread between blocks; returning true abandons the run.
+using InterruptCheck = std::function<bool()>;
+
+class Interrupted : public std::runtime_error {
+ public:
+  Interrupted() : std::runtime_error("run interrupted") {}
+};
+
+// Simulate chunk `chunk` of the plan on `threads` threads (0: OpenMP's default). The result
+// is bitwise the same for any thread count.
+ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
+                      const InterruptCheck& interrupted = {});
+
+// One exact step of length h from each start[i], path i of the seed's streams (step 0).
+// For testing the step against its transition law.
+std::vector<double> exact_steps(const std::vector<double>& start, double h, double drift,
+                                double noise, std::uint64_t seed);
+
+}  // namespace crandall
