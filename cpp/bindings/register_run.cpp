@@ -92,6 +92,17 @@ void register_run(py::module_& m) {
       .def_property_readonly("central", [](const Moments& a) {
         return to_array(a.central(), a.slots(), crandall::kMonomials);
       })
+      .def("raw", [](const Moments& a) {
+        std::vector<double> out(a.slots() * crandall::kMonomials, 0.0);
+        for (std::size_t s = 0; s < a.slots(); ++s) {
+          if (a.counts()[s] <= 0.0) continue;
+          // Centre the sums on zero (delta = mean), then divide by the count.
+          crandall::recentre(&a.central()[s * crandall::kMonomials], &a.means()[s * crandall::kVariables],
+                             &out[s * crandall::kMonomials]);
+          for (int k = 0; k < crandall::kMonomials; ++k) out[s * crandall::kMonomials + k] /= a.counts()[s];
+        }
+        return to_array(out, a.slots(), crandall::kMonomials);
+      }, "Raw moments E[x^a y^b z^c] per slot, in the order of monomial_exponents().")
       .def("merge", &Moments::merge, py::arg("other"),
            "Merge another accumulator into this one (order matters only through rounding).")
       .def(py::pickle(

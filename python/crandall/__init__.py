@@ -1,4 +1,19 @@
 """crandall: a body sliding with Coulomb friction on a white-noise-shaken foundation.
 
-Exact-in-law simulation (C++ core) and the analytic results of Berezin & Zayats.
+Exact-in-law simulation (C++ core) of Crandall's problem and the analytic results of
+Berezin & Zayats (see ``crandall.analytic``).
+
+>>> import crandall
+>>> scene = crandall.Scene.scaled(tau0=5, times=[1, 5])
+>>> result = crandall.simulate(scene, paths=10_000, seed=1)
+>>> result.mean("distance").shape
+(2,)
 """
+
+from .results import Result
+from .scene import OBSERVABLES, Scene
+from .simulate import METHODS, default_dt, simulate
+from .units import Scaling
+
+__all__ = ["Scene", "Result", "simulate", "default_dt", "Scaling", "OBSERVABLES", "METHODS"]
+__version__ = "0.1.0"

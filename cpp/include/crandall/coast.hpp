@@ -19,10 +19,13 @@ struct State {
 inline State coast(const State& s0, double drift, double elapsed) {
   const double speed = std::abs(s0.velocity);
   const double sign = s0.velocity > 0.0 ? 1.0 : (s0.velocity < 0.0 ? -1.0 : 0.0);
-  // Time spent moving: up to the stop (never stops without friction).
-  const double moving = drift > 0.0 ? std::min(elapsed, speed / drift) : elapsed;
-  const double travelled = speed * moving - 0.5 * drift * moving * moving;
-  return {sign * (speed - drift * moving), s0.displacement + sign * travelled,
+  if (drift > 0.0 && elapsed * drift >= speed) {
+    // At rest: exactly zero velocity, and the stopping distance v^2 / (2c) in one rounding.
+    const double travelled = 0.5 * speed * speed / drift;
+    return {0.0, s0.displacement + sign * travelled, s0.distance + travelled};
+  }
+  const double travelled = elapsed * (speed - 0.5 * drift * elapsed);
+  return {sign * (speed - drift * elapsed), s0.displacement + sign * travelled,
           s0.distance + travelled};
 }
 

@@ -19,15 +19,22 @@ struct StepResult {
   bool touched;     // whether X reached 0 during the step
 };
 
+// Minimum over [0, h] of a Brownian bridge from 0 to d with variance `variance` = sigma^2 h
+// at time h: P(min <= m) = exp(-2 m (m - d) / variance) for m <= min(0, d). Inverting at
+// exp(-exponential) gives m = (d - sqrt(d^2 + 2 variance exponential)) / 2.
+inline double bridge_minimum(double d, double variance, double exponential) {
+  const double q = 2.0 * variance * exponential;
+  const double root = std::sqrt(d * d + q);
+  // For d > 0 the textbook form (d - root)/2 cancels catastrophically; the product form is
+  // the same number computed without cancellation.
+  return d <= 0.0 ? 0.5 * (d - root) : -0.5 * q / (d + root);
+}
+
 inline StepResult exact_step(double x, double h, double drift, double noise, double normal,
                              double exponential, bool coin) {
   const double a = std::abs(x);
   const double d = -drift * h + noise * std::sqrt(h) * normal;
-  const double q = 2.0 * noise * noise * h * exponential;
-  const double root = std::sqrt(d * d + q);
-  // For d > 0 the textbook form (d - root)/2 cancels catastrophically; the product form is
-  // the same number computed without cancellation.
-  const double m = d <= 0.0 ? 0.5 * (d - root) : -0.5 * q / (d + root);
+  const double m = bridge_minimum(d, noise * noise * h, exponential);
   const double magnitude = std::max(a + d, d - m);
   const bool touched = a + m <= 0.0;
   const bool positive = touched ? coin : x > 0.0;

@@ -1,0 +1,124 @@
+// Runs are bitwise independent of the thread count; streams are distinct per path and step;
+// plans and options reject bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <set>
+
+#include "crandall/rng.hpp"
+#include "crandall/run.hpp"
+
+namespace {
+
+crandall::Options scene() {
+  crandall::Options o;
+  o.switch_off = 1.0;
+  o.times = {0.25, 0.5, 1.0, 1.5};
+  o.dt = 0.05;
+  o.displacement = o.distance = o.stop = true;
+  o.seed = 42;
+  o.paths = 3000;  // not a multiple of the block or lane size: partial blocks are exercised
+  return o;
+}
+
+TEST(Run, BitwiseIdenticalForAnyThreadCount) {
+  const crandall::Plan plan(scene());
+  const auto one = crandall::run_chunk(plan, 0, 1);
+  for (int threads : {2, 3, 5}) {
+    const auto many = crandall::run_chunk(plan, 0, threads);
+    EXPECT_EQ(one.times.counts(), many.times.counts());
+    EXPECT_EQ(one.times.means(), many.times.means());
+    EXPECT_EQ(one.times.central(), many.times.central());
+    EXPECT_EQ(one.stop.central(), many.stop.central());
+  }
+}
+
+TEST(Run, SeedChangesResult) {
+  auto o = scene();
+  const auto a = crandall::run_chunk(crandall::Plan(o), 0, 1);
+  o.seed = 43;
+  const auto b = crandall::run_chunk(crandall::Plan(o), 0, 1);
+  EXPECT_NE(a.times.means(), b.times.means());
+}
+
+TEST(Run, InterruptAbandonsTheRun) {
+  const crandall::Plan plan(scene());
+  EXPECT_THROW(crandall::run_chunk(plan, 0, 2, [] { return true; }), crandall::Interrupted);
+}
+
+TEST(Rng, StreamsDependOnSeedPathAndStep) {
+  std::set<double> seen;
+  for (std::uint64_t seed : {0ull, 1ull})
+    for (std::uint64_t path : {0ull, 1ull, 1ull << 40})
+      for (std::uint64_t pair : {0ull, 1ull, 1ull << 33}) {
+        crandall::StepNoise z[2];
+        crandall::draw_pair(seed, path, pair, z);
+        seen.insert(z[0].normal);
+        seen.insert(z[1].normal);
+      }
+  EXPECT_EQ(seen.size(), 2u * 2 * 3 * 3);
+}
+
+TEST(Rng, MomentsOfTheDraws) {
+  const int n = 400000;
+  double sz = 0, szz = 0, se = 0, coins = 0;
+  for (int i = 0; i < n / 2; ++i) {
+    crandall::StepNoise z[2];
+    crandall::draw_pair(9, 3, static_cast<std::uint64_t>(i), z);
+    for (const auto& s : z) {
+      sz += s.normal;
+      szz += s.normal * s.normal;
+      se += s.exponential;
+      coins += s.coin;
+    }
+  }
+  // 5 standard errors each: normal mean (1/sqrt n), normal second moment (sqrt(2/n)),
+  // exponential mean (1/sqrt n), coin (0.5/sqrt n).
+  EXPECT_NEAR(sz / n, 0.0, 5.0 / std::sqrt(n));
+  EXPECT_NEAR(szz / n, 1.0, 5.0 * std::sqrt(2.0 / n));
+  EXPECT_NEAR(se / n, 1.0, 5.0 / std::sqrt(n));
+  EXPECT_NEAR(coins / n, 0.5, 2.5 / std::sqrt(n));
+}
+
+TEST(Plan, VelocityOnlyStepsStraightToOutputs) {
+  crandall::Options o;
+  o.times = {1.0, 1000.0};
+  o.dt = 1e-3;
+  const crandall::Plan plan(o);
+  EXPECT_EQ(plan.steps_per_path(), 2u);  // no internal steps, whatever the horizon
+  o.distance = true;
+  EXPECT_EQ(crandall::Plan(o).steps_per_path(), 1000000u);
+}
+
+TEST(Plan, SwitchOffOffTheGrid) {
+  crandall::Options o;
+  o.times = {0.3, 0.9};
+  o.switch_off = 0.5;
+  o.dt = 0.2;
+  o.distance = true;
+  const crandall::Plan plan(o);
+  // Grid to 0.3 (2 steps), then to t0 = 0.5 (1 step); 0.9 is filled by the closed-form coast.
+  EXPECT_EQ(plan.steps_per_path(), 3u);
+  ASSERT_EQ(plan.coast_slots().size(), 1u);
+  EXPECT_DOUBLE_EQ(plan.coast_elapsed()[0], 0.4);
+}
+
+TEST(Options, RejectBadInput) {
+  auto bad = [](auto mutate) {
+    auto o = scene();
+    mutate(o);
+    EXPECT_THROW(crandall::Plan{o}, std::invalid_argument);
+  };
+  bad([](crandall::Options& o) { o.drift = -1; });
+  bad([](crandall::Options& o) { o.noise = std::nan(""); });
+  bad([](crandall::Options& o) { o.switch_off = -1; });
+  bad([](crandall::Options& o) { o.times = {0.5, 0.2}; });
+  bad([](crandall::Options& o) { o.times = {-0.1}; });
+  bad([](crandall::Options& o) { o.dt = 0; });
+  bad([](crandall::Options& o) { o.paths = 0; });
+  bad([](crandall::Options& o) { o.switch_off = std::numeric_limits<double>::infinity(); });  // stop
+  bad([](crandall::Options& o) { o.drift = 0; });  // stop without friction
+}
+
+}  // namespace
