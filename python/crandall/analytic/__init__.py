@@ -1,0 +1,141 @@
+"""Analytic reference for Crandall's problem (Berezin & Zayats), in the scaled units of eq3.
+
+dU1 = -2 sign(U1) dtau + sqrt(2) dW (noise switched off at tau0), dU2 = U1 dtau,
+dU3 = |U1| dtau, U(0) = 0. Velocity U1, displacement U2, distance travelled U3; tau is scaled
+time (eq8). All functions take numpy arrays and return floats or arrays. Derivations, the
+correction to the printed eq10u and the post-switch-off formulas: docs/analytic.md.
+
+This package imports numpy, scipy and mpmath only; ``symbolic`` (exact closed forms of any
+moment) and ``laplace_moment(..., exact=True)`` import sympy when called.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import switch_off as _so
+from ._check import as_tau0, as_time, scalar_or_array
+from ._laplace import laplace_moment, moment, signed_moment
+from .noise_on import (
+    distance_mean_noise_on as _distance_mean_on,
+    displacement_var,
+    distance_second_moment,
+    distance_var,
+    velocity_abs_mean,
+    velocity_logpdf,
+    velocity_pdf,
+    velocity_var_noise_on as _velocity_var_on,
+)
+from .physical import physical
+from .switch_off import (
+    displacement_at_stop_var,
+    distance_at_stop_mean,
+    distance_at_stop_var,
+    stop_time_mean,
+    stop_time_pdf,
+    stop_time_var,
+)
+
+__all__ = [
+    "displacement_at_stop_var",
+    "displacement_var",
+    "distance_at_stop_mean",
+    "distance_at_stop_var",
+    "distance_mean",
+    "distance_second_moment",
+    "distance_var",
+    "laplace_moment",
+    "moment",
+    "physical",
+    "signed_moment",
+    "stop_time_mean",
+    "stop_time_pdf",
+    "stop_time_var",
+    "velocity_abs_mean",
+    "velocity_logpdf",
+    "velocity_pdf",
+    "velocity_var",
+]
+
+
+def velocity_var(tau, tau0=np.inf):
+    """Variance of the scaled velocity, Var U1(tau) = E[U1^2] (E U1 = 0 by symmetry).
+
+    For tau <= tau0 (eq10s):
+
+    .. math:: \\sigma_{U_1}^2 = \\tfrac12\\big[\\mathrm{erf}\\sqrt\\tau
+              + 4\\tau(\\tau+1)\\,\\mathrm{erfc}\\sqrt\\tau
+              - 2(1 + 2\\tau)\\sqrt{\\tau/\\pi}\\,e^{-\\tau}\\big]
+
+    For tau > tau0 the coast eq13a averaged over the law of U1(tau0):
+    E[(|U1(tau0)| - 2 (tau - tau0))_+^2], in closed form through repeated integrals of erfc
+    (docs/analytic.md, "After switch-off"); 0 once every path has stopped.
+
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time (eq8), 0 <= tau < inf.
+    tau0 : float, optional
+        Scaled switch-off time, >= 0; default never (numpy.inf).
+
+    Returns
+    -------
+    float or ndarray
+        Var U1 in scaled units (U1 = mu g V / h^2). Limits: 2 tau at small tau, 1/2 at large.
+
+    Notes
+    -----
+    Accuracy for tau <= tau0: relative error below 1e-12 over 1e-8 <= tau <= 1e6. For
+    tau > tau0: relative error below 1e-10 where the value exceeds 1e-25 E[U1(tau0)^2];
+    beyond (the Gaussian far tail, stop almost surely reached) absolute error below
+    1e-17 E[U1(tau0)^2].
+    """
+    t = as_time(tau)
+    t0 = as_tau0(tau0)
+    out = np.empty(t.shape)
+    on = t <= t0
+    out[on] = _velocity_var_on(t[on])
+    if np.any(~on):
+        out[~on] = _so.coast_velocity_second_moment(t[~on], t0)
+    return scalar_or_array(out)
+
+
+def distance_mean(tau, tau0=np.inf):
+    """Mean scaled distance travelled, E[U3(tau)].
+
+    For tau <= tau0 (eq10r):
+
+    .. math:: \\bar u_3 = \\tfrac18\\big[2(1 + 2\\tau)\\sqrt{\\tau/\\pi}\\,e^{-\\tau}
+              - 4\\tau^2\\mathrm{erfc}\\sqrt\\tau + (4\\tau - 1)\\,\\mathrm{erf}\\sqrt\\tau\\big]
+
+    For tau > tau0, eq13c averaged: E[U3(tau0)] + E[U1(tau0)^2]/4 - E[(|U1(tau0)|/2 - delta)_+^2],
+    delta = tau - tau0, which tends to tau0/2 (eq7) as the body stops.
+
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time (eq8), 0 <= tau < inf.
+    tau0 : float, optional
+        Scaled switch-off time, >= 0; default never.
+
+    Returns
+    -------
+    float or ndarray
+        E U3 in scaled units (U3 = mu^3 g^3 S / (2 h^4)). Limits: (4/3) tau^(3/2)/sqrt(pi) at
+        small tau, tau/2 - 1/8 at large tau.
+
+    Notes
+    -----
+    Accuracy: relative error below 1e-12 for 1e-8 <= tau <= 1e6 (tau <= tau0); below 1e-10
+    after switch-off.
+    """
+    t = as_time(tau)
+    t0 = as_tau0(tau0)
+    out = np.empty(t.shape)
+    on = t <= t0
+    out[on] = _distance_mean_on(t[on])
+    if np.any(~on):
+        tt = t[~on]
+        h = _so.coast_velocity_second_moment(tt, t0)
+        out[~on] = distance_at_stop_mean(t0) - 0.25 * np.asarray(h)
+    return scalar_or_array(out)

@@ -1,0 +1,227 @@
+"""Moments and density of (U1, U2, U3) while the noise is on (tau <= tau0), closed form.
+
+Scaled units of eq3: dU1 = -2 sign(U1) dtau + sqrt(2) dW, dU2 = U1 dtau, dU3 = |U1| dtau,
+U(0) = 0. Derivations and the one printed typo (eq10u) are in docs/analytic.md.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.special import erfc, erfcx
+
+from . import _data
+from ._check import as_time, as_tau0, only_before_switch_off, scalar_or_array
+
+__all__ = [
+    "displacement_var",
+    "distance_second_moment",
+    "distance_var",
+    "velocity_abs_mean",
+    "velocity_logpdf",
+    "velocity_pdf",
+    "velocity_var_noise_on",
+    "distance_mean_noise_on",
+]
+
+# Below SWITCH the Taylor series in sqrt(tau) is summed, above it the erfcx form; chosen so
+# that neither side loses more than a few hundred ulp (tests/test_analytic_stability.py).
+SWITCH = 1.0
+
+
+def velocity_var_noise_on(tau):
+    """E[U1^2] for tau <= tau0 (eq10s); see :func:`crandall.analytic.velocity_var`."""
+    return _data.M200(tau, SWITCH)
+
+
+def distance_mean_noise_on(tau):
+    """E[U3] for tau <= tau0 (eq10r); see :func:`crandall.analytic.distance_mean`."""
+    return _data.M001(tau, SWITCH)
+
+
+def displacement_var(tau, tau0=np.inf):
+    """Variance of the scaled displacement, Var U2(tau) = E[U2^2] (eq10t).
+
+    .. math::
+        \\sigma_{U_2}^2 = \\tfrac58\\tau - \\tfrac{27}{32} + e^{-\\tau}\\Big[1 - \\sqrt{\\tau/\\pi}
+        \\big(\\tfrac12\\tau^3 + \\tfrac7{12}\\tau^2 - \\tfrac{13}{24}\\tau + \\tfrac5{16}\\big)\\Big]
+        + \\mathrm{erfc}\\sqrt\\tau\\,\\big(\\tfrac12\\tau^4 + \\tfrac56\\tau^3 - \\tfrac12\\tau^2
+        + \\tfrac38\\tau - \\tfrac5{32}\\big)
+
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time (eq8), 0 <= tau <= tau0, finite.
+    tau0 : float, optional
+        Scaled switch-off time; default never. tau > tau0 raises ValueError (after switch-off
+        only the value at the stop is known in closed form: :func:`displacement_at_stop_var`).
+
+    Returns
+    -------
+    float or ndarray
+        Var U2 in scaled units (U2 = mu^3 g^3 U / (2 h^4)). Small tau: (2/3) tau^3; large tau:
+        (5/8) tau - 27/32.
+
+    Notes
+    -----
+    Printed eq10t is correct (checked against the inverse Laplace transform of eq10p).
+    Accuracy: relative error below 1e-12 over 1e-8 <= tau <= 1e6 (series in sqrt(tau) below
+    tau = 1, erfcx form above).
+    """
+    t = as_time(tau)
+    only_before_switch_off(t, as_tau0(tau0), "displacement_var")
+    return scalar_or_array(_data.M020(t, SWITCH))
+
+
+def distance_second_moment(tau, tau0=np.inf):
+    """E[U3^2] for tau <= tau0: the second moment of eq10u, *corrected*.
+
+    .. math::
+        E[U_3^2] = \\tfrac14\\tau^2 + \\tfrac18\\tau - \\tfrac{11}{32}
+        + e^{-\\tau}\\Big[\\tfrac12 - \\sqrt{\\tau/\\pi}\\big(\\tfrac12\\tau^3 + \\tfrac7{12}\\tau^2
+        - \\tfrac{13}{24}\\tau + \\tfrac5{16}\\big)\\Big] + \\mathrm{erfc}\\sqrt\\tau\\,\\big(
+        \\tfrac12\\tau^4 + \\tfrac56\\tau^3 - \\tfrac12\\tau^2 + \\tfrac38\\tau - \\tfrac5{32}\\big)
+
+    The paper prints the e^-tau bracket without the term -(5/16) sqrt(tau/pi); the inverse
+    Laplace transform of eq10pp has it (docs/analytic.md, "Correction to eq10u").
+
+    Parameters, returns and accuracy as :func:`displacement_var`; scaled units of U3^2.
+    """
+    t = as_time(tau)
+    only_before_switch_off(t, as_tau0(tau0), "distance_second_moment")
+    return scalar_or_array(_data.M002(t, SWITCH))
+
+
+def distance_var(tau, tau0=np.inf):
+    """Variance of the scaled distance travelled, Var U3(tau) (eq10u, corrected).
+
+    Var U3 = E[U3^2] - E[U3]^2 with E[U3^2] from :func:`distance_second_moment` (eq10u with the
+    missing -(5/16) sqrt(tau/pi) e^-tau restored) and E[U3] from eq10r. The difference is formed
+    in exact arithmetic, so the tau^2 terms cancel symbolically: large tau, tau/4 - 23/64;
+    small tau, (4/3 - 2/pi) tau^3 ... (the Brownian limit).
+
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time, 0 <= tau <= tau0, finite.
+    tau0 : float, optional
+        Scaled switch-off time (default never); tau > tau0 raises ValueError.
+
+    Returns
+    -------
+    float or ndarray
+        Var U3, scaled units (U3 = mu^3 g^3 S / (2 h^4)).
+
+    Notes
+    -----
+    Accuracy: relative error below 1e-12 for 1e-8 <= tau <= 1e6.
+    """
+    t = as_time(tau)
+    only_before_switch_off(t, as_tau0(tau0), "distance_var")
+    return scalar_or_array(_data.VAR_U3(t, SWITCH))
+
+
+def velocity_abs_mean(tau, tau0=np.inf):
+    """Mean speed E|U1(tau)| for tau <= tau0.
+
+    .. math:: E|U_1| = \\tfrac12 - (\\tau + \\tfrac12)\\,\\mathrm{erfc}\\sqrt\\tau
+              + \\sqrt{\\tau/\\pi}\\, e^{-\\tau}
+
+    Not printed in the paper: inverse of the transform of E[sign(U1) U1], 1/(p (s+1)) with
+    s = sqrt(p+1) (the F+ + F- variant of eq10i), equal to d E[U3] / d tau (eq10r). Limits:
+    2 sqrt(tau/pi) at small tau, 1/2 (the stationary density e^-2|y|) at large tau.
+
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time, 0 <= tau <= tau0, finite.
+    tau0 : float, optional
+        Scaled switch-off time (default never); tau > tau0 raises ValueError.
+
+    Returns
+    -------
+    float or ndarray
+        E|U1|, scaled velocity units (U1 = mu g V / h^2). Relative error below 1e-12 for
+        1e-8 <= tau <= 1e6.
+    """
+    t = as_time(tau)
+    only_before_switch_off(t, as_tau0(tau0), "velocity_abs_mean")
+    return scalar_or_array(_data.S100(t, SWITCH))
+
+
+_LOG_4PI = math.log(4 * math.pi)
+
+
+def _pdf_parts(y, tau):
+    y = np.asarray(y, dtype=float)
+    if np.any(np.isnan(y)):
+        raise ValueError("y must not be NaN")
+    if np.any(np.isinf(y)):
+        raise ValueError("y must be finite")
+    t = as_time(tau, allow_zero=False)
+    ay, t = np.broadcast_arrays(np.abs(y), t)
+    ay = ay.astype(float)
+    rt = np.sqrt(t)
+    x = (ay - 2 * t) / (2 * rt)
+    return ay, t, x
+
+
+def velocity_logpdf(y, tau):
+    """Natural log of :func:`velocity_pdf`, finite wherever the density is positive (all y).
+
+    Same parameters as :func:`velocity_pdf`. Use it where the density underflows (far tails
+    at small tau). Absolute error below 1e-12 * max(1, |log f|).
+    """
+    ay, t, x = _pdf_parts(y, tau)
+    out = np.empty(ay.shape)
+    g0 = -0.5 * (_LOG_4PI + np.log(t))  # log of (4 pi tau)^-1/2
+    pos = x >= 0
+    if np.any(pos):
+        e = ay[pos] ** 2 / (4 * t[pos]) + ay[pos] + t[pos]
+        out[pos] = -e + np.log(np.exp(g0[pos]) + 0.5 * erfcx(x[pos]))
+    neg = ~pos
+    if np.any(neg):
+        xn = x[neg]
+        out[neg] = -2 * ay[neg] + np.log(0.5 * erfc(xn) + np.exp(g0[neg] - xn * xn))
+    return scalar_or_array(out)
+
+
+def velocity_pdf(y, tau):
+    """Density of the scaled velocity U1(tau) for a body at rest at tau = 0, tau <= tau0.
+
+    .. math::
+        f(y, \\tau) = (4\\pi\\tau)^{-1/2} e^{-y^2/(4\\tau) - |y| - \\tau}
+        + \\tfrac12 e^{-2|y|}\\,\\mathrm{erfc}\\frac{|y| - 2\\tau}{2\\sqrt\\tau}
+
+    (the paper's f in the Results section, there written with (|y| + 2 tau)^2 / (4 tau)).
+    Evaluated as e^-2|y| [erfc(x)/2 + (4 pi tau)^-1/2 e^(-x^2)] for x = (|y| - 2tau)/(2 sqrt tau)
+    < 0 and as e^(-y^2/(4tau) - |y| - tau) [(4 pi tau)^-1/2 + erfcx(x)/2] for x >= 0, so that
+    neither exp(-2|y|) erfc(x) nor exp(+x^2) ever over/underflows separately.
+
+    Parameters
+    ----------
+    y : float or array_like
+        Scaled velocity, finite; broadcast against tau.
+    tau : float or array_like
+        Scaled time, 0 < tau (<= tau0), finite.
+
+    Returns
+    -------
+    float or ndarray
+        Density in 1 / (scaled velocity). Relative error below 1e-12 wherever the density is a
+        normal double (> 1e-300), for |y| <= 1e3 and 1e-8 <= tau <= 1e6; 0 where it underflows
+        (use :func:`velocity_logpdf` there). Stationary limit e^-2|y|.
+    """
+    ay, t, x = _pdf_parts(y, tau)
+    out = np.empty(ay.shape)
+    c = 1.0 / np.sqrt(4 * math.pi * t)
+    pos = x >= 0
+    if np.any(pos):
+        e = ay[pos] ** 2 / (4 * t[pos]) + ay[pos] + t[pos]
+        out[pos] = np.exp(-e) * (c[pos] + 0.5 * erfcx(x[pos]))
+    neg = ~pos
+    if np.any(neg):
+        xn = x[neg]
+        out[neg] = np.exp(-2 * ay[neg]) * (0.5 * erfc(xn) + c[neg] * np.exp(-xn * xn))
+    return scalar_or_array(out)
