@@ -168,7 +168,14 @@ def _exact(j, k, l, signed):
     expr = sympy.factor(sympy.cancel(sympy.expand(expr)))
     if sympy.simplify(sympy.im(expr)) != 0:  # pragma: no cover - guards the derivation
         raise RuntimeError("the exact transform came out complex")
-    expr = sympy.factor(expr.subs(s, sympy.sqrt(p + 1)))
+    # write (s - 1)^-n as (s + 1)^n / p^n so that the result reads like eq10o-eq10pp
+    num, den = sympy.fraction(expr)
+    n = 0
+    while sympy.rem(sympy.Poly(den, s), sympy.Poly(s - 1, s)).is_zero:
+        den = sympy.quo(sympy.Poly(den, s), sympy.Poly(s - 1, s)).as_expr()
+        n += 1
+    rest = sympy.factor(num * (s + 1) ** n / den)
+    expr = rest.subs(s, sympy.sqrt(p + 1)) / p**n
     return expr, p
 
 
