@@ -28,7 +28,6 @@ from fractions import Fraction
 import numpy as np
 from scipy.special import erfcx
 
-_SQRT_PI_INV = 1.0 / math.sqrt(math.pi)
 
 
 class Form:

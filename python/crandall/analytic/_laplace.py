@@ -15,7 +15,6 @@ on mpmath numbers (high-precision inversion) and on sympy expressions (exact tra
 
 from __future__ import annotations
 
-import math
 from functools import lru_cache
 
 import numpy as np

@@ -100,8 +100,6 @@ _MP_BELOW = 0.05
 
 
 def _coast_h_mp(c, t):
-    import mpmath
-
     ctx = _MP
     c = ctx.mpf(c)
     t = ctx.mpf(t)
