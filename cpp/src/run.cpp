@@ -4,6 +4,8 @@
 
 #include <atomic>
 #include <exception>
+#include <map>
+#include <mutex>
 
 #include "crandall/kernel.hpp"
 
@@ -34,16 +36,19 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   ChunkResult result{Moments(o.times.size()), Moments(o.stop ? 1 : 0)};
   std::atomic<bool> stop_flag{false};
   std::exception_ptr error;
+  std::mutex merge_mutex;
+  std::map<long, std::pair<BlockSums, BlockSums>> pending;
+  long next_block = 0;
   const int team = threads > 0 ? threads : omp_get_max_threads();
+  if (interrupted && interrupted()) throw Interrupted();  // a request already pending
 
 #pragma omp parallel num_threads(team)
   {
     Workspace ws(plan);
-    // static,1 with ordered: blocks of equal cost are handed out round-robin, and each is
-    // merged as soon as all earlier blocks are, in block order.
-#pragma omp for ordered schedule(static, 1)
-    for (long b = 0; b < blocks; ++b) {
-      if (omp_get_thread_num() == 0 && interrupted && !stop_flag.load()) {
+    const bool caller = omp_get_thread_num() == 0;
+    // Only the calling thread may run the check (Python handles signals on its main thread).
+    ws.abandon = [&, caller]() {
+      if (caller && interrupted && !stop_flag.load()) {
         try {
           if (interrupted()) stop_flag.store(true);
         } catch (...) {
@@ -52,31 +57,38 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
           stop_flag.store(true);
         }
       }
-      const bool skip = stop_flag.load();
-      if (!skip) {
-        try {
-          ws.times.reset();
-          ws.stop.reset();
-          const std::uint64_t start = first + static_cast<std::uint64_t>(b) * kBlockPaths;
-          const std::uint64_t n = std::min<std::uint64_t>(kBlockPaths, first + count - start);
-          block_fn(plan, start, n, ws);
-        } catch (...) {
+      return stop_flag.load();
+    };
+    // Blocks are handed out dynamically; finished ones wait in `pending` until every earlier
+    // block is merged, so the merge order is the block order whatever the threads do, and no
+    // thread ever blocks (the calling thread keeps polling for Ctrl-C).
+#pragma omp for schedule(dynamic, 1)
+    for (long b = 0; b < blocks; ++b) {
+      if (ws.abandon()) continue;
+      try {
+        ws.times.reset();
+        ws.stop.reset();
+        const std::uint64_t start = first + static_cast<std::uint64_t>(b) * kBlockPaths;
+        const std::uint64_t n = std::min<std::uint64_t>(kBlockPaths, first + count - start);
+        block_fn(plan, start, n, ws);
+        if (ws.abandon()) continue;
+        std::lock_guard<std::mutex> lock(merge_mutex);
+        pending.emplace(b, std::make_pair(ws.times, ws.stop));
+        for (auto it = pending.begin(); it != pending.end() && it->first == next_block;
+             it = pending.erase(it), ++next_block) {
+          it->second.first.merge_into(result.times);
+          it->second.second.merge_into(result.stop);
+        }
+      } catch (...) {
 #pragma omp critical(crandall_error)
-          if (!error) error = std::current_exception();
-          stop_flag.store(true);
-        }
-      }
-#pragma omp ordered
-      {
-        if (!stop_flag.load()) {
-          ws.times.merge_into(result.times);
-          ws.stop.merge_into(result.stop);
-        }
+        if (!error) error = std::current_exception();
+        stop_flag.store(true);
       }
     }
   }
   if (error) std::rethrow_exception(error);
   if (stop_flag.load()) throw Interrupted();
+  if (next_block != blocks) throw std::logic_error("run_chunk: a block was not merged");
   return result;
 }
 

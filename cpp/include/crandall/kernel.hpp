@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "crandall/accumulators.hpp"
@@ -82,7 +83,12 @@ struct Workspace {
         active(active_monomials(plan.options().displacement, plan.options().distance)) {}
   BlockSums times, stop;
   std::vector<int> active;
+  // Returns true when the run is to be abandoned; polled every kPollSteps steps so that long
+  // paths stay interruptible. May be empty.
+  std::function<bool()> abandon;
 };
+
+constexpr std::uint64_t kPollSteps = 1u << 14;
 
 // Simulate paths [first, first + count) (count <= kBlockPaths) into ws (reset by the caller).
 template <Method M, bool kDisp, bool kDist>
@@ -98,6 +104,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
     for (const Segment& seg : plan.segments()) {
       const double h = seg.h;
       for (std::uint64_t i = 0; i < seg.steps; ++i, ++k) {
+        if ((k & (kPollSteps - 1)) == kPollSteps - 1 && ws.abandon && ws.abandon()) return;
         const int half = static_cast<int>(k & 1u);
         if (half == 0)
           for (int l = 0; l < lanes; ++l) draw_pair(o.seed, path0 + l, k >> 1, noise_pair[l]);

@@ -1,0 +1,58 @@
+# crandall: everything a fresh Debian machine (root, Python 3 with venv) needs, from scratch.
+#   make run    the main job: the paper's scene, 10^6 paths, against the analytic values
+#   make test   every test: C++ unit tests (ctest) and pytest
+# Both are safe to run twice: Debian packages are installed only if missing, the virtual
+# environment is reused, and the build directories are incremental.
+
+PYTHON ?= python3
+VENV   := .venv
+VPY    := $(VENV)/bin/python
+export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
+
+# Debian packages: the compiler, Eigen, Random123 and GoogleTest (OpenMP comes with g++).
+DEBS := g++ make libeigen3-dev librandom123-dev libgtest-dev
+# Python packages for building and testing (the package's own dependencies come from pyproject).
+PYDEV := pip setuptools wheel "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja \
+         numpy scipy mpmath pytest
+
+.PHONY: run test deps venv install ctest pytest bench clean
+
+run: install
+	$(VPY) -m crandall
+
+test: install ctest pytest
+
+deps:
+	@missing=""; for p in $(DEBS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "installing Debian packages:$$missing"; \
+	  sudo=""; [ "$$(id -u)" = 0 ] || sudo=sudo; \
+	  $$sudo apt-get update -qq && \
+	  DEBIAN_FRONTEND=noninteractive $$sudo apt-get install -y -qq --no-install-recommends $$missing; \
+	fi
+
+$(VPY):
+	$(PYTHON) -m venv $(VENV)
+
+$(VENV)/.dev-installed: $(VPY) Makefile
+	$(VPY) -m pip install -q --upgrade $(PYDEV)
+	touch $@
+
+venv: $(VENV)/.dev-installed
+
+install: deps venv
+	$(VPY) -m pip install -q --no-build-isolation ".[test]"
+
+ctest: deps venv
+	cmake -S . -B build/cpp -G Ninja -DCRANDALL_BUILD_TESTS=ON -DCMAKE_BUILD_TYPE=Release >/dev/null
+	cmake --build build/cpp
+	cd build/cpp && ctest --output-on-failure
+
+pytest: install
+	$(VPY) -m pytest
+
+bench: install
+	$(VPY) bench/run_all.py
+
+clean:
+	rm -rf build $(VENV)

@@ -1,0 +1,262 @@
+"""The public API: scenes, validation, reproducibility, special scenes (fast unit tests)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import crandall
+from crandall import _core
+from conftest import same_result
+
+
+# -- bad input: a ValueError that names the parameter --------------------------------------
+
+@pytest.mark.parametrize(
+    "kwargs, word",
+    [
+        ({"mu": float("nan")}, "mu"),
+        ({"mu": -0.1}, "mu"),
+        ({"mu": math.inf}, "mu"),
+        ({"h": -1.0}, "h"),
+        ({"h": float("nan")}, "h"),
+        ({"t0": -1.0}, "t0"),
+        ({"t0": float("nan")}, "t0"),
+        ({"g": 0.0}, "g"),
+        ({"g": -9.81}, "g"),
+        ({"mass": 0.0}, "mass"),
+        ({"mass": math.inf}, "mass"),
+        ({"times": [1.0, 0.5]}, "times"),
+        ({"times": [0.5, 0.5]}, "times"),
+        ({"times": [-1.0, 1.0]}, "times"),
+        ({"times": [1.0, float("nan")]}, "times"),
+        ({"times": [1.0, math.inf]}, "times"),
+        ({"times": []}, "times"),
+        ({"times": [[1.0, 2.0]]}, "times"),
+        ({"observe": ["velocity", "speed"]}, "observe"),
+        ({"observe": []}, "observe"),
+        ({"t0": math.inf, "observe": ["stop"]}, "observe"),
+        ({"mu": 0.0, "observe": ["stop"]}, "observe"),
+        ({"mu": "0.3"}, "mu"),
+    ],
+)
+def test_bad_scene_raises_naming_parameter(kwargs, word):
+    args = dict(mu=0.3, h=1.0, t0=2.0, times=[1.0, 2.0])
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=word):
+        crandall.Scene(**args)
+
+
+@pytest.mark.parametrize("tau0", [-1.0, float("nan"), -math.inf])
+def test_bad_scaled_scene(tau0):
+    with pytest.raises(ValueError, match="tau0"):
+        crandall.Scene.scaled(tau0=tau0, times=[1.0])
+
+
+def test_scene_rejects_unknown_keyword():
+    with pytest.raises(TypeError):
+        crandall.Scene(mu=0.3, h=1.0, t0=1.0, times=[1.0], friction=0.2)
+    with pytest.raises(TypeError):
+        crandall.Scene(0.3, 1.0, 1.0)  # keyword-only
+
+
+@pytest.mark.parametrize(
+    "kwargs, word",
+    [
+        ({"paths": 0}, "paths"),
+        ({"paths": -5}, "paths"),
+        ({"paths": 2.5}, "paths"),
+        ({"paths": True}, "paths"),
+        ({"dt": 0.0}, "dt"),
+        ({"dt": -0.01}, "dt"),
+        ({"dt": float("nan")}, "dt"),
+        ({"dt": math.inf}, "dt"),
+        ({"method": "milstein"}, "method"),
+        ({"seed": -1}, "seed"),
+        ({"seed": 2**64}, "seed"),
+        ({"seed": 1.5}, "seed"),
+        ({"threads": 0}, "threads"),
+    ],
+)
+def test_bad_run_raises_naming_parameter(paper_scene, kwargs, word):
+    args = dict(paths=10, seed=1)
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=word):
+        crandall.simulate(paper_scene, **args)
+
+
+def test_simulate_needs_a_scene():
+    with pytest.raises(ValueError, match="scene"):
+        crandall.simulate("paper", paths=10)
+
+
+def test_memory_beyond_the_machine_is_refused():
+    # 5e7 output times (a 400 MB array) need ~250 GB of accumulators with two threads: refused
+    # with a ValueError before anything is allocated or run.
+    big = crandall.Scene.scaled(tau0=1.0, times=np.linspace(1.0, 2.0, 50_000_000),
+                                observe=["velocity"])
+    with pytest.raises(ValueError, match="times"):
+        crandall.simulate(big, paths=1, seed=1, threads=2)
+
+
+def test_unknown_result_name(paper_scene):
+    r = crandall.simulate(paper_scene, paths=64, seed=1)
+    with pytest.raises(ValueError, match="name"):
+        r.mean("speed")
+    vel_only = crandall.simulate(
+        crandall.Scene.scaled(tau0=1.0, times=[1.0], observe=["velocity"]), paths=64, seed=1)
+    with pytest.raises(ValueError, match="distance"):
+        vel_only.mean("distance")
+    with pytest.raises(ValueError, match="k"):
+        vel_only.moment(0, 1, 0)
+    with pytest.raises(ValueError, match="j"):
+        r.moment(-1, 0, 0)
+    with pytest.raises(ValueError, match="4"):
+        r.moment(3, 1, 1)
+
+
+# -- results: shape, units, seed ------------------------------------------------------------
+
+def test_result_shapes_and_names(paper_scene):
+    r = crandall.simulate(paper_scene, paths=1000, seed=7)
+    assert r.times.tolist() == [0.25, 0.5, 1.0, 1.5, 3.0]
+    assert r.seed == 7 and r.paths == 1000
+    for name in ("velocity", "displacement", "distance", "kinetic_energy", "dissipated_energy"):
+        assert r.mean(name).shape == (5,)
+        assert r.var(name).shape == (5,)
+        assert np.all(r.var(name) >= 0)
+        assert np.all(np.isfinite(r.stderr(name)))
+    for name in ("stop_time", "displacement_at_stop", "distance_at_stop",
+                 "dissipated_energy_at_stop"):
+        assert isinstance(r.mean(name), float)
+    assert r.mean("stop_time") > 1.0  # t_s = t0 + |U1(t0)| / 2 > t0
+    assert r.mean("dissipated_energy") == pytest.approx(2.0 * r.mean("distance"), rel=1e-15)
+    assert r.mean("kinetic_energy") == pytest.approx(0.5 * r.moment(2, 0, 0), rel=1e-12)
+    text = str(r)
+    assert "seed=7" in text and "stop_time" in text and "distance" in text
+
+
+def test_seed_none_is_drawn_and_recorded(paper_scene):
+    r = crandall.simulate(paper_scene, paths=100)
+    assert isinstance(r.seed, int) and 0 <= r.seed < 2**64
+    again = crandall.simulate(paper_scene, paths=100, seed=r.seed)
+    assert same_result(r, again)
+
+
+def test_different_seeds_differ(paper_scene):
+    a = crandall.simulate(paper_scene, paths=100, seed=1)
+    b = crandall.simulate(paper_scene, paths=100, seed=2)
+    assert a.mean("distance")[-1] != b.mean("distance")[-1]
+
+
+@pytest.mark.parametrize("method", ["exact", "euler"])
+def test_threads_do_not_change_the_result(method):
+    # 70000 paths: two chunks, the second partial, with partial blocks and lanes.
+    scene = crandall.Scene.scaled(tau0=0.5, times=[0.1, 0.5, 0.7])
+    one = crandall.simulate(scene, paths=70_000, seed=11, dt=0.05, threads=1, method=method)
+    two = crandall.simulate(scene, paths=70_000, seed=11, dt=0.05, threads=2, method=method)
+    assert same_result(one, two)
+
+
+def test_results_in_si_units(physical_scene):
+    r = crandall.simulate(physical_scene, paths=2000, seed=3)
+    s = crandall.Scaling(0.3, 1.0, 9.81)
+    assert r.dt == pytest.approx(0.01 * s.time_scale)
+    # moment() converts to scaled units: the same number as the scaled velocity variance.
+    assert r.moment(2, 0, 0) == pytest.approx(
+        (r.mean("velocity") ** 2 + r.var("velocity") * (r.paths - 1) / r.paths) / s.velocity_scale**2,
+        rel=1e-9)
+    assert r.mean("dissipated_energy_at_stop") == pytest.approx(
+        0.3 * 9.81 * r.mean("distance_at_stop"), rel=1e-14)
+    heavy = crandall.simulate(
+        crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=[0.5, 1.0, 2.0, 3.0], mass=100.0),
+        paths=2000, seed=3)
+    assert heavy.mean("kinetic_energy") == pytest.approx(100 * r.mean("kinetic_energy"), rel=1e-12)
+    assert heavy.mean("distance") == pytest.approx(r.mean("distance"), rel=1e-15)
+
+
+def test_physical_scene_is_the_scaled_scene_in_other_units():
+    # Same law: the physical scene's statistics, converted by eq8, match the scaled scene
+    # statistically (not bitwise: the core runs in each scene's own units).
+    s = crandall.Scaling(0.2, 0.5, 9.81)
+    tau = np.array([0.5, 2.0])
+    phys = crandall.simulate(crandall.Scene(mu=0.2, h=0.5, t0=math.inf, times=s.to_t(tau),
+                                            observe=["velocity", "distance"]),
+                             paths=40_000, seed=5)
+    scal = crandall.simulate(crandall.Scene.scaled(tau0=math.inf, times=tau,
+                                                   observe=["velocity", "distance"]),
+                             paths=40_000, seed=6)
+    d_phys = phys.mean("distance") / s.length_scale
+    se = np.hypot(phys.stderr("distance") / s.length_scale, scal.stderr("distance"))
+    assert np.all(np.abs(d_phys - scal.mean("distance")) < 5 * se)
+
+
+# -- special scenes -------------------------------------------------------------------------
+
+def test_body_at_rest_when_h_is_zero():
+    r = crandall.simulate(crandall.Scene(mu=0.3, h=0.0, t0=2.0, times=[1.0, 2.0, 5.0]),
+                          paths=100, seed=1)
+    for name in ("velocity", "displacement", "distance", "kinetic_energy", "dissipated_energy"):
+        assert np.all(r.mean(name) == 0.0) and np.all(r.var(name) == 0.0)
+    assert r.mean("stop_time") == 2.0  # t_s = t0 + |V(t0)| / (mu g) with V(t0) = 0
+    assert r.var("stop_time") == 0.0
+
+
+def test_free_brownian_body_when_mu_is_zero():
+    # V = h W(t) while the noise is on, then constant: Var V = h^2 t, Var U = h^2 t^3 / 3, checked
+    # within 5 standard errors (E S = h E int |W| = h * (2/3) sqrt(2/pi) t^(3/2)).
+    h, t0 = 0.8, 4.0
+    times = np.array([1.0, 4.0, 6.0])
+    r = crandall.simulate(crandall.Scene(mu=0.0, h=h, t0=t0, times=times),
+                          paths=40_000, seed=2, dt=0.002)
+    t_on = np.minimum(times, t0)
+    var_v = h**2 * t_on
+    assert np.all(np.abs(r.var("velocity") - var_v) < 5 * r.var_stderr("velocity"))
+    # Displacement: U(t) = h int_0^min(t,t0) W + h W(t0) (t - t0)^+.
+    after = np.maximum(times - t0, 0.0)
+    var_u = h**2 * (t_on**3 / 3 + t_on**2 * after + t_on * after**2)
+    assert np.all(np.abs(r.var("displacement") - var_u) < 5 * r.var_stderr("displacement"))
+    mean_s = h * (2 / 3) * math.sqrt(2 / math.pi) * t_on**1.5 + h * np.sqrt(2 * t_on / math.pi) * after
+    # Trapezoid bias of int |W| at dt = 0.002 is far below the standard error here (~1e-3 rel).
+    assert np.all(np.abs(r.mean("distance") - mean_s) < 5 * r.stderr("distance") + 1e-3 * mean_s)
+    assert np.all(r.mean("dissipated_energy") == 0.0)
+    assert np.all(np.isfinite(r.var("kinetic_energy")))
+
+
+def test_continuous_as_mu_goes_to_zero():
+    times = [0.5, 1.0]
+    kw = dict(paths=20_000, seed=9, dt=1e-3)
+    free = crandall.simulate(crandall.Scene(mu=0.0, h=1.0, t0=math.inf, times=times), **kw)
+    for mu in (1e-3, 1e-9, 1e-300):
+        r = crandall.simulate(crandall.Scene(mu=mu, h=1.0, t0=math.inf, times=times), **kw)
+        # Same random numbers, friction mu g per unit time: the difference is O(mu g t).
+        for name in ("velocity", "displacement", "distance"):
+            assert np.all(np.isfinite(r.mean(name)))
+            assert np.allclose(r.mean(name), free.mean(name), atol=20 * mu * 9.81, rtol=0)
+            assert np.allclose(r.var(name), free.var(name), atol=20 * mu * 9.81, rtol=1e-2)
+
+
+def test_time_zero_and_t0_zero():
+    r = crandall.simulate(crandall.Scene.scaled(tau0=0.0, times=[0.0, 1.0]), paths=50, seed=1)
+    assert np.all(r.mean("velocity") == 0.0) and np.all(r.var("distance") == 0.0)
+    assert r.mean("stop_time") == 0.0
+
+
+def test_stop_only_scene_needs_no_times():
+    r = crandall.simulate(crandall.Scene.scaled(tau0=5.0, times=[], observe=["stop"]),
+                          paths=1000, seed=1)
+    assert r.names == ("stop_time",)
+    assert r.mean("stop_time") > 5.0
+
+
+def test_velocity_only_scene_has_no_internal_steps():
+    scene = crandall.Scene.scaled(tau0=math.inf, times=[1.0, 1e6], observe=["velocity"])
+    r = crandall.simulate(scene, paths=10, seed=1, dt=1e-6)
+    assert r.steps_per_path == 2
+    stop_scene = crandall.Scene.scaled(tau0=1e5, times=[], observe=["stop"])
+    assert crandall.simulate(stop_scene, paths=10, seed=1, dt=1e-6).steps_per_path == 1
+
+
+def test_core_exposes_chunking_constants():
+    assert _core.CHUNK_PATHS % _core.BLOCK_PATHS == 0
+    assert _core.BLOCK_PATHS % _core.LANES == 0

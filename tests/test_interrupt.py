@@ -1,0 +1,43 @@
+"""Ctrl-C stops a long run promptly with KeyboardInterrupt, and nothing keeps running."""
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+SCRIPT = textwrap.dedent(
+    """
+    import sys, crandall
+    scene = crandall.Scene.scaled(tau0=50.0, times=[1.0, 50.0])
+    print("started", flush=True)
+    try:
+        crandall.simulate(scene, paths=10**9, seed=1, dt=0.001, threads=2)
+    except KeyboardInterrupt:
+        print("interrupted", flush=True)
+        sys.exit(3)
+    """
+)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGINT"), reason="needs POSIX signals")
+def test_ctrl_c_stops_a_long_run_within_a_second():
+    proc = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout.readline().strip() == "started"
+        time.sleep(1.5)  # well inside the run (which would take hours)
+        assert proc.poll() is None
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=10)
+        elapsed = time.monotonic() - sent
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 3, err
+    assert "interrupted" in out
+    assert elapsed < 1.0, f"took {elapsed:.2f} s to stop"
