@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import math
-from typing import Iterable, Optional, Sequence
+import os
+import sys
+from typing import Any, Dict, Iterable, Optional, Sequence, Union
 
 import numpy as np
 
+from .methods import METHODS
 from .units import Scaling
 
-__all__ = ["Scene", "OBSERVABLES", "STOP_QUANTITIES"]
+__all__ = ["Scene", "OBSERVABLES", "STOP_QUANTITIES", "RUN_SETTINGS"]
 
 #: Everything a scene can observe. "stop" is the stop time; with displacement, distance or
 #: dissipated energy also observed, their values at the stop as well.
@@ -29,6 +32,10 @@ STOP_QUANTITIES = {
     "distance_at_stop": "distance",
     "dissipated_energy_at_stop": "dissipated_energy",
 }
+
+
+#: Keys of a scene file's [run] table, as ``simulate`` takes them.
+RUN_SETTINGS = ("paths", "seed", "method", "dt")
 
 
 def _number(name: str, value, *, positive: bool = False, allow_inf: bool = False) -> float:
@@ -199,6 +206,77 @@ class Scene:
         self.mass = float(mass)
         self.params = dict(params)
         self.scaling = scaling
+        #: Run settings (paths, seed, method, dt) read from a scene file; empty otherwise.
+        #: ``crandall run`` uses them unless its options override them.
+        self.run_settings: Dict[str, Any] = {}
+
+    # -- files and dictionaries -----------------------------------------------------------
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The scene as plain data (JSON-able; ``inf`` for a switch-off that never comes).
+
+        ``Scene.from_dict(scene.to_dict())`` rebuilds an equal scene; results and checkpoints
+        store a scene this way.
+        """
+        out: Dict[str, Any] = {"units": self.units}
+        out.update(self.params)
+        out["times"] = [float(t) for t in self.times]
+        out["observe"] = list(self.observe)
+        return out
+
+    @classmethod
+    def from_dict(cls, data: Dict[str, Any]) -> "Scene":
+        """Rebuild a scene from :meth:`to_dict`'s output."""
+        data = dict(data)
+        units = data.pop("units", None)
+        if units == "SI":
+            return cls(**data)
+        if units == "scaled":
+            return cls.scaled(**data)
+        raise ValueError(f"units must be 'SI' or 'scaled', got {units!r}")
+
+    @classmethod
+    def from_toml(cls, path: Union[str, "os.PathLike[str]"]) -> "Scene":
+        """Read a scene from a TOML file.
+
+        The file has a ``[scene]`` table and an optional ``[run]`` table::
+
+            title = "A 100 kg crate on a truck bed"   # optional, free text
+            [scene]
+            units = "SI"             # or "scaled" (the paper's units, eq3)
+            mu = 0.3                 # SI: mu, h, t0, and optionally g, mass
+            h = 1.0
+            t0 = 2.0                 # inf (TOML's infinity) for never
+            mass = 100.0
+            times = [0.5, 1.0, 2.0]  # or a range {start, stop, num} or {start, stop, step}
+            observe = ["velocity", "distance", "stop"]   # optional; default all
+            [run]                    # optional: defaults for simulate / crandall run
+            paths = 100_000
+            seed = 1
+            method = "exact"
+            dt = 0.001
+
+        A scaled scene has ``tau0`` instead of ``mu, h, t0, g, mass``. A range includes its
+        ``stop``: ``{start = 0.5, stop = 2.0, num = 4}`` is 0.5, 1.0, 1.5, 2.0, as is
+        ``{start = 0.5, stop = 2.0, step = 0.5}``.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The TOML file.
+
+        Returns
+        -------
+        Scene
+            With :attr:`run_settings` holding the ``[run]`` table (keys among ``RUN_SETTINGS``).
+
+        Raises
+        ------
+        ValueError
+            If the file cannot be read or parsed, or a key is missing, unknown or has a bad
+            value: the message names the file, the key and what is wrong.
+        """
+        return _scene_from_toml(path)
 
     @property
     def time_name(self) -> str:
@@ -216,3 +294,137 @@ class Scene:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
         ctor = "Scene" if self.units == "SI" else "Scene.scaled"
         return f"{ctor}({args}, times=<{self.times.size} times>, observe={list(self.observe)!r})"
+
+
+# -- scene files ---------------------------------------------------------------------------
+
+if sys.version_info >= (3, 11):
+    import tomllib as _toml
+else:  # pragma: no cover - Python < 3.11
+    import tomli as _toml
+
+_SI_KEYS = ("mu", "h", "t0", "g", "mass")
+_SCALED_KEYS = ("tau0",)
+_RANGE_KEYS = ("start", "stop", "num", "step")
+
+
+def _file_error(path, key: str, what: str) -> ValueError:
+    return ValueError(f"{os.fspath(path)}: {key}: {what}")
+
+
+def _real(path, key, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise _file_error(path, key, f"must be a number, got {value!r}")
+    return float(value)
+
+
+def _times_from_file(path, value):
+    key = "scene.times"
+    if isinstance(value, list):
+        return [_real(path, f"{key}[{i}]", v) for i, v in enumerate(value)]
+    if not isinstance(value, dict):
+        raise _file_error(path, key, "must be a list of times or a table {start, stop, num} "
+                                     f"or {{start, stop, step}}, got {value!r}")
+    unknown = sorted(set(value) - set(_RANGE_KEYS))
+    if unknown:
+        raise _file_error(path, f"{key}.{unknown[0]}",
+                          f"unknown key; a range has {', '.join(_RANGE_KEYS)}")
+    for k in ("start", "stop"):
+        if k not in value:
+            raise _file_error(path, f"{key}.{k}", "missing (a range needs start and stop)")
+    start = _real(path, f"{key}.start", value["start"])
+    stop = _real(path, f"{key}.stop", value["stop"])
+    if not math.isfinite(start) or not math.isfinite(stop) or stop < start:
+        raise _file_error(path, f"{key}.stop",
+                          f"need finite start <= stop, got start={start!r}, stop={stop!r}")
+    if ("num" in value) == ("step" in value):
+        raise _file_error(path, key, "a range needs exactly one of num or step")
+    if "num" in value:
+        num = value["num"]
+        if isinstance(num, bool) or not isinstance(num, int) or num < 1:
+            raise _file_error(path, f"{key}.num", f"must be an integer >= 1, got {num!r}")
+        if num == 1 and stop != start:
+            raise _file_error(path, f"{key}.num", "num = 1 needs start == stop")
+        return np.linspace(start, stop, num).tolist()
+    step = _real(path, f"{key}.step", value["step"])
+    if not math.isfinite(step) or step <= 0:
+        raise _file_error(path, f"{key}.step", f"must be finite and > 0, got {step!r}")
+    # The stop is included when it lies on the grid (up to rounding).
+    n = int(math.floor((stop - start) / step * (1 + 1e-12) + 1e-9)) + 1
+    if n > 10_000_000:
+        raise _file_error(path, f"{key}.step", f"gives {n} times; too many")
+    return (start + step * np.arange(n)).tolist()
+
+
+def _scene_from_toml(path) -> Scene:
+    try:
+        with open(path, "rb") as f:
+            data = _toml.load(f)
+    except OSError as exc:
+        raise ValueError(f"{os.fspath(path)}: cannot read the scene file: {exc.strerror}") from None
+    except _toml.TOMLDecodeError as exc:
+        raise ValueError(f"{os.fspath(path)}: not valid TOML: {exc}") from None
+    unknown = sorted(set(data) - {"title", "description", "scene", "run"})
+    if unknown:
+        raise _file_error(path, unknown[0], "unknown key; a scene file has title, description, "
+                                            "[scene] and [run]")
+    if "scene" not in data or not isinstance(data["scene"], dict):
+        raise _file_error(path, "scene", "missing: a scene file needs a [scene] table")
+    sc = dict(data["scene"])
+    units = sc.pop("units", "SI")
+    if units not in ("SI", "scaled"):
+        raise _file_error(path, "scene.units", f"must be 'SI' or 'scaled', got {units!r}")
+    allowed = (_SI_KEYS if units == "SI" else _SCALED_KEYS) + ("times", "observe")
+    for k in sc:
+        if k not in allowed:
+            other = "SI" if units == "scaled" else "scaled"
+            hint = (f" (it belongs to units = '{other}')"
+                    if k in (_SI_KEYS if units == "scaled" else _SCALED_KEYS) else "")
+            raise _file_error(path, f"scene.{k}", f"unknown key for units = '{units}'{hint}; "
+                                                  f"allowed: {', '.join(allowed)}")
+    required = ("mu", "h", "t0", "times") if units == "SI" else ("tau0", "times")
+    for k in required:
+        if k not in sc:
+            raise _file_error(path, f"scene.{k}", "missing")
+    kwargs: Dict[str, Any] = {}
+    for k, v in sc.items():
+        if k == "times":
+            kwargs[k] = _times_from_file(path, v)
+        elif k == "observe":
+            if isinstance(v, str):
+                v = [v]
+            if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
+                raise _file_error(path, "scene.observe", f"must be a list of names, got {v!r}")
+            kwargs[k] = v
+        else:
+            kwargs[k] = _real(path, f"scene.{k}", v)
+    try:
+        scene = Scene(**kwargs) if units == "SI" else Scene.scaled(**kwargs)
+    except ValueError as exc:
+        # The constructor's message starts with the parameter's name.
+        msg = str(exc)
+        word = msg.split()[0].rstrip(":") if msg else ""
+        key = f"scene.{word}" if word in allowed else "scene"
+        raise _file_error(path, key, msg) from None
+    run = data.get("run", {})
+    if not isinstance(run, dict):
+        raise _file_error(path, "run", "must be a table")
+    settings: Dict[str, Any] = {}
+    for k, v in run.items():
+        if k not in RUN_SETTINGS:
+            raise _file_error(path, f"run.{k}", f"unknown key; allowed: {', '.join(RUN_SETTINGS)}")
+        if k in ("paths", "seed"):
+            low = 1 if k == "paths" else 0
+            if isinstance(v, bool) or not isinstance(v, int) or v < low or v >= 1 << 64:
+                raise _file_error(path, f"run.{k}", f"must be an integer >= {low}, got {v!r}")
+        elif k == "dt":
+            v = _real(path, "run.dt", v)
+            if not math.isfinite(v) or v <= 0:
+                raise _file_error(path, "run.dt", f"must be finite and > 0, got {v!r}")
+        elif k == "method":
+            if v not in METHODS:
+                raise _file_error(path, "run.method", f"must be one of {', '.join(METHODS)}, "
+                                                      f"got {v!r}")
+        settings[k] = v
+    scene.run_settings = settings
+    return scene

@@ -1,0 +1,130 @@
+"""Scene files: TOML in physical or scaled units, ranges of times, run settings, errors."""
+
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+import crandall
+from crandall.paper import default_scene
+
+SCENES = pathlib.Path(__file__).resolve().parent.parent / "scenes"
+
+
+def write(tmp_path, text, name="scene.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_paper_file_is_the_paper_scene():
+    scene = crandall.Scene.from_toml(SCENES / "paper.toml")
+    assert scene.to_dict() == default_scene().to_dict()
+    assert scene.run_settings == {"paths": crandall.paper.DEFAULT_PATHS, "seed": 20261121,
+                                  "method": "exact"}
+
+
+@pytest.mark.parametrize("name", ["crate.toml", "vibrating_table.toml"])
+def test_shipped_physical_scenes_load_and_run(name):
+    scene = crandall.Scene.from_toml(SCENES / name)
+    assert scene.units == "SI"
+    assert "stop" in scene.observe
+    result = crandall.simulate(scene, paths=2000, seed=1, dt=scene.run_settings.get("dt"))
+    assert np.isfinite(result.mean("distance")).all()
+    assert result.mean("stop_time") > scene.t0
+
+
+def test_crate_values(tmp_path):
+    scene = crandall.Scene.from_toml(SCENES / "crate.toml")
+    assert scene.params == {"mu": 0.3, "h": 1.0, "t0": 2.0, "g": 9.81, "mass": 100.0}
+    np.testing.assert_allclose(scene.times, np.arange(1, 13) * 0.25, rtol=0, atol=1e-15)
+
+
+def test_physical_scene_with_list_of_times(tmp_path):
+    path = write(tmp_path, """
+        [scene]
+        mu = 0.2
+        h = 2
+        t0 = inf
+        times = [1, 2.5]
+        observe = "distance"
+        [run]
+        paths = 10
+        seed = 3
+        dt = 0.5
+        method = "euler"
+    """)
+    scene = crandall.Scene.from_toml(path)
+    assert scene.params == {"mu": 0.2, "h": 2.0, "t0": math.inf, "g": 9.81, "mass": 1.0}
+    assert scene.times.tolist() == [1.0, 2.5]
+    assert scene.observe == ("distance",)
+    assert scene.run_settings == {"paths": 10, "seed": 3, "dt": 0.5, "method": "euler"}
+
+
+@pytest.mark.parametrize("times, expected", [
+    ("{ start = 0.5, stop = 2.0, num = 4 }", [0.5, 1.0, 1.5, 2.0]),
+    ("{ start = 0.5, stop = 2.0, step = 0.5 }", [0.5, 1.0, 1.5, 2.0]),
+    ("{ start = 0.1, stop = 0.3, step = 0.1 }", [0.1, 0.2, 0.3]),
+    ("{ start = 0, stop = 1, step = 0.4 }", [0.0, 0.4, 0.8]),
+    ("{ start = 2, stop = 2, num = 1 }", [2.0]),
+])
+def test_time_ranges(tmp_path, times, expected):
+    path = write(tmp_path, f"[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = {times}\n")
+    scene = crandall.Scene.from_toml(path)
+    np.testing.assert_allclose(scene.times, expected, rtol=0, atol=1e-14)
+    assert scene.run_settings == {}
+
+
+def test_scene_dict_round_trip():
+    for scene in (default_scene(), crandall.Scene(mu=0.3, h=1.0, t0=math.inf, mass=2.0,
+                                                  times=[1.0], observe=["velocity"])):
+        again = crandall.Scene.from_dict(scene.to_dict())
+        assert again.to_dict() == scene.to_dict()
+        assert repr(again) == repr(scene)
+
+
+@pytest.mark.parametrize("text, key, what", [
+    ("[scene]\nmu = -0.3\nh = 1\nt0 = 1\ntimes = [1]", "scene.mu", ">= 0"),
+    ("[scene]\nmu = 0.3\nh = 1\nt0 = 1\ntimes = [2, 1]", "scene.times", "increasing"),
+    ("[scene]\nmu = 0.3\nh = 1\ntimes = [1]", "scene.t0", "missing"),
+    ("[scene]\nmu = 0.3\nh = 1\nt0 = 1\ntime = [1]", "scene.time", "unknown key"),
+    ("[scene]\nmu = '0.3'\nh = 1\nt0 = 1\ntimes = [1]", "scene.mu", "number"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\nmu = 0.3\ntimes = [1]", "scene.mu", "units = 'SI'"),
+    ("[scene]\nunits = 'metric'\ntau0 = 1\ntimes = [1]", "scene.units", "'SI' or 'scaled'"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = [1]\nobserve = ['speed']", "scene.observe",
+     "speed"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = {start = 0, stop = 1}", "scene.times",
+     "num or step"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = {start = 0, stop = 1, num = 0}",
+     "scene.times.num", ">= 1"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = {start = 0, stop = 1, step = -1}",
+     "scene.times.step", "> 0"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = {start = 2, stop = 1, num = 3}",
+     "scene.times.stop", "start <= stop"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = {stop = 1, num = 3}", "scene.times.start",
+     "missing"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = [1]\n[run]\npaths = 0", "run.paths", ">= 1"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = [1]\n[run]\nseed = -1", "run.seed", ">= 0"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = [1]\n[run]\nmethod = 'rk4'", "run.method",
+     "exact"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = [1]\n[run]\ndt = 0", "run.dt", "> 0"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = [1]\n[run]\nthreads = 2", "run.threads",
+     "unknown key"),
+    ("[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = [1]\n[sceen]\n", "sceen", "unknown key"),
+    ("title = 'no scene'\n", "scene", "missing"),
+    ("[scene]\nmu = 0.3\nh = \n", "", "not valid TOML"),
+])
+def test_errors_name_the_file_and_the_key(tmp_path, text, key, what):
+    path = write(tmp_path, text, name="bad-scene.toml")
+    with pytest.raises(ValueError) as info:
+        crandall.Scene.from_toml(path)
+    msg = str(info.value)
+    assert msg.startswith(str(path) + ": "), msg
+    assert f": {key}: " in msg or not key, msg
+    assert what in msg, msg
+
+
+def test_missing_file_is_a_value_error(tmp_path):
+    with pytest.raises(ValueError, match="nowhere.toml: cannot read"):
+        crandall.Scene.from_toml(tmp_path / "nowhere.toml")
