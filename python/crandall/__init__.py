@@ -12,8 +12,8 @@ Berezin & Zayats (see ``crandall.analytic``).
 
 from .results import Result
 from .scene import OBSERVABLES, Scene
-from .simulate import METHODS, default_dt, simulate
+from .simulate import METHODS, default_dt, simulate, simulate_many
 from .units import Scaling
 
-__all__ = ["Scene", "Result", "simulate", "default_dt", "Scaling", "OBSERVABLES", "METHODS"]
+__all__ = ["Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS"]
 __version__ = "0.1.0"

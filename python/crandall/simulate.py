@@ -4,16 +4,18 @@ from __future__ import annotations
 
 import math
 import os
-from typing import Optional
+import sys
+from typing import Any, List, Optional, Sequence, Union
 
 import numpy as np
 
 from . import _core
+from . import checkpoint as _ckpt
 from .methods import DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_STEPS_FREE, METHODS
 from .results import Result
 from .scene import Scene
 
-__all__ = ["simulate", "default_dt", "METHODS"]
+__all__ = ["simulate", "simulate_many", "default_dt", "METHODS"]
 
 
 def default_dt(scene: Scene) -> float:
@@ -111,6 +113,140 @@ def validate_run(scene, paths, seed, dt, method, threads):
     return paths, seed, dt, method, threads
 
 
+def _plan_from_fields(scene_dict, paths, seed, dt, method):
+    return make_plan(Scene.from_dict(scene_dict), paths=paths, seed=seed, dt=dt, method=method)
+
+
+def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads):
+    """Chunks ``first..last-1`` of a run, as a list of ``(times, stop)`` accumulators.
+
+    The task a Dask worker runs: plain data in, picklable accumulators out. The caller merges
+    the lists of all tasks in chunk order, which makes the result bitwise that of a local run.
+    """
+    plan = _plan_from_fields(scene_dict, paths, seed, dt, method)
+    out = []
+    for chunk in range(first, last):
+        part = _core.run_chunk(plan, chunk, threads)
+        out.append((part.times, part.stop))
+    return out
+
+
+def _interactive() -> bool:
+    """A person is watching: stderr is a terminal, and not CI or a test run."""
+    if os.environ.get("CI") or "PYTEST_CURRENT_TEST" in os.environ:
+        return False
+    try:
+        return sys.stderr.isatty()
+    except (AttributeError, ValueError):  # closed or replaced stderr
+        return False
+
+
+def _progress_bar(progress, *, total: int, initial: int):
+    if progress is None:
+        progress, delay = _interactive(), 2.0  # only runs longer than a couple of seconds
+    else:
+        if not isinstance(progress, bool):
+            raise ValueError(f"progress must be True, False or None, got {progress!r}")
+        delay = 0.0
+    if not progress:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=initial, unit="path", unit_scale=True, delay=delay,
+                desc="crandall", leave=False, dynamic_ncols=True)
+
+
+class _Run:
+    """One scene's run: the plan, the merge in chunk order, the checkpoint, the result."""
+
+    def __init__(self, scene, *, paths, seed, dt, method, threads, checkpoint):
+        self.scene = scene
+        self.paths, self.seed, self.dt, self.method, self.threads = paths, seed, dt, method, threads
+        self.plan = make_plan(scene, paths=paths, seed=seed, dt=dt, method=method)
+        self.checkpoint = checkpoint
+        self.done, self.times_acc, self.stop_acc = 0, None, None
+        if checkpoint is not None:
+            self.ident = _ckpt.identity(scene, paths=paths, seed=seed, dt=dt, method=method)
+            self.done, self.times_acc, self.stop_acc = _ckpt.load(checkpoint, self.ident,
+                                                                 self.plan.chunks)
+
+    def paths_in(self, first, last):
+        return sum(self.plan.chunk_paths(c) for c in range(first, last))
+
+    def add(self, times, stop):
+        """Merge the next chunk (chunk ``self.done``) and checkpoint."""
+        if self.times_acc is None:
+            self.times_acc, self.stop_acc = times, stop
+        else:
+            self.times_acc.merge(times)
+            self.stop_acc.merge(stop)
+        self.done += 1
+        if self.checkpoint is not None:
+            _ckpt.save(self.checkpoint, self.ident, self.done, self.times_acc, self.stop_acc)
+
+    def ranges(self, tasks):
+        """Split the chunks still to do into about ``tasks`` contiguous ranges."""
+        left = self.plan.chunks - self.done
+        tasks = max(1, min(tasks, left))
+        bounds = [self.done + (left * i) // tasks for i in range(tasks + 1)]
+        return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+
+    def task_args(self):
+        return (self.scene.to_dict(), self.paths, self.seed, self.dt, self.method)
+
+    def result(self):
+        return Result(scene=self.scene, paths=self.paths, seed=self.seed, dt=self.dt,
+                      method=self.method, moments=self.times_acc,
+                      stop_moments=self.stop_acc if "stop" in self.scene.observe else None,
+                      steps_per_path=self.plan.steps_per_path)
+
+
+def _client_threads(client) -> int:
+    try:
+        return max(1, sum(client.nthreads().values()))
+    except Exception:  # noqa: BLE001 - any client-like object: fall back to one task per chunk
+        return 1 << 30
+
+
+def _run_distributed(runs, client, threads, bar):
+    """Submit every run's chunk ranges, then merge each run's ranges in chunk order."""
+    from distributed import as_completed
+
+    per_task = 1 if threads is None else threads
+    tasks = 4 * _client_threads(client)
+    pending = []  # (run index, first, last, future)
+    for i, run in enumerate(runs):
+        for first, last in run.ranges(tasks):
+            fut = client.submit(run_chunks, *run.task_args(), first, last, per_task, pure=False)
+            pending.append((i, first, last, fut))
+    by_future = {fut: (i, first, last) for i, first, last, fut in pending}
+    waiting = [dict() for _ in runs]  # per run: first chunk -> (last, parts)
+    try:
+        for fut in as_completed(list(by_future)):
+            i, first, last = by_future[fut]
+            parts = fut.result()
+            run = runs[i]
+            waiting[i][first] = (last, parts)
+            # Merge whatever is now contiguous with what is merged already.
+            while run.done in waiting[i]:
+                _, parts = waiting[i].pop(run.done)
+                for times, stop in parts:
+                    run.add(times, stop)
+            if bar is not None:
+                bar.update(run.paths_in(first, last))
+    except BaseException:
+        client.cancel(list(by_future))
+        raise
+
+
+def _run_local(run, bar):
+    for chunk in range(run.done, run.plan.chunks):
+        part = _core.run_chunk(run.plan, chunk, run.threads)
+        run.add(part.times, part.stop)
+        if bar is not None:
+            bar.update(run.plan.chunk_paths(chunk))
+
+
 def simulate(
     scene: Scene,
     *,
@@ -119,6 +255,9 @@ def simulate(
     dt: Optional[float] = None,
     method: str = DEFAULT_METHOD,
     threads: Optional[int] = None,
+    checkpoint: Optional[Union[str, "os.PathLike[str]"]] = None,
+    client: Any = None,
+    progress: Optional[bool] = None,
 ) -> Result:
     """Simulate ``paths`` independent paths of a scene and return their statistics.
 
@@ -130,8 +269,9 @@ def simulate(
         Number of independent paths, >= 1. Memory does not grow with it.
     seed : int, optional
         0 <= seed < 2**64. The result is a pure function of (seed, scene, paths, dt, method,
-        crandall version): bitwise the same for any ``threads``. None draws a seed from the
-        operating system and records it as ``Result.seed``.
+        crandall version): bitwise the same for any ``threads``, checkpointed or not, local or
+        on a Dask cluster. None draws a seed from the operating system and records it as
+        ``Result.seed`` (with an existing ``checkpoint``: the checkpoint's seed).
     dt : float, optional
         Longest internal step, in the scene's time units, used where a time integral
         (displacement, distance, dissipated energy) is observed, and always by "euler". The
@@ -140,7 +280,21 @@ def simulate(
     method : str
         One of ``crandall.METHODS`` (see ``crandall.methods``); default ``DEFAULT_METHOD``.
     threads : int, optional
-        OpenMP threads; default: all cores.
+        OpenMP threads; default: all cores (with ``client``: threads per task, default 1, as
+        Dask runs one task per worker thread).
+    checkpoint : str or os.PathLike, optional
+        A file that holds the finished chunks of paths (65536 each): replaced atomically after
+        every chunk, so killing the run loses at most the chunk in flight. If it exists, the run
+        resumes from it (and returns at once if it is complete); a checkpoint of a different run
+        (scene, paths, seed, dt, method or crandall version) is a ValueError. The resumed result
+        is bitwise identical to an uninterrupted one. The file is kept after the run.
+    client : distributed.Client, optional
+        Run the chunks as tasks on a Dask distributed cluster (``pip install
+        crandall[distributed]``); the workers need crandall installed. The accumulators come back
+        to this process and are merged in chunk order: bitwise the local result.
+    progress : bool, optional
+        Show a progress bar (tqdm, on stderr). Default: only on a terminal (not in CI or pytest)
+        and only once the run has lasted two seconds.
 
     Returns
     -------
@@ -151,17 +305,87 @@ def simulate(
     ValueError
         On any bad argument (the message names it). KeyboardInterrupt (Ctrl-C) stops the run
         within a fraction of a second.
+
+    See Also
+    --------
+    simulate_many : several scenes (a parameter sweep), locally or on a cluster.
     """
+    if checkpoint is not None:
+        if not isinstance(checkpoint, (str, os.PathLike)):
+            raise ValueError(f"checkpoint must be a path, got {checkpoint!r}")
+        if seed is None:
+            seed = _ckpt.stored_seed(checkpoint)
+    task_threads = threads
     paths, seed, dt, method, threads = validate_run(scene, paths, seed, dt, method, threads)
-    plan = make_plan(scene, paths=paths, seed=seed, dt=dt, method=method)
-    times_acc = stop_acc = None
-    for chunk in range(plan.chunks):
-        part = _core.run_chunk(plan, chunk, threads)
-        if times_acc is None:
-            times_acc, stop_acc = part.times, part.stop
+    run = _Run(scene, paths=paths, seed=seed, dt=dt, method=method, threads=threads,
+               checkpoint=checkpoint)
+    bar = None
+    if run.done < run.plan.chunks:
+        bar = _progress_bar(progress, total=paths, initial=run.paths_in(0, run.done))
+    try:
+        if client is not None and run.done < run.plan.chunks:
+            _run_distributed([run], client, task_threads, bar)
         else:
-            times_acc.merge(part.times)
-            stop_acc.merge(part.stop)
-    return Result(scene=scene, paths=paths, seed=seed, dt=dt, method=method,
-                  moments=times_acc, stop_moments=stop_acc if "stop" in scene.observe else None,
-                  steps_per_path=plan.steps_per_path)
+            _run_local(run, bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    return run.result()
+
+
+def simulate_many(
+    scenes: Sequence[Scene],
+    *,
+    paths: int,
+    seed: Optional[int] = None,
+    dt: Optional[float] = None,
+    method: str = DEFAULT_METHOD,
+    threads: Optional[int] = None,
+    client: Any = None,
+    progress: Optional[bool] = None,
+) -> List[Result]:
+    """Simulate several scenes (a parameter sweep); one :class:`Result` per scene, in order.
+
+    Each result is bitwise ``simulate(scene, paths=paths, seed=seed, dt=dt, method=method)``.
+    With a Dask ``client`` every scene's chunks are submitted at once, so the cluster is kept
+    busy across scenes.
+
+    Parameters
+    ----------
+    scenes : sequence of Scene
+        The scenes, e.g. ``[Scene(mu=m, h=1, t0=2, times=ts) for m in (0.1, 0.2, 0.3)]``.
+    paths, method, threads, client, progress
+        As for :func:`simulate`.
+    seed : int, optional
+        One seed for every scene (common random numbers: the sweep's curves are smooth in the
+        parameter); None draws one, recorded on every result.
+    dt : float, optional
+        As for :func:`simulate`; None: each scene's :func:`default_dt`.
+
+    Returns
+    -------
+    list of Result
+    """
+    if isinstance(scenes, Scene) or not isinstance(scenes, (list, tuple)):
+        raise ValueError(f"scenes must be a list of crandall.Scene, got {type(scenes).__name__}")
+    if not scenes:
+        raise ValueError("scenes must not be empty")
+    task_threads = threads
+    runs = []
+    for i, scene in enumerate(scenes):
+        if not isinstance(scene, Scene):
+            raise ValueError(f"scenes[{i}] must be a crandall.Scene, got {type(scene).__name__}")
+        p, s, d, m, t = validate_run(scene, paths, seed, dt, method, threads)
+        seed = s  # a drawn seed is shared by the following scenes
+        runs.append(_Run(scene, paths=p, seed=s, dt=d, method=m, threads=t, checkpoint=None))
+    bar = _progress_bar(progress, total=sum(r.paths for r in runs), initial=0)
+    try:
+        if client is not None:
+            _run_distributed(runs, client, task_threads, bar)
+        else:
+            for run in runs:
+                _run_local(run, bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    return [run.result() for run in runs]
