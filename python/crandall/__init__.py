@@ -10,10 +10,11 @@ Berezin & Zayats (see ``crandall.analytic``).
 (2,)
 """
 
+from .io import load
 from .results import Result
 from .scene import OBSERVABLES, Scene
 from .simulate import METHODS, default_dt, simulate, simulate_many
 from .units import Scaling
 
-__all__ = ["Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS"]
+__all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS"]
 __version__ = "0.1.0"

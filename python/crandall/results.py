@@ -194,6 +194,53 @@ class Result:
     def __str__(self) -> str:
         return self.summary()
 
+    # -- export -------------------------------------------------------------------------
+
+    def to_xarray(self):
+        """The statistics as an ``xarray.Dataset`` (needs ``crandall[io]``).
+
+        Returns
+        -------
+        xarray.Dataset
+            ``statistics`` (time x observable x statistic: mean, var, std, stderr,
+            var_stderr) for the time-resolved quantities, with their units in the coordinate
+            ``units`` (``"1"`` in scaled units); ``stop_statistics`` (stop_quantity x statistic)
+            for the stop; the raw accumulators (``counts``, ``means``, ``central``) from
+            which :func:`crandall.load` rebuilds the result exactly. Attributes: the scene (as
+            JSON and one ``scene_*`` attribute per parameter), paths, seed (a string: it may
+            not fit a netCDF-3 integer), dt, method, crandall version.
+        """
+        from . import io
+
+        return io.to_xarray(self)
+
+    def to_pandas(self):
+        """The statistics as a ``pandas.DataFrame``, one row per quantity and time.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``quantity``, the time (``t`` or ``tau``; NaN for stop quantities),
+            ``units``, ``mean``, ``var``, ``std``, ``stderr``, ``var_stderr`` (NaN for the
+            kinetic energy).
+        """
+        from . import io
+
+        return io.to_pandas(self)
+
+    def save(self, path) -> None:
+        """Write the result to a netCDF file (replaced atomically); read it with
+        :func:`crandall.load`.
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            Conventionally ending in ``.nc``.
+        """
+        from . import io
+
+        io.save(self, path)
+
     def __repr__(self) -> str:
         return (f"<crandall.Result {self.scene!r} paths={self.paths} seed={self.seed} "
                 f"method={self.method!r}>")
