@@ -9,7 +9,6 @@
 
 namespace {
 
-using crandall::Method;
 using crandall::Moments;
 
 py::array_t<double> to_array(const std::vector<double>& v, std::size_t rows, std::size_t cols) {
@@ -58,12 +57,8 @@ void register_run(py::module_& m) {
       .def_readwrite("dt", &crandall::Options::dt)
       .def_property(
           "method",
-          [](const crandall::Options& o) { return o.method == Method::exact ? "exact" : "euler"; },
-          [](crandall::Options& o, const std::string& name) {
-            if (name == "exact") o.method = Method::exact;
-            else if (name == "euler") o.method = Method::euler;
-            else throw std::invalid_argument("method must be 'exact' or 'euler', got '" + name + "'");
-          })
+          [](const crandall::Options& o) { return std::string(crandall::method_name(o.method)); },
+          [](crandall::Options& o, const std::string& name) { o.method = crandall::parse_method(name); })
       .def_readwrite("velocity", &crandall::Options::velocity)
       .def_readwrite("displacement", &crandall::Options::displacement)
       .def_readwrite("distance", &crandall::Options::distance)

@@ -124,4 +124,31 @@ void Moments::merge_slot(std::size_t slot, double count, const double* mean,
   for (int v = 0; v < kVariables; ++v) my_mean[v] = pooled[v];
 }
 
+Moments combine(const std::vector<const Moments*>& parts, const std::vector<double>& weights) {
+  if (parts.empty() || parts.size() != weights.size())
+    throw std::invalid_argument("combine: one weight per part is needed");
+  const Moments& a = *parts[0];
+  for (const Moments* p : parts)
+    if (p->slots() != a.slots() || p->counts() != a.counts())
+      throw std::invalid_argument("combine: the accumulators have different slots or counts");
+  Moments out(a.slots());
+  for (std::size_t s = 0; s < a.slots(); ++s) {
+    const double n = a.counts()[s];
+    if (n <= 0.0) continue;
+    const double* centre = &a.means()[s * kVariables];
+    double raw[kMonomials] = {};
+    for (std::size_t j = 0; j < parts.size(); ++j) {
+      // Part j's sums about the first part's mean, weighted.
+      const double* mj = &parts[j]->means()[s * kVariables];
+      double delta[kVariables], moved[kMonomials];
+      for (int v = 0; v < kVariables; ++v) delta[v] = mj[v] - centre[v];
+      recentre(&parts[j]->central()[s * kMonomials], delta, moved);
+      for (int k = 0; k < kMonomials; ++k) raw[k] += weights[j] * moved[k];
+    }
+    raw[0] = n;
+    out.merge_raw(s, n, centre, raw);
+  }
+  return out;
+}
+
 }  // namespace crandall

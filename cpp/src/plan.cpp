@@ -12,6 +12,63 @@ void require(bool ok, const std::string& message) {
 
 }  // namespace
 
+const char* method_name(Method m) {
+  switch (m) {
+    case Method::exact: return "exact";
+    case Method::euler: return "euler";
+    case Method::richardson: return "richardson";
+    case Method::richardson2: return "richardson2";
+    case Method::refine: return "refine";
+  }
+  return "?";
+}
+
+Method parse_method(const std::string& name) {
+  const Method all[] = {Method::exact, Method::euler, Method::richardson, Method::richardson2,
+                        Method::refine};
+  std::string names;
+  for (Method m : all) {
+    if (name == method_name(m)) return m;
+    names += std::string(names.empty() ? "'" : ", '") + method_name(m) + "'";
+  }
+  throw std::invalid_argument("method must be one of " + names + ", got '" + name + "'");
+}
+
+int richardson_levels(Method m) {
+  return m == Method::richardson ? 3 : m == Method::richardson2 ? 2 : 1;
+}
+
+std::vector<double> richardson_weights(Method m) {
+  // Solve sum_j w_j = 1 and sum_j w_j (2^j)^p = 0 for each bias exponent p (Cramer's rule on
+  // at most 3 unknowns); the bias exponents are derived in docs/methods/richardson.md.
+  const int levels = richardson_levels(m);
+  if (levels == 1) return {1.0};
+  if (levels == 2) {
+    const double r = std::pow(2.0, 1.5);
+    return {r / (r - 1.0), -1.0 / (r - 1.0)};
+  }
+  const double p[2] = {1.5, 2.0};
+  double a[3][3], b[3] = {1.0, 0.0, 0.0};
+  for (int j = 0; j < 3; ++j) {
+    a[0][j] = 1.0;
+    for (int i = 0; i < 2; ++i) a[i + 1][j] = std::pow(std::pow(2.0, j), p[i]);
+  }
+  auto det = [](const double m3[3][3]) {
+    return m3[0][0] * (m3[1][1] * m3[2][2] - m3[1][2] * m3[2][1]) -
+           m3[0][1] * (m3[1][0] * m3[2][2] - m3[1][2] * m3[2][0]) +
+           m3[0][2] * (m3[1][0] * m3[2][1] - m3[1][1] * m3[2][0]);
+  };
+  const double d = det(a);
+  std::vector<double> w(3);
+  for (int j = 0; j < 3; ++j) {
+    double c[3][3];
+    for (int r = 0; r < 3; ++r)
+      for (int q = 0; q < 3; ++q) c[r][q] = q == j ? b[r] : a[r][q];
+    w[j] = det(c) / d;
+  }
+  return w;
+}
+
 void Options::validate() const {
   require(std::isfinite(drift) && drift >= 0.0, "drift must be finite and >= 0");
   require(std::isfinite(noise) && noise >= 0.0, "noise must be finite and >= 0");
@@ -49,6 +106,10 @@ Plan::Plan(Options options) : options_(std::move(options)) {
       const double want = fine ? std::ceil(gap / o.dt * (1.0 - 1e-12)) : 1.0;
       require(want < 9.0e15, "dt is too small for the horizon: the grid would not fit in 2^53 steps");
       n = want < 1.0 ? 1 : static_cast<std::uint64_t>(want);
+      // Richardson's coarse grids are every 2nd (4th) point of the fine one, segment by
+      // segment, so the step count is a multiple of 2 (4).
+      const std::uint64_t group = std::uint64_t{1} << (richardson_levels(o.method) - 1);
+      if (fine) n = (n + group - 1) / group * group;
     }
     segments_.push_back({n > 0 ? gap / static_cast<double>(n) : 0.0, n, s});
     steps_per_path_ += n;

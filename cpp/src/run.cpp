@@ -15,12 +15,28 @@ namespace {
 using BlockFn = void (*)(const Plan&, std::uint64_t, std::uint64_t, Workspace&);
 
 template <Method M>
-BlockFn pick(bool disp, bool dist) {
+BlockFn pick_for(bool disp, bool dist) {
   if (disp && dist) return &simulate_block<M, true, true>;
   if (disp) return &simulate_block<M, true, false>;
   if (dist) return &simulate_block<M, false, true>;
   return &simulate_block<M, false, false>;
 }
+
+BlockFn pick(Method m, bool disp, bool dist) {
+  switch (m) {
+    case Method::exact: return pick_for<Method::exact>(disp, dist);
+    case Method::euler: return pick_for<Method::euler>(disp, dist);
+    case Method::richardson: return pick_for<Method::richardson>(disp, dist);
+    case Method::richardson2: return pick_for<Method::richardson2>(disp, dist);
+    case Method::refine: return pick_for<Method::refine>(disp, dist);
+  }
+  throw std::logic_error("run_chunk: unknown method");
+}
+
+struct BlockOut {
+  BlockSums times, stop;
+  std::vector<BlockSums> coarse_times, coarse_stop;
+};
 
 }  // namespace
 
@@ -31,13 +47,15 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   const std::uint64_t first = chunk * kChunkPaths;
   const std::uint64_t count = plan.chunk_paths(chunk);
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
-  const BlockFn block_fn = o.method == Method::exact ? pick<Method::exact>(o.displacement, o.distance)
-                                                     : pick<Method::euler>(o.displacement, o.distance);
+  const BlockFn block_fn = pick(o.method, o.displacement, o.distance);
+  const int grids = o.integrals() ? richardson_levels(o.method) : 1;
   ChunkResult result{Moments(o.times.size()), Moments(o.stop ? 1 : 0)};
+  std::vector<ChunkResult> coarse_result(
+      static_cast<std::size_t>(grids - 1), ChunkResult{Moments(o.times.size()), Moments(o.stop ? 1 : 0)});
   std::atomic<bool> stop_flag{false};
   std::exception_ptr error;
   std::mutex merge_mutex;
-  std::map<long, std::pair<BlockSums, BlockSums>> pending;
+  std::map<long, BlockOut> pending;
   long next_block = 0;
   const int team = threads > 0 ? threads : omp_get_max_threads();
   if (interrupted && interrupted()) throw Interrupted();  // a request already pending
@@ -66,18 +84,21 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
     for (long b = 0; b < blocks; ++b) {
       if (ws.abandon()) continue;
       try {
-        ws.times.reset();
-        ws.stop.reset();
+        ws.reset();
         const std::uint64_t start = first + static_cast<std::uint64_t>(b) * kBlockPaths;
         const std::uint64_t n = std::min<std::uint64_t>(kBlockPaths, first + count - start);
         block_fn(plan, start, n, ws);
         if (ws.abandon()) continue;
         std::lock_guard<std::mutex> lock(merge_mutex);
-        pending.emplace(b, std::make_pair(ws.times, ws.stop));
+        pending.emplace(b, BlockOut{ws.times, ws.stop, ws.coarse_times, ws.coarse_stop});
         for (auto it = pending.begin(); it != pending.end() && it->first == next_block;
              it = pending.erase(it), ++next_block) {
-          it->second.first.merge_into(result.times);
-          it->second.second.merge_into(result.stop);
+          it->second.times.merge_into(result.times);
+          it->second.stop.merge_into(result.stop);
+          for (std::size_t g = 0; g < coarse_result.size(); ++g) {
+            it->second.coarse_times[g].merge_into(coarse_result[g].times);
+            it->second.coarse_stop[g].merge_into(coarse_result[g].stop);
+          }
         }
       } catch (...) {
 #pragma omp critical(crandall_error)
@@ -89,6 +110,18 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   if (error) std::rethrow_exception(error);
   if (stop_flag.load()) throw Interrupted();
   if (next_block != blocks) throw std::logic_error("run_chunk: a block was not merged");
+  if (grids > 1) {
+    // Extrapolation to h = 0 over the coupled grids (docs/methods/richardson.md). Linear in
+    // the raw sums, so extrapolated chunks still merge exactly.
+    std::vector<const Moments*> times{&result.times}, stop{&result.stop};
+    for (const auto& c : coarse_result) {
+      times.push_back(&c.times);
+      stop.push_back(&c.stop);
+    }
+    const auto w = richardson_weights(o.method);
+    ChunkResult combined{combine(times, w), combine(stop, w)};
+    result = std::move(combined);
+  }
   return result;
 }
 

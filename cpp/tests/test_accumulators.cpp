@@ -119,3 +119,40 @@ TEST(Moments, MismatchedSlotsThrow) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Combine, WeightedRawMomentsOfTwoSamples) {
+  // Two samples of the same size; the combination's raw moments are 2 E_a - E_b.
+  const std::vector<std::array<double, 3>> a = {{1, 2, 3}, {0.5, -1, 2}, {2, 0, 1}, {-1, 1, 4}};
+  const std::vector<std::array<double, 3>> b = {{1.1, 2, 3}, {0.4, -1, 2.5}, {2, 0.3, 1}, {-1, 1, 4}};
+  auto moments = [](const std::vector<std::array<double, 3>>& pts) {
+    crandall::Moments m(1);
+    for (const auto& p : pts) {
+      double raw[crandall::kMonomials];
+      const double zero[3] = {0, 0, 0};
+      for (int k = 0; k < crandall::kMonomials; ++k) {
+        const auto& e = crandall::monomial_exponents()[k];
+        raw[k] = std::pow(p[0], e[0]) * std::pow(p[1], e[1]) * std::pow(p[2], e[2]);
+      }
+      m.merge_raw(0, 1.0, zero, raw);
+    }
+    return m;
+  };
+  const auto ma = moments(a), mb = moments(b);
+  const auto c = crandall::combine({&ma, &mb}, {2.0, -1.0});
+  ASSERT_EQ(c.counts()[0], 4.0);
+  double back[crandall::kMonomials];
+  // Sums about the mean m become sums about m - delta = 0.
+  crandall::recentre(&c.central()[0], &c.means()[0], back);
+  for (int k = 0; k < crandall::kMonomials; ++k) {
+    const auto& e = crandall::monomial_exponents()[k];
+    double ea = 0, eb = 0;
+    for (const auto& p : a) ea += std::pow(p[0], e[0]) * std::pow(p[1], e[1]) * std::pow(p[2], e[2]);
+    for (const auto& p : b) eb += std::pow(p[0], e[0]) * std::pow(p[1], e[1]) * std::pow(p[2], e[2]);
+    EXPECT_NEAR(back[k] / 4.0, (2 * ea - eb) / 4.0, 1e-12) << k;
+  }
+  EXPECT_THROW(crandall::combine({&ma}, {1.0, 0.0}), std::invalid_argument);
+}
+
+}  // namespace

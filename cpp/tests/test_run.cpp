@@ -122,3 +122,64 @@ TEST(Options, RejectBadInput) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Methods, EveryMethodIsBitwiseIdenticalForAnyThreadCount) {
+  for (auto m : {crandall::Method::euler, crandall::Method::richardson,
+                 crandall::Method::richardson2, crandall::Method::refine}) {
+    auto o = scene();
+    o.method = m;
+    const crandall::Plan plan(o);
+    const auto one = crandall::run_chunk(plan, 0, 1);
+    const auto two = crandall::run_chunk(plan, 0, 2);
+    EXPECT_EQ(one.times.means(), two.times.means()) << crandall::method_name(m);
+    EXPECT_EQ(one.times.central(), two.times.central()) << crandall::method_name(m);
+    EXPECT_EQ(one.stop.central(), two.stop.central()) << crandall::method_name(m);
+  }
+}
+
+TEST(Methods, NamesRoundTripAndUnknownNamesThrow) {
+  for (auto m : {crandall::Method::exact, crandall::Method::euler, crandall::Method::richardson,
+                 crandall::Method::richardson2, crandall::Method::refine})
+    EXPECT_EQ(crandall::parse_method(crandall::method_name(m)), m);
+  EXPECT_THROW(crandall::parse_method("milstein"), std::invalid_argument);
+}
+
+TEST(Methods, RichardsonWeightsCancelTheBiasExponents) {
+  const auto w = crandall::richardson_weights(crandall::Method::richardson);
+  ASSERT_EQ(w.size(), 3u);
+  EXPECT_NEAR(w[0] + w[1] + w[2], 1.0, 1e-14);
+  for (double p : {1.5, 2.0})
+    EXPECT_NEAR(w[0] + w[1] * std::pow(2.0, p) + w[2] * std::pow(4.0, p), 0.0, 1e-13);
+  const auto w2 = crandall::richardson_weights(crandall::Method::richardson2);
+  EXPECT_NEAR(w2[0] + w2[1] * std::pow(2.0, 1.5), 0.0, 1e-14);
+  EXPECT_EQ(crandall::richardson_weights(crandall::Method::exact), std::vector<double>{1.0});
+}
+
+TEST(Methods, RichardsonGridsNestSegmentBySegment) {
+  auto o = scene();  // segments of 5, 5, 10 steps at dt = 0.05
+  o.method = crandall::Method::richardson;
+  const crandall::Plan plan(o);
+  for (const auto& seg : plan.segments()) EXPECT_EQ(seg.steps % 4, 0u);
+}
+
+TEST(Methods, SkeletonMethodsShareTheVelocityAndTheStopTime) {
+  // On a grid whose segments already have multiples of 4 steps, exact and richardson walk the
+  // same skeleton: the extrapolation must leave the velocity and the stop time as they are.
+  auto o = scene();
+  o.times = {0.2, 0.4, 0.8, 1.5};
+  const auto exact = crandall::run_chunk(crandall::Plan(o), 0, 1);
+  o.method = crandall::Method::richardson;
+  const auto rich = crandall::run_chunk(crandall::Plan(o), 0, 1);
+  for (std::size_t s = 0; s < exact.times.slots(); ++s) {
+    EXPECT_NEAR(exact.times.means()[s * crandall::kVariables],
+                rich.times.means()[s * crandall::kVariables], 1e-13);
+    const int k = crandall::monomial_index(2, 0, 0);
+    EXPECT_NEAR(exact.times.central()[s * crandall::kMonomials + k],
+                rich.times.central()[s * crandall::kMonomials + k], 1e-9);
+  }
+  EXPECT_NEAR(exact.stop.means()[0], rich.stop.means()[0], 1e-13);
+}
+
+}  // namespace

@@ -52,6 +52,11 @@ class Moments {
   std::vector<double> central_;
 };
 
+// Moments of the signed combination sum_j w_j law(parts_j) (sum_j w_j = 1), slot by slot:
+// every raw moment is sum_j w_j E_j[.]. All parts must hold the same counts. This is how
+// Richardson extrapolation is applied to all moments at once (docs/methods/richardson.md).
+Moments combine(const std::vector<const Moments*>& parts, const std::vector<double>& weights);
+
 // Re-centre sums: out[t] = sum over s <= t of binom(t, s) in[s] delta^(t - s), i.e. sums about a
 // centre c become sums about c - delta. Exposed for the tests.
 void recentre(const double* in, const double* delta, double* out);

@@ -80,8 +80,21 @@ struct Workspace {
   explicit Workspace(const Plan& plan)
       : times(plan.options().times.size()),
         stop(plan.options().stop ? 1 : 0),
-        active(active_monomials(plan.options().displacement, plan.options().distance)) {}
+        active(active_monomials(plan.options().displacement, plan.options().distance)) {
+    for (int j = 1; j < richardson_levels(plan.options().method); ++j) {
+      coarse_times.emplace_back(plan.options().times.size());
+      coarse_stop.emplace_back(plan.options().stop ? 1 : 0);
+    }
+  }
+  void reset() {
+    times.reset();
+    stop.reset();
+    for (auto& c : coarse_times) c.reset();
+    for (auto& c : coarse_stop) c.reset();
+  }
   BlockSums times, stop;
+  // Richardson's coarser grids (step 2h, 4h), empty for the other methods.
+  std::vector<BlockSums> coarse_times, coarse_stop;
   std::vector<int> active;
   // Returns true when the run is to be abandoned; polled every kPollSteps steps so that long
   // paths stay interruptible. May be empty.
@@ -90,19 +103,62 @@ struct Workspace {
 
 constexpr std::uint64_t kPollSteps = 1u << 14;
 
+// The refine method (docs/methods/refine.md): a step of length h that starts with
+// |x| < kRefineWithin * noise * sqrt(h) is taken as kRefineSubsteps exact substeps, whose
+// noise comes from the path's refinement stream (path index with the top bit set; one Philox
+// block per two substeps, pair index = step * kRefineSubsteps / 2 + j).
+constexpr int kRefineSubsteps = 8;
+constexpr double kRefineWithin = 2.0;
+constexpr std::uint64_t kRefineStream = 1ull << 63;
+
+// Outputs after the switch-off (closed-form coast) and at the stop, from the state at t0.
+inline void add_after_switch_off(const Plan& plan, const double* x, const double* u,
+                                 const double* s, int lanes, const std::vector<int>& active,
+                                 BlockSums& times, BlockSums& stop) {
+  const Options& o = plan.options();
+  const auto& slots = plan.coast_slots();
+  const auto& elapsed = plan.coast_elapsed();
+  for (std::size_t j = 0; j < slots.size(); ++j) {
+    double cx[kLanes], cu[kLanes], cs[kLanes];
+    for (int l = 0; l < lanes; ++l) {
+      const State st = coast({x[l], u[l], s[l]}, o.drift, elapsed[j]);
+      cx[l] = st.velocity;
+      cu[l] = st.displacement;
+      cs[l] = st.distance;
+    }
+    times.add(static_cast<std::size_t>(slots[j]), cx, cu, cs, lanes, active);
+  }
+  if (o.stop) {
+    double ts[kLanes], us[kLanes], ss[kLanes];
+    for (int l = 0; l < lanes; ++l) {
+      const double to_stop = time_to_stop(x[l], o.drift);
+      const State st = coast({x[l], u[l], s[l]}, o.drift, to_stop);
+      ts[l] = o.switch_off + to_stop;
+      us[l] = st.displacement;
+      ss[l] = st.distance;
+    }
+    stop.add(0, ts, us, ss, lanes, active);
+  }
+}
+
 // Simulate paths [first, first + count) (count <= kBlockPaths) into ws (reset by the caller).
 template <Method M, bool kDisp, bool kDist>
 void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, Workspace& ws) {
+  constexpr int kGrids = M == Method::richardson ? 3 : M == Method::richardson2 ? 2 : 1;
+  constexpr bool kCoarse = kGrids > 1 && (kDisp || kDist);
   const Options& o = plan.options();
   const double drift = o.drift, noise = o.noise;
   for (std::uint64_t offset = 0; offset < count; offset += kLanes) {
     const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
     const std::uint64_t path0 = first + offset;
     double x[kLanes] = {}, u[kLanes] = {}, s[kLanes] = {};
+    // Richardson's coarse grids g = 1, 2 (step 2^g h): integrals, and x where their step began.
+    double xc[kGrids][kLanes] = {}, uc[kGrids][kLanes] = {}, sc[kGrids][kLanes] = {};
     StepNoise noise_pair[kLanes][2];
     std::uint64_t k = 0;  // step index along the path; selects the random numbers
     for (const Segment& seg : plan.segments()) {
       const double h = seg.h;
+      const double near = kRefineWithin * noise * std::sqrt(h);
       for (std::uint64_t i = 0; i < seg.steps; ++i, ++k) {
         if ((k & (kPollSteps - 1)) == kPollSteps - 1 && ws.abandon && ws.abandon()) return;
         const int half = static_cast<int>(k & 1u);
@@ -112,45 +168,62 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
           const StepNoise& z = noise_pair[l][half];
           const double x0 = x[l];
           double x1;
-          if constexpr (M == Method::exact) {
+          if constexpr (M == Method::euler) {
+            x1 = euler_step(x0, h, drift, noise, z.normal);
+            if constexpr (kDisp) u[l] += h * x0;
+            if constexpr (kDist) s[l] += h * std::abs(x0);
+          } else if (M == Method::refine && std::abs(x0) < near) {
+            constexpr int kPairs = kRefineSubsteps / 2;
+            const double hs = h / kRefineSubsteps;
+            double xa = x0;
+            for (int j = 0; j < kPairs; ++j) {
+              StepNoise r[2];
+              draw_pair(o.seed, (path0 + l) | kRefineStream, k * kPairs + j, r);
+              for (const StepNoise& q : r) {
+                const double xb =
+                    exact_step(xa, hs, drift, noise, q.normal, q.exponential, q.coin).velocity;
+                if constexpr (kDisp) u[l] += 0.5 * hs * (xa + xb);
+                if constexpr (kDist) s[l] += 0.5 * hs * (std::abs(xa) + std::abs(xb));
+                xa = xb;
+              }
+            }
+            x1 = xa;
+          } else {
             x1 = exact_step(x0, h, drift, noise, z.normal, z.exponential, z.coin).velocity;
             // Trapezoid rule on the exact skeleton (docs/integrals.md).
             if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1);
             if constexpr (kDist) s[l] += 0.5 * h * (std::abs(x0) + std::abs(x1));
-          } else {
-            x1 = euler_step(x0, h, drift, noise, z.normal);
-            if constexpr (kDisp) u[l] += h * x0;
-            if constexpr (kDist) s[l] += h * std::abs(x0);
+            if constexpr (kCoarse) {
+              // Segments have step counts that are multiples of 2^(kGrids - 1), so a coarse
+              // step never straddles two segments.
+              for (int g = 1; g < kGrids; ++g) {
+                const std::uint64_t mask = (std::uint64_t{1} << g) - 1;
+                if ((k & mask) == 0) xc[g][l] = x0;
+                if ((k & mask) == mask) {
+                  const double hg = 0.5 * h * static_cast<double>(mask + 1);
+                  if constexpr (kDisp) uc[g][l] += hg * (xc[g][l] + x1);
+                  if constexpr (kDist) sc[g][l] += hg * (std::abs(xc[g][l]) + std::abs(x1));
+                }
+              }
+            }
           }
           x[l] = x1;
         }
       }
-      if (seg.slot >= 0) ws.times.add(static_cast<std::size_t>(seg.slot), x, u, s, lanes, ws.active);
+      if (seg.slot >= 0) {
+        ws.times.add(static_cast<std::size_t>(seg.slot), x, u, s, lanes, ws.active);
+        if constexpr (kCoarse)
+          for (int g = 1; g < kGrids; ++g)
+            ws.coarse_times[g - 1].add(static_cast<std::size_t>(seg.slot), x, uc[g], sc[g], lanes,
+                                       ws.active);
+      }
     }
     if (!plan.needs_switch_state()) continue;
-    const auto& slots = plan.coast_slots();
-    const auto& elapsed = plan.coast_elapsed();
-    for (std::size_t j = 0; j < slots.size(); ++j) {
-      double cx[kLanes], cu[kLanes], cs[kLanes];
-      for (int l = 0; l < lanes; ++l) {
-        const State st = coast({x[l], u[l], s[l]}, drift, elapsed[j]);
-        cx[l] = st.velocity;
-        cu[l] = st.displacement;
-        cs[l] = st.distance;
-      }
-      ws.times.add(static_cast<std::size_t>(slots[j]), cx, cu, cs, lanes, ws.active);
-    }
-    if (o.stop) {
-      double ts[kLanes], us[kLanes], ss[kLanes];
-      for (int l = 0; l < lanes; ++l) {
-        const double to_stop = time_to_stop(x[l], drift);
-        const State st = coast({x[l], u[l], s[l]}, drift, to_stop);
-        ts[l] = o.switch_off + to_stop;
-        us[l] = st.displacement;
-        ss[l] = st.distance;
-      }
-      ws.stop.add(0, ts, us, ss, lanes, ws.active);
-    }
+    add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop);
+    if constexpr (kCoarse)
+      for (int g = 1; g < kGrids; ++g)
+        add_after_switch_off(plan, x, uc[g], sc[g], lanes, ws.active, ws.coarse_times[g - 1],
+                             ws.coarse_stop[g - 1]);
   }
 }
 

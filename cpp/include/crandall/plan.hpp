@@ -9,7 +9,24 @@
 
 namespace crandall {
 
-enum class Method { exact, euler };
+// exact: exact skeleton, trapezoid integrals (docs/integrals.md).
+// euler: Euler-Maruyama, the baseline.
+// richardson: exact skeleton, trapezoid integrals on the grid and on the grids of every 2nd
+//   and every 4th point (the same path), moments extrapolated to h = 0 assuming a bias
+//   c1 h^1.5 + c2 h^2 (docs/methods/richardson.md).
+// richardson2: the same with the grid and every 2nd point only, assuming c h^1.5.
+// refine: exact skeleton; a step that starts near 0 is taken as kRefineSubsteps exact substeps
+//   (docs/methods/refine.md).
+enum class Method { exact, euler, richardson, richardson2, refine };
+
+// Number of coupled grids (1 for a method without extrapolation) and the weights that combine
+// their moments; weights()[j] belongs to the grid of step 2^j h.
+int richardson_levels(Method m);
+std::vector<double> richardson_weights(Method m);
+
+// Name of a method as the Python layer spells it; parse_method throws std::invalid_argument.
+const char* method_name(Method m);
+Method parse_method(const std::string& name);
 
 struct Options {
   // dX = -drift sign(X) dt + noise dW for t < switch_off; no noise afterwards.
