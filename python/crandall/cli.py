@@ -1,0 +1,288 @@
+"""The ``crandall`` command line: ``crandall run [SCENE]`` and ``crandall analytic [SCENE]``.
+
+``crandall run`` without a scene file simulates the paper's setting (``crandall.paper``) and
+prints it beside the analytic layer; ``python -m crandall`` does the same.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from typing import List, Optional, Sequence
+
+import numpy as np
+
+from . import analytic, paper
+from .methods import METHODS
+from .scene import Scene
+from .simulate import simulate
+
+__all__ = ["main", "run", "PAPER_SEED", "DEFAULT_OUT"]
+
+#: Seed of the main job (the paper's scene), so that every run prints the same table.
+PAPER_SEED = 20261121
+#: Paths for a scene file without ``[run] paths``.
+DEFAULT_FILE_PATHS = 100_000
+#: Where ``crandall run`` writes results and figures.
+DEFAULT_OUT = "crandall-out"
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text.replace("_", ""))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0: {text!r}")
+    return value
+
+
+def _float(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="crandall",
+        description="A body sliding with Coulomb friction on a white-noise-shaken foundation "
+                    "(Crandall's problem): simulation and analytic predictions.",
+    )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+
+    run = sub.add_parser(
+        "run", help="simulate a scene, print its statistics, write results and figures",
+        description="Simulate a scene (a TOML file; default: the paper's setting), print the "
+                    "summary table (and, for the paper's scene, the comparison with the analytic "
+                    "values), and write result.nc (netCDF), result.csv and the figures (PNG) to "
+                    "the output folder. Options override the scene file's [run] table.")
+    run.add_argument("scene", nargs="?", metavar="SCENE",
+                     help="scene file (TOML, see scenes/); default: the paper's scene")
+    run.add_argument("--paths", type=_positive_int, metavar="N",
+                     help=f"paths (default: the file's, else {DEFAULT_FILE_PATHS:,}; "
+                          f"{paper.DEFAULT_PATHS:,} for the paper's scene)")
+    run.add_argument("--seed", type=_positive_int, metavar="S",
+                     help="seed (default: the file's, else drawn and printed; "
+                          f"{PAPER_SEED} for the paper's scene)")
+    run.add_argument("--threads", type=_positive_int, metavar="T",
+                     help="threads (default: all cores; per task with --scheduler: 1)")
+    run.add_argument("--dt", type=_float, metavar="DT",
+                     help="longest internal step in the scene's time units (default: the "
+                          "file's, else crandall.default_dt)")
+    run.add_argument("--method", choices=METHODS, help="simulation method (default: exact)")
+    run.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
+                     help=f"output folder (default: ./{DEFAULT_OUT})")
+    run.add_argument("--checkpoint", metavar="PATH",
+                     help="keep finished chunks in PATH; rerunning the same command resumes")
+    run.add_argument("--scheduler", metavar="ADDRESS",
+                     help="run on a Dask distributed cluster, e.g. tcp://host:8786 "
+                          "(pip install 'crandall[distributed]')")
+    run.add_argument("--no-figures", action="store_true", help="do not draw the figures")
+    run.add_argument("--no-files", action="store_true",
+                     help="print only: write no results or figures")
+    bar = run.add_mutually_exclusive_group()
+    bar.add_argument("--progress", dest="progress", action="store_const", const=True,
+                     help="always show a progress bar")
+    bar.add_argument("--no-progress", dest="progress", action="store_const", const=False,
+                     help="never show a progress bar (default: on a terminal, for runs "
+                          "longer than two seconds)")
+
+    an = sub.add_parser(
+        "analytic", help="print the analytic curves",
+        description="Print the analytic mean distance and the variances of velocity, "
+                    "displacement and distance (paper eq10r-eq10u and the switch-off formulas), "
+                    "and the stop statistics, at the scene's output times: in scaled units for "
+                    "a scaled scene, in SI for a physical one. Default: the paper's scene.")
+    an.add_argument("scene", nargs="?", metavar="SCENE", help="scene file (TOML)")
+    an.add_argument("--tau0", type=_float, metavar="TAU0",
+                    help="scaled switch-off time instead of a scene (default 5)")
+    an.add_argument("--times", type=_float, nargs="+", metavar="TAU",
+                    help="scaled output times (with --tau0; default: the paper's)")
+    return parser
+
+
+def _version() -> str:
+    from . import __version__
+
+    return __version__
+
+
+def _load_scene(path: Optional[str]):
+    """The scene and its run settings; the paper's scene when no file is given."""
+    if path is None:
+        return paper.default_scene(), {"paths": paper.DEFAULT_PATHS, "seed": PAPER_SEED}, True
+    scene = Scene.from_toml(path)
+    is_paper = scene.to_dict() == paper.default_scene().to_dict()
+    return scene, dict(scene.run_settings), is_paper
+
+
+def _write_outputs(result, out: str, figures: bool) -> List[str]:
+    os.makedirs(out, exist_ok=True)
+    written, notes = [], []
+    try:
+        path = os.path.join(out, "result.nc")
+        result.save(path)
+        written.append(path)
+        path = os.path.join(out, "result.csv")
+        result.to_pandas().to_csv(path, index=False)
+        written.append(path)
+    except ImportError as exc:
+        notes.append(f"results not written ({exc})")
+    if figures:
+        try:
+            from .plots import write_figures
+
+            written += write_figures(result, out)
+        except ImportError as exc:
+            notes.append(f"figures not drawn ({exc})")
+        except ValueError as exc:  # a scene without scaled units (mu = 0 or h = 0)
+            notes.append(f"figures not drawn: {exc}")
+    for note in notes:
+        print(f"crandall: note: {note}", file=sys.stderr)
+    return written
+
+
+def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None, dt=None,
+        method=None, out: str = DEFAULT_OUT, checkpoint=None, scheduler=None,
+        figures: bool = True, files: bool = True, progress=None) -> int:
+    """What ``crandall run`` does (arguments as its options); returns the exit status.
+
+    Raises
+    ------
+    ValueError
+        A bad scene file or option (the message names it).
+    """
+    scene, settings, is_paper = _load_scene(scene_path)
+    for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method)):
+        if value is not None:
+            settings[key] = value
+    n = settings.get("paths", DEFAULT_FILE_PATHS)
+    print(f"crandall: {scene!r}")
+    where = f" on {scheduler}" if scheduler else ""
+    print(f"simulating {n:,} paths{where} ...", flush=True)
+    client = None
+    if scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise ValueError("--scheduler needs Dask: pip install 'crandall[distributed]'") from None
+        try:
+            client = Client(scheduler, timeout="20s")
+        except (OSError, TimeoutError) as exc:
+            raise ValueError(f"--scheduler: cannot reach {scheduler}: {exc}") from None
+    start = time.perf_counter()
+    try:
+        result = simulate(scene, paths=n, seed=settings.get("seed"), dt=settings.get("dt"),
+                          method=settings.get("method", "exact"), threads=threads,
+                          checkpoint=checkpoint, client=client, progress=progress)
+    finally:
+        if client is not None:
+            client.close()
+    elapsed = time.perf_counter() - start
+    print(result.summary())
+    if is_paper:
+        print()
+        print(paper.comparison(result))
+    print(f"\n{result.paths:,} paths x {result.steps_per_path} steps in {elapsed:.1f} s "
+          f"(seed {result.seed})")
+    if files:
+        written = _write_outputs(result, out, figures)
+        if written:
+            print(f"wrote {len(written)} files to {out}{os.sep}: "
+                  + ", ".join(os.path.basename(p) for p in written))
+    return 0
+
+
+def _analytic_table(scene: Scene) -> str:
+    sc = scene
+    if sc.units == "SI" and sc.scaling is None:
+        raise ValueError("scene: the analytic layer needs mu > 0 and h > 0 (eq8)")
+    if sc.units == "scaled":
+        tau, tau0 = sc.times, sc.t0
+        fv = fl = ft = 1.0
+        tname, units = "tau", {"U": "", "V": ""}
+    else:
+        s = sc.scaling
+        tau, tau0 = s.to_tau(sc.times), (s.to_tau(sc.t0) if math.isfinite(sc.t0) else math.inf)
+        fv, fl, ft = s.velocity_scale, s.length_scale, s.time_scale
+        tname, units = "t [s]", {"U": " [m]", "V": " [m/s]"}
+    cols = [
+        (f"E distance{units['U']}", lambda t: analytic.distance_mean(t, tau0) * fl),
+        (f"Var velocity{units['V'] and ' [m^2/s^2]'}", lambda t: analytic.velocity_var(t, tau0) * fv**2),
+        (f"Var displacement{units['U'] and ' [m^2]'}",
+         lambda t: analytic.displacement_var(t, tau0) * fl**2 if t <= tau0 else math.nan),
+        (f"Var distance{units['U'] and ' [m^2]'}",
+         lambda t: analytic.distance_var(t, tau0) * fl**2 if t <= tau0 else math.nan),
+    ]
+    label = "scaled units (eq3)" if sc.units == "scaled" else "SI units"
+    lines = [f"crandall analytic: {sc!r}, {label}",
+             f"{tname:>10}" + "".join(f"  {name:>24}" for name, _ in cols)]
+    for t_out, t in zip(sc.times, np.atleast_1d(tau)):
+        row = f"{t_out:>10.4g}"
+        for _, f in cols:
+            v = float(f(float(t)))
+            row += f"  {'(noise off)' if math.isnan(v) else format(v, '.8g'):>24}"
+        lines.append(row)
+    if math.isfinite(tau0) and tau0 > 0:
+        tu = "" if sc.units == "scaled" else " s"
+        lines += [
+            "At the stop (eq14):",
+            f"  mean stop time            {float(analytic.stop_time_mean(tau0)) * ft:.8g}{tu}",
+            f"  var stop time             {float(analytic.stop_time_var(tau0)) * ft**2:.8g}"
+            f"{tu and ' s^2'}",
+            f"  mean distance at stop     {float(analytic.distance_at_stop_mean(tau0)) * fl:.8g}"
+            f"{units['U'] and ' m'}  (eq7: tau0/2 in scaled units)",
+            f"  var distance at stop      {float(analytic.distance_at_stop_var(tau0)) * fl**2:.8g}"
+            f"{units['U'] and ' m^2'}",
+            f"  var displacement at stop  "
+            f"{float(analytic.displacement_at_stop_var(tau0)) * fl**2:.8g}{units['U'] and ' m^2'}",
+        ]
+    return "\n".join(lines)
+
+
+def analytic_command(scene_path=None, *, tau0=None, times=None) -> int:
+    """What ``crandall analytic`` does; returns the exit status."""
+    if scene_path is not None and (tau0 is not None or times is not None):
+        raise ValueError("--tau0/--times: give either a scene file or --tau0/--times, not both")
+    if scene_path is not None:
+        scene = Scene.from_toml(scene_path)
+    elif tau0 is None and times is None:
+        scene = paper.default_scene()
+    else:
+        default = paper.default_scene()
+        scene = Scene.scaled(tau0=default.t0 if tau0 is None else tau0,
+                             times=default.times if times is None else times,
+                             observe=["velocity", "displacement", "distance"])
+    print(_analytic_table(scene))
+    return 0
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Entry point of the ``crandall`` console script; returns the exit status."""
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "run":
+            return run(args.scene, paths=args.paths, seed=args.seed, threads=args.threads,
+                       dt=args.dt, method=args.method, out=args.out, checkpoint=args.checkpoint,
+                       scheduler=args.scheduler, figures=not args.no_figures,
+                       files=not args.no_files, progress=args.progress)
+        return analytic_command(args.scene, tau0=args.tau0, times=args.times)
+    except ValueError as exc:
+        print(f"crandall: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        hint = ("; rerun the same command to resume from the checkpoint"
+                if getattr(args, "checkpoint", None) else "")
+        print(f"\ncrandall: interrupted{hint}", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
