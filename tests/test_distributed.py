@@ -1,0 +1,82 @@
+"""Dask: chunk ranges as tasks on a LocalCluster of two worker processes, bitwise the local run."""
+
+import numpy as np
+import pytest
+
+import crandall
+from crandall import _core, cli
+from conftest import same_result
+
+distributed = pytest.importorskip("distributed")
+
+CHUNK = _core.CHUNK_PATHS
+
+
+@pytest.fixture(scope="module")
+def client():
+    cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                       dashboard_address=None, worker_dashboard_address=None)
+    c = distributed.Client(cluster)
+    try:
+        yield c
+    finally:
+        c.close()
+        cluster.close()
+
+
+def scene(tau0=1.0):
+    return crandall.Scene.scaled(tau0=tau0, times=[0.25, 0.5, 1.0, 1.5])
+
+
+def test_cluster_result_is_bitwise_the_local_one(client):
+    paths = 3 * CHUNK + 17
+    local = crandall.simulate(scene(), paths=paths, seed=21, dt=0.1)
+    remote = crandall.simulate(scene(), paths=paths, seed=21, dt=0.1, client=client)
+    assert same_result(local, remote)
+    np.testing.assert_array_equal(local.moment(2, 1, 1), remote.moment(2, 1, 1))
+    assert remote.seed == 21 and remote.paths == paths
+    # The work really ran on both workers' processes.
+    assert len(client.scheduler_info()["workers"]) == 2
+
+
+def test_parameter_sweep(client):
+    scenes = [scene(tau0) for tau0 in (0.5, 1.0, 2.0)]
+    paths = CHUNK + 500
+    remote = crandall.simulate_many(scenes, paths=paths, seed=8, dt=0.1, client=client)
+    local = crandall.simulate_many(scenes, paths=paths, seed=8, dt=0.1)
+    assert len(remote) == len(local) == 3
+    for sc, r, l in zip(scenes, remote, local):
+        assert r.scene is sc
+        assert same_result(r, l)
+        assert same_result(r, crandall.simulate(sc, paths=paths, seed=8, dt=0.1))
+
+
+def test_cluster_run_with_checkpoint(client, tmp_path):
+    paths = 3 * CHUNK
+    path = tmp_path / "c.ckpt"
+    remote = crandall.simulate(scene(), paths=paths, seed=2, dt=0.1, client=client,
+                               checkpoint=path)
+    local = crandall.simulate(scene(), paths=paths, seed=2, dt=0.1, checkpoint=path)  # complete
+    assert same_result(remote, local)
+    assert same_result(local, crandall.simulate(scene(), paths=paths, seed=2, dt=0.1))
+
+
+def test_cli_scheduler_option(client, tmp_path, capsys):
+    scene_file = tmp_path / "s.toml"
+    scene_file.write_text("[scene]\nunits = 'scaled'\ntau0 = 1.0\ntimes = [0.25, 0.5, 1.0, 1.5]"
+                          "\n[run]\npaths = 70000\nseed = 5\ndt = 0.1\n")
+    address = client.scheduler.address
+    assert cli.main(["run", str(scene_file), "--scheduler", address, "--no-files"]) == 0
+    out = capsys.readouterr().out
+    assert f"on {address}" in out
+    local = crandall.simulate(scene(), paths=70000, seed=5, dt=0.1)
+    assert local.summary() in out
+
+
+def test_simulate_many_bad_input():
+    with pytest.raises(ValueError, match="scenes"):
+        crandall.simulate_many(scene(), paths=10)
+    with pytest.raises(ValueError, match="scenes"):
+        crandall.simulate_many([], paths=10)
+    with pytest.raises(ValueError, match=r"scenes\[1\]"):
+        crandall.simulate_many([scene(), "x"], paths=10)
