@@ -1,0 +1,87 @@
+"""Type stubs of crandall's compiled core (private; use the crandall package)."""
+
+from typing import List, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+#: Paths per chunk: the unit of work, of checkpoints and of Dask tasks.
+CHUNK_PATHS: int
+#: Paths per block inside a chunk (the unit one thread works on).
+BLOCK_PATHS: int
+#: SIMD lanes of the path loop.
+LANES: int
+
+def monomial_exponents() -> List[Tuple[int, int, int]]:
+    """Exponent triples (a, b, c) of the central sums, in storage order."""
+
+class Options:
+    """Options of a run (validated by Plan)."""
+
+    drift: float
+    noise: float
+    switch_off: float
+    times: List[float]
+    dt: float
+    method: str
+    velocity: bool
+    displacement: bool
+    distance: bool
+    stop: bool
+    seed: int
+    paths: int
+    def __init__(self) -> None: ...
+    def validate(self) -> None: ...
+
+class Plan:
+    """A validated run: the time grid and the path partition."""
+
+    def __init__(self, options: Options) -> None: ...
+    @property
+    def steps_per_path(self) -> int: ...
+    @property
+    def chunks(self) -> int: ...
+    def chunk_paths(self, chunk: int) -> int: ...
+    @property
+    def options(self) -> Options: ...
+
+class Moments:
+    """Count, means and central sums up to order 4 of three variables per slot."""
+
+    def __init__(
+        self,
+        slots: int,
+        counts: npt.ArrayLike = ...,
+        means: npt.ArrayLike = ...,
+        central: npt.ArrayLike = ...,
+    ) -> None: ...
+    @property
+    def slots(self) -> int: ...
+    @property
+    def counts(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def means(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def central(self) -> npt.NDArray[np.float64]: ...
+    def raw(self) -> npt.NDArray[np.float64]: ...
+    def merge(self, other: Moments) -> None: ...
+    def __getstate__(self) -> tuple: ...
+    def __setstate__(self, state: tuple) -> None: ...
+
+class ChunkResult:
+    @property
+    def times(self) -> Moments: ...
+    @property
+    def stop(self) -> Moments: ...
+
+def run_chunk(plan: Plan, chunk: int, threads: int = 0) -> ChunkResult:
+    """Simulate one chunk of paths; bitwise the same for any thread count."""
+
+def exact_steps(
+    start: Union[Sequence[float], npt.NDArray[np.float64]],
+    h: float,
+    drift: float,
+    noise: float,
+    seed: int,
+) -> npt.NDArray[np.float64]:
+    """One exact velocity step of length h from each start value (path i uses stream i)."""
