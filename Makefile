@@ -13,7 +13,7 @@ export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 DEBS := g++ make libeigen3-dev librandom123-dev libgtest-dev
 # Python packages for building and testing (the package's own dependencies come from pyproject).
 PYDEV := pip setuptools wheel "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja \
-         numpy scipy mpmath sympy pytest
+         numpy scipy mpmath sympy pytest tqdm matplotlib xarray pandas "dask[distributed]"
 
 .PHONY: run test deps venv install ctest pytest bench clean
 
@@ -41,7 +41,7 @@ $(VENV)/.dev-installed: $(VPY) Makefile
 venv: $(VENV)/.dev-installed
 
 install: deps venv
-	$(VPY) -m pip install -q --no-build-isolation ".[test]"
+	$(VPY) -m pip install -q --no-build-isolation ".[test,plots,io,distributed]"
 
 ctest: deps venv
 	cmake -S . -B build/cpp -G Ninja -DCRANDALL_BUILD_TESTS=ON -DCMAKE_BUILD_TYPE=Release >/dev/null
