@@ -318,6 +318,15 @@ def figures(result: Result, *, paths: int = 200_000) -> Dict[str, object]:
 def write_figures(result: Result, folder, *, paths: int = 200_000) -> List[str]:
     """Write :func:`figures` as PNG files into ``folder`` (created if missing).
 
+    Parameters
+    ----------
+    result : Result
+        Scaled, or physical with mu > 0 and h > 0.
+    folder : str or os.PathLike
+        Output folder; files are named after the keys of :func:`figures` (``*.png``).
+    paths : int
+        Samples per density.
+
     Returns
     -------
     list of str
