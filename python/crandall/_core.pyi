@@ -85,3 +85,6 @@ def exact_steps(
     seed: int,
 ) -> npt.NDArray[np.float64]:
     """One exact velocity step of length h from each start value (path i uses stream i)."""
+
+def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
+    """Generate the kernel's noise for paths x steps with no physics (a throughput floor)."""
