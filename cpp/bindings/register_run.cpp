@@ -141,6 +141,15 @@ void register_run(py::module_& m) {
       "Simulate one chunk of paths; bitwise the same for any thread count.");
 
   m.def(
+      "random_floor",
+      [](std::uint64_t paths, std::uint64_t steps, std::uint64_t seed, int threads) {
+        py::gil_scoped_release release;  // pure C++ on its own locals
+        return crandall::random_floor(paths, steps, seed, threads);
+      },
+      py::arg("paths"), py::arg("steps"), py::arg("seed"), py::arg("threads") = 0,
+      "Generate the kernel's noise for paths x steps with no physics (a throughput floor).");
+
+  m.def(
       "exact_steps",
       [](const std::vector<double>& start, double h, double drift, double noise, std::uint64_t seed) {
         std::vector<double> out;

@@ -2,6 +2,15 @@
 
 #include <omp.h>
 
+#if defined(__AVX__) && defined(__GLIBC__) && defined(__x86_64__)
+#include <immintrin.h>
+#define CRANDALL_LIBMVEC 1
+// glibc's libmvec (pulled in by libm's linker script): the AVX variants of log and sincos.
+extern "C" __m256d _ZGVcN4v_log(__m256d);
+extern "C" __m256d _ZGVcN4v_sin(__m256d);
+extern "C" __m256d _ZGVcN4v_cos(__m256d);
+#endif
+
 #include <atomic>
 #include <exception>
 #include <map>
@@ -39,6 +48,68 @@ struct BlockOut {
 };
 
 }  // namespace
+
+void log_n(const double* in, double* out, int n) {
+  int i = 0;
+#ifdef CRANDALL_LIBMVEC
+  for (; i + 4 <= n; i += 4) _mm256_storeu_pd(out + i, _ZGVcN4v_log(_mm256_loadu_pd(in + i)));
+  if (i < n) {
+    // The tail goes through the same vector function (padded), so the value of a draw does
+    // not depend on where it sits in a batch.
+    alignas(32) double a[4] = {1.0, 1.0, 1.0, 1.0}, b[4];
+    for (int j = i; j < n; ++j) a[j - i] = in[j];
+    _mm256_store_pd(b, _ZGVcN4v_log(_mm256_load_pd(a)));
+    for (int j = i; j < n; ++j) out[j] = b[j - i];
+    return;
+  }
+#endif
+  for (; i < n; ++i) out[i] = std::log(in[i]);
+}
+
+void sincos_n(const double* in, double* sin_out, double* cos_out, int n) {
+  int i = 0;
+#ifdef CRANDALL_LIBMVEC
+  for (; i + 4 <= n; i += 4) {
+    const __m256d v = _mm256_loadu_pd(in + i);
+    _mm256_storeu_pd(sin_out + i, _ZGVcN4v_sin(v));
+    _mm256_storeu_pd(cos_out + i, _ZGVcN4v_cos(v));
+  }
+  if (i < n) {
+    alignas(32) double a[4] = {0.0, 0.0, 0.0, 0.0}, b[4], c[4];
+    for (int j = i; j < n; ++j) a[j - i] = in[j];
+    _mm256_store_pd(b, _ZGVcN4v_sin(_mm256_load_pd(a)));
+    _mm256_store_pd(c, _ZGVcN4v_cos(_mm256_load_pd(a)));
+    for (int j = i; j < n; ++j) {
+      sin_out[j] = b[j - i];
+      cos_out[j] = c[j - i];
+    }
+    return;
+  }
+#endif
+  for (; i < n; ++i) {
+    sin_out[i] = std::sin(in[i]);
+    cos_out[i] = std::cos(in[i]);
+  }
+}
+
+double random_floor(std::uint64_t paths, std::uint64_t steps, std::uint64_t seed, int threads) {
+  if (threads < 0) throw std::invalid_argument("threads must be >= 0");
+  const long groups = static_cast<long>((paths + kLanes - 1) / kLanes);
+  double total = 0.0;
+#pragma omp parallel for schedule(static) reduction(+ : total) num_threads(threads > 0 ? threads : omp_get_max_threads())
+  for (long g = 0; g < groups; ++g) {
+    PairNoise<kLanes> z;
+    double acc = 0.0;
+    for (std::uint64_t pair = 0; 2 * pair < steps; ++pair) {
+      draw_pairs<kLanes>(seed, static_cast<std::uint64_t>(g) * kLanes, pair, kLanes, z);
+      for (int l = 0; l < kLanes; ++l)
+        acc += z.normal[0][l] + z.normal[1][l] + z.exponential[0][l] + z.exponential[1][l] +
+               z.coin[0][l];
+    }
+    total += acc;
+  }
+  return total;
+}
 
 ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
                       const InterruptCheck& interrupted) {

@@ -9,6 +9,10 @@
 #include <functional>
 #include <vector>
 
+#if defined(__AVX__)
+#include <immintrin.h>
+#endif
+
 #include "crandall/accumulators.hpp"
 #include "crandall/coast.hpp"
 #include "crandall/plan.hpp"
@@ -111,6 +115,17 @@ constexpr int kRefineSubsteps = 8;
 constexpr double kRefineWithin = 2.0;
 constexpr std::uint64_t kRefineStream = 1ull << 63;
 
+// In-place square root of kLanes non-negative doubles. sqrt is correctly rounded, so the
+// vector and scalar forms give the same bits; the explicit form is needed because std::sqrt
+// (which may set errno) does not vectorise without -fno-math-errno.
+inline void sqrt_lanes(double* v) {
+#if defined(__AVX__)
+  for (int l = 0; l + 4 <= kLanes; l += 4) _mm256_store_pd(v + l, _mm256_sqrt_pd(_mm256_load_pd(v + l)));
+#else
+  for (int l = 0; l < kLanes; ++l) v[l] = std::sqrt(v[l]);
+#endif
+}
+
 // Outputs after the switch-off (closed-form coast) and at the stop, from the state at t0.
 inline void add_after_switch_off(const Plan& plan, const double* x, const double* u,
                                  const double* s, int lanes, const std::vector<int>& active,
@@ -154,60 +169,103 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
     double x[kLanes] = {}, u[kLanes] = {}, s[kLanes] = {};
     // Richardson's coarse grids g = 1, 2 (step 2^g h): integrals, and x where their step began.
     double xc[kGrids][kLanes] = {}, uc[kGrids][kLanes] = {}, sc[kGrids][kLanes] = {};
-    StepNoise noise_pair[kLanes][2];
+    PairNoise<kLanes> z;
     std::uint64_t k = 0;  // step index along the path; selects the random numbers
     for (const Segment& seg : plan.segments()) {
       const double h = seg.h;
       const double near = kRefineWithin * noise * std::sqrt(h);
+      // The step's constants, rounded exactly as exact_step rounds them.
+      const double mean_d = -drift * h, scale_d = noise * std::sqrt(h);
+      const double twice_var = 2.0 * (noise * noise * h);
       for (std::uint64_t i = 0; i < seg.steps; ++i, ++k) {
         if ((k & (kPollSteps - 1)) == kPollSteps - 1 && ws.abandon && ws.abandon()) return;
         const int half = static_cast<int>(k & 1u);
-        if (half == 0)
-          for (int l = 0; l < lanes; ++l) draw_pair(o.seed, path0 + l, k >> 1, noise_pair[l]);
-        for (int l = 0; l < lanes; ++l) {
-          const StepNoise& z = noise_pair[l][half];
-          const double x0 = x[l];
-          double x1;
-          if constexpr (M == Method::euler) {
-            x1 = euler_step(x0, h, drift, noise, z.normal);
+        if (half == 0) draw_pairs<kLanes>(o.seed, path0, k >> 1, lanes, z);
+        const double* zn = z.normal[half];
+        const double* ze = z.exponential[half];
+        const double* zc = z.coin[half];
+        if constexpr (M == Method::euler) {
+          for (int l = 0; l < kLanes; ++l) {
+            const double x0 = x[l];
             if constexpr (kDisp) u[l] += h * x0;
             if constexpr (kDist) s[l] += h * std::abs(x0);
-          } else if (M == Method::refine && std::abs(x0) < near) {
-            constexpr int kPairs = kRefineSubsteps / 2;
-            const double hs = h / kRefineSubsteps;
-            double xa = x0;
-            for (int j = 0; j < kPairs; ++j) {
-              StepNoise r[2];
-              draw_pair(o.seed, (path0 + l) | kRefineStream, k * kPairs + j, r);
-              for (const StepNoise& q : r) {
-                const double xb =
-                    exact_step(xa, hs, drift, noise, q.normal, q.exponential, q.coin).velocity;
-                if constexpr (kDisp) u[l] += 0.5 * hs * (xa + xb);
-                if constexpr (kDist) s[l] += 0.5 * hs * (std::abs(xa) + std::abs(xb));
-                xa = xb;
+            x[l] = euler_step(x0, h, drift, noise, zn[l]);
+          }
+        } else if constexpr (M == Method::refine) {
+          for (int l = 0; l < lanes; ++l) {
+            const double x0 = x[l];
+            double x1;
+            if (std::abs(x0) < near) {
+              constexpr int kPairs = kRefineSubsteps / 2;
+              const double hs = h / kRefineSubsteps;
+              double xa = x0;
+              for (int j = 0; j < kPairs; ++j) {
+                StepNoise r[2];
+                draw_pair(o.seed, (path0 + l) | kRefineStream, k * kPairs + j, r);
+                for (const StepNoise& q : r) {
+                  const double xb =
+                      exact_step(xa, hs, drift, noise, q.normal, q.exponential, q.coin).velocity;
+                  if constexpr (kDisp) u[l] += 0.5 * hs * (xa + xb);
+                  if constexpr (kDist) s[l] += 0.5 * hs * (std::abs(xa) + std::abs(xb));
+                  xa = xb;
+                }
               }
+              x1 = xa;
+            } else {
+              x1 = exact_step(x0, h, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
+              if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1);
+              if constexpr (kDist) s[l] += 0.5 * h * (std::abs(x0) + std::abs(x1));
             }
-            x1 = xa;
-          } else {
-            x1 = exact_step(x0, h, drift, noise, z.normal, z.exponential, z.coin).velocity;
+            x[l] = x1;
+          }
+        } else {
+          // exact_step (skeleton.hpp) written branch-free over all lanes so that it vectorises;
+          // the padding lanes of a partial group compute harmless values that are never read.
+          alignas(32) double d[kLanes], q[kLanes], root[kLanes], x1[kLanes];
+#pragma omp simd
+          for (int l = 0; l < kLanes; ++l) {
+            d[l] = mean_d + scale_d * zn[l];
+            q[l] = twice_var * ze[l];
+            root[l] = d[l] * d[l] + q[l];
+          }
+          sqrt_lanes(root);
+#pragma omp simd
+          for (int l = 0; l < kLanes; ++l) {
+            const double x0 = x[l];
+            const double a = std::abs(x0);
+            // bridge_minimum: both forms computed, one selected (no branch; the unselected one
+            // may be 0/0 when d = root = 0, which is harmless).
+            const double low = 0.5 * (d[l] - root[l]);
+            const double high = -0.5 * q[l] / (d[l] + root[l]);
+            const double m = d[l] <= 0.0 ? low : high;
+            const double up = a + d[l], down = d[l] - m;
+            const double magnitude = up < down ? down : up;
+            // A touch of 0 takes the coin's sign, otherwise the sign is kept.
+            const bool touched = a + m <= 0.0;
+            const bool positive = (touched & (zc[l] != 0.0)) | (!touched & (x0 > 0.0));
+            x1[l] = positive ? magnitude : -magnitude;
             // Trapezoid rule on the exact skeleton (docs/integrals.md).
-            if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1);
-            if constexpr (kDist) s[l] += 0.5 * h * (std::abs(x0) + std::abs(x1));
-            if constexpr (kCoarse) {
-              // Segments have step counts that are multiples of 2^(kGrids - 1), so a coarse
-              // step never straddles two segments.
-              for (int g = 1; g < kGrids; ++g) {
-                const std::uint64_t mask = (std::uint64_t{1} << g) - 1;
-                if ((k & mask) == 0) xc[g][l] = x0;
-                if ((k & mask) == mask) {
-                  const double hg = 0.5 * h * static_cast<double>(mask + 1);
-                  if constexpr (kDisp) uc[g][l] += hg * (xc[g][l] + x1);
-                  if constexpr (kDist) sc[g][l] += hg * (std::abs(xc[g][l]) + std::abs(x1));
+            if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1[l]);
+            if constexpr (kDist) s[l] += 0.5 * h * (a + std::abs(x1[l]));
+          }
+          if constexpr (kCoarse) {
+            // Segments have step counts that are multiples of 2^(kGrids - 1), so a coarse step
+            // never straddles two segments.
+            for (int g = 1; g < kGrids; ++g) {
+              const std::uint64_t mask = (std::uint64_t{1} << g) - 1;
+              if ((k & mask) == 0)
+                for (int l = 0; l < kLanes; ++l) xc[g][l] = x[l];
+              if ((k & mask) == mask) {
+                const double hg = 0.5 * h * static_cast<double>(mask + 1);
+#pragma omp simd
+                for (int l = 0; l < kLanes; ++l) {
+                  if constexpr (kDisp) uc[g][l] += hg * (xc[g][l] + x1[l]);
+                  if constexpr (kDist) sc[g][l] += hg * (std::abs(xc[g][l]) + std::abs(x1[l]));
                 }
               }
             }
           }
-          x[l] = x1;
+          for (int l = 0; l < kLanes; ++l) x[l] = x1[l];
         }
       }
       if (seg.slot >= 0) {

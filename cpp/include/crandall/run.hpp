@@ -35,4 +35,9 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
 std::vector<double> exact_steps(const std::vector<double>& start, double h, double drift,
                                 double noise, std::uint64_t seed);
 
+// The random-number floor of the kernel: the same Philox streams and normal/exponential/coin
+// generation for `paths` paths and `steps` steps, no physics. Returns a checksum (so that the
+// work is not optimised away). For bench/throughput.py.
+double random_floor(std::uint64_t paths, std::uint64_t steps, std::uint64_t seed, int threads);
+
 }  // namespace crandall

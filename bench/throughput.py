@@ -1,0 +1,170 @@
+"""Throughput of the kernel: path-steps per second, the random-number floor, observable costs.
+
+Measures, in one run (scaled units, the exact method unless stated):
+
+- the full kernel (velocity, displacement, distance; tau0 = 5, dt = 0.01: 500 steps per path)
+  on 1 and 2 threads, in path-steps per second;
+- the velocity-only kernel (velocity observed at every step, 500 outputs per path);
+- the random-number floor: the same Philox streams and normal/exponential/coin generation, no
+  physics (crandall._core.random_floor);
+- a velocity-and-stop scene in paths per second at several tau0 (one exact step per path);
+- the cost of each observable set at tau0 = 5, dt = 0.01 (velocity; + stop; + displacement;
+  + distance; all), in paths per second and relative to velocity only.
+
+Each figure is the best of --repeat runs (the machine is shared: the best run is the least
+disturbed one); the load average before and after is recorded. Writes bench/out/throughput.json
+and bench/out/throughput.png; --publish copies both to bench/results/.
+
+    .venv/bin/python bench/throughput.py [--quick] [--publish] [--module-path DIR]
+
+--module-path runs the same measurements against another build of crandall (e.g. a previous
+commit installed with pip --target DIR) for before/after comparisons.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import shutil
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+TAU0 = 5.0
+DT = 0.01
+STEPS = round(TAU0 / DT)
+TARGETS = {"full_1_thread_msteps": 150.0, "two_thread_speedup": 1.8, "floor_factor": 2.0,
+           "velocity_stop_mpaths": 30.0}
+
+
+def best_of(fn, repeat: int) -> float:
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--publish", action="store_true")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--module-path", default=None)
+    args = ap.parse_args()
+    if args.module_path:
+        sys.path.insert(0, args.module_path)
+    import crandall
+    from crandall import _core
+
+    scale = 0.1 if args.quick else 1.0
+    paths = int(200_000 * scale)
+    load_before = os.getloadavg()
+    out = {"script": "bench/throughput.py",
+           "command": "python bench/throughput.py" + (" --quick" if args.quick else "")
+           + (" --publish" if args.publish else ""),
+           "crandall_version": crandall.__version__, "crandall_path": os.path.dirname(crandall.__file__),
+           "machine": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
+           "tau0": TAU0, "dt": DT, "steps_per_path": STEPS, "paths": paths, "repeat": args.repeat,
+           "targets": TARGETS}
+
+    def sim(observe, threads, n=paths, tau0=TAU0, times=None, dt=DT, method="exact"):
+        scene = crandall.Scene.scaled(tau0=tau0, times=times if times is not None else [tau0],
+                                      observe=observe)
+        return lambda: crandall.simulate(scene, paths=n, seed=1, dt=dt, method=method,
+                                         threads=threads)
+
+    full = ["velocity", "displacement", "distance"]
+    rates = {}
+    for threads in (1, 2):
+        t = best_of(sim(full, threads), args.repeat)
+        rates[f"full_{threads}_thread"] = paths * STEPS / t
+        print(f"full kernel, {threads} thread(s): {paths * STEPS / t / 1e6:.1f} M path-steps/s", flush=True)
+    every_step = [DT * (i + 1) for i in range(STEPS)]
+    t = best_of(sim(["velocity"], 1, n=paths // 4, times=every_step), args.repeat)
+    rates["velocity_only_1_thread"] = paths // 4 * STEPS / t
+    print(f"velocity only (output every step), 1 thread: {rates['velocity_only_1_thread'] / 1e6:.1f} M", flush=True)
+    if hasattr(_core, "random_floor"):
+        for threads in (1, 2):
+            t = best_of(lambda: _core.random_floor(paths, STEPS, 1, threads), args.repeat)
+            rates[f"random_floor_{threads}_thread"] = paths * STEPS / t
+            print(f"random floor, {threads} thread(s): {paths * STEPS / t / 1e6:.1f} M", flush=True)
+    out["path_steps_per_second"] = rates
+
+    stop_rates = {}
+    n_stop = int(4_000_000 * scale)
+    for tau0 in (0.1, 1.0, 5.0, 50.0):
+        t = best_of(sim(["velocity", "stop"], 1, n=n_stop, tau0=tau0), args.repeat)
+        stop_rates[f"{tau0:g}"] = n_stop / t
+        print(f"velocity+stop, tau0={tau0:g}, 1 thread: {n_stop / t / 1e6:.2f} M paths/s", flush=True)
+    out["velocity_stop_paths_per_second_1_thread"] = stop_rates
+
+    costs = {}
+    sets = {"velocity": ["velocity"], "+ stop": ["velocity", "stop"],
+            "+ displacement": ["velocity", "stop", "displacement"],
+            "+ distance": ["velocity", "stop", "distance"],
+            "all": ["velocity", "stop", "displacement", "distance"]}
+    n_cost = int(100_000 * scale)
+    for name, obs in sets.items():
+        n = n_cost * (20 if obs in (["velocity"], ["velocity", "stop"]) else 1)
+        t = best_of(sim(obs, 1, n=n, times=[1.0, TAU0]), args.repeat)
+        costs[name] = {"observe": obs, "paths_per_second": n / t, "seconds_per_million_paths": t / n * 1e6}
+        print(f"cost of {name}: {n / t / 1e6:.3f} M paths/s", flush=True)
+    base = costs["velocity"]["seconds_per_million_paths"]
+    for c in costs.values():
+        c["relative_to_velocity"] = c["seconds_per_million_paths"] / base
+    out["observable_cost_1_thread"] = costs
+
+    r = rates
+    out["against_targets"] = {
+        "full_1_thread_msteps": r["full_1_thread"] / 1e6,
+        "two_thread_speedup": r["full_2_thread"] / r["full_1_thread"],
+        "floor_factor": (r["full_1_thread"] and r.get("random_floor_1_thread", float("nan")) / r["full_1_thread"]),
+        "velocity_stop_mpaths_min": min(stop_rates.values()) / 1e6,
+    }
+    out["load"] = [round(x, 2) for x in load_before]
+    out["load_after"] = [round(x, 2) for x in os.getloadavg()]
+    print(json.dumps(out["against_targets"], indent=1), "load", out["load"], "->", out["load_after"])
+
+    dest = HERE / "out"
+    dest.mkdir(exist_ok=True)
+    stem = "throughput" if not args.module_path else "throughput_other_build"
+    (dest / f"{stem}.json").write_text(json.dumps(out, indent=1))
+    plot(out, dest / f"{stem}.png")
+    if args.publish:
+        res = HERE / "results"
+        res.mkdir(exist_ok=True)
+        for ext in ("json", "png"):
+            shutil.copy(dest / f"{stem}.{ext}", res / f"{stem}.{ext}")
+
+
+def plot(out: dict, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.5), constrained_layout=True)
+    r = out["path_steps_per_second"]
+    names = list(r)
+    a.barh(names, [r[n] / 1e6 for n in names], color="tab:blue")
+    a.axvline(TARGETS["full_1_thread_msteps"], color="tab:red", ls="--", label="target, full kernel 1 thread")
+    a.set_xlabel("M path-steps / s")
+    a.legend(fontsize=8)
+    a.set_title("kernel throughput")
+    c = out["observable_cost_1_thread"]
+    b.barh(list(c), [v["seconds_per_million_paths"] for v in c.values()], color="tab:green")
+    b.set_xscale("log")
+    b.set_xlabel("seconds per million paths, 1 thread (tau0 = 5, dt = 0.01)")
+    b.set_title("cost of each observable set")
+    fig.suptitle(f"crandall {out['crandall_version']}, load {out['load']}")
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()
