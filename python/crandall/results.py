@@ -167,20 +167,17 @@ class Result:
         ]
         time_names = [n for n in self.names if n not in STOP_QUANTITIES]
         if time_names and self.times.size:
-            head = f"  {sc.time_name:>10}"
+            # One block per quantity: time, mean ± standard error, variance, standard deviation.
             for n in time_names:
                 u = sc.units_of(n)
-                label = f"{n}" + (f" [{u}]" if u else "")
-                head += f"  {('mean ' + label):>34}  {'var':>11}"
-            lines.append(head)
-            stats = {n: self._stats(n) for n in time_names}
-            for i, t in enumerate(self.times):
-                row = f"  {t:>10.4g}"
-                for n in time_names:
-                    mean, var, cnt = stats[n]
+                lines.append(f"  {n}" + (f" [{u}]" if u else ""))
+                lines.append(f"    {sc.time_name:>10}  {'mean':>13}  {'± stderr':>10}  "
+                             f"{'var':>12}  {'std':>12}")
+                mean, var, cnt = self._stats(n)
+                for i, t in enumerate(self.times):
                     se = math.sqrt(var[i] / cnt[i])
-                    row += f"  {mean[i]:>21.6g} ± {se:<10.2g}  {var[i]:>11.6g}"
-                lines.append(row)
+                    lines.append(f"    {t:>10.4g}  {mean[i]:>13.6g}  {se:>10.2g}  "
+                                 f"{var[i]:>12.6g}  {math.sqrt(var[i]):>12.6g}")
         stop_names = [n for n in self.names if n in STOP_QUANTITIES]
         if stop_names:
             lines.append("  at the stop:")
