@@ -137,12 +137,12 @@ def families(quick: bool) -> dict:
         "crandall richardson": (crandall_runner("richardson"), coarse, budget, 2),
         "crandall richardson2": (crandall_runner("richardson2"), coarse[:-1], budget, 2),
         "crandall refine": (crandall_runner("refine"), [0.8, 0.4, 0.2], budget / 4, 2),
-        "crandall euler": (crandall_runner("euler"), [0.08, 0.04, 0.02, 0.01], budget / 2, 2),
-        "NumPy Euler-Maruyama": (peer_runner(numpy_em), [0.08, 0.04, 0.02, 0.01], budget / 4, 1),
+        "crandall euler": (crandall_runner("euler"), [0.1, 0.05, 0.02, 0.01], budget / 2, 2),
+        "NumPy Euler-Maruyama": (peer_runner(numpy_em), [0.1, 0.05, 0.02, 0.01], budget / 4, 1),
     }
     if numba_em is not None:
         numba_em.warm_up()
-        fams["Numba Euler-Maruyama"] = (peer_runner(numba_em), [0.08, 0.04, 0.02, 0.01],
+        fams["Numba Euler-Maruyama"] = (peer_runner(numba_em), [0.1, 0.05, 0.02, 0.01],
                                         budget / 2, 1)
     if quick:
         fams = {k: (r, l[:3], b, t) for k, (r, l, b, t) in fams.items()}
@@ -258,6 +258,8 @@ def main() -> None:
                   + "  ".join(f"{n}:{o['bias']:+.1e}±{o['stderr']:.0e}" for n, o in obs.items()
                               if n in CURVES_AT_5), flush=True)
         data["families"][fam] = {"points": points}
+        (HERE / "out").mkdir(exist_ok=True)
+        (HERE / "out" / "work_precision.partial.json").write_text(json.dumps(data, indent=1))
     # Cost of an error of 1e-3 in each curve at tau = 5.
     ratios = {}
     for name in CURVES_AT_5:
