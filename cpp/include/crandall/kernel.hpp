@@ -47,6 +47,30 @@ inline void BlockSums::add(std::size_t slot, const double* a, const double* b, c
     cen[1] = b[0];
     cen[2] = c[0];
   }
+  const auto& exps = monomial_exponents();
+  double* r = &raw[slot * kMonomials];
+  // active is in graded order, so the first powers of the 2nd and 3rd variables (monomials 2
+  // and 3) come right after (0,0,0) and (1,0,0) when they are observed.
+  const bool only_first = active.size() < 3 || active[2] > 3;
+  if (only_first) {
+    // A velocity-only (or stop-time-only) slot: powers of the first variable alone; the
+    // products below would multiply by 1.0 exactly, so the sums are the same bits.
+    double pa[kMomentOrder + 1][kLanes];
+    for (int l = 0; l < lanes; ++l) {
+      pa[0][l] = 1.0;
+      pa[1][l] = a[l] - cen[0];
+    }
+    for (int p = 2; p <= kMomentOrder; ++p)
+      for (int l = 0; l < lanes; ++l) pa[p][l] = pa[p - 1][l] * pa[1][l];
+    for (int k : active) {
+      const int e = exps[k][0];
+      double sum = 0.0;
+      for (int l = 0; l < lanes; ++l) sum += pa[e][l];
+      r[k] += sum;
+    }
+    counts[slot] += lanes;
+    return;
+  }
   double pa[kMomentOrder + 1][kLanes], pb[kMomentOrder + 1][kLanes], pc[kMomentOrder + 1][kLanes];
   for (int l = 0; l < lanes; ++l) {
     pa[0][l] = pb[0][l] = pc[0][l] = 1.0;
@@ -60,8 +84,6 @@ inline void BlockSums::add(std::size_t slot, const double* a, const double* b, c
       pb[p][l] = pb[p - 1][l] * pb[1][l];
       pc[p][l] = pc[p - 1][l] * pc[1][l];
     }
-  const auto& exps = monomial_exponents();
-  double* r = &raw[slot * kMonomials];
   for (int k : active) {
     const auto& e = exps[k];
     double sum = 0.0;
