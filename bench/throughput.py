@@ -67,7 +67,9 @@ def main() -> None:
     load_before = os.getloadavg()
     out = {"script": "bench/throughput.py",
            "command": "python bench/throughput.py" + (" --quick" if args.quick else "")
-           + (" --publish" if args.publish else ""),
+           + (" --publish" if args.publish else "")
+           + (f" --module-path {args.module_path}" if args.module_path else "")
+           + (f" --repeat {args.repeat}" if args.repeat != 3 else ""),
            "crandall_version": crandall.__version__, "crandall_path": os.path.dirname(crandall.__file__),
            "machine": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
            "tau0": TAU0, "dt": DT, "steps_per_path": STEPS, "paths": paths, "repeat": args.repeat,

@@ -1,0 +1,147 @@
+"""Render the README's "Accuracy and speed" section from the last published bench results.
+
+Reads bench/results/work_precision.json and bench/results/throughput.json (written by
+bench/work_precision.py --publish and bench/throughput.py --publish) and replaces everything
+from the heading "## Accuracy and speed" to the end of README.md. No number is typed by hand.
+
+    .venv/bin/python bench/report.py [--check]
+
+--check exits with status 1 if README.md is not what the JSON files render (for CI).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+HEADING = "## Accuracy and speed"
+
+
+def fmt_time(s) -> str:
+    if s is None:
+        return "not reached"
+    return f"{s * 1e6:.3g} µs" if s < 1e-3 else f"{s * 1e3:.3g} ms"
+
+
+def render() -> str:
+    wp = json.loads((HERE / "results" / "work_precision.json").read_text())
+    tp = json.loads((HERE / "results" / "throughput.json").read_text())
+    lines = [HEADING, ""]
+    lines += [
+        "Bias against `crandall.analytic` versus wall time per path (one thread), for every",
+        "method and for Euler-Maruyama written with NumPy and with Numba (`bench/peers/`), in the",
+        f"paper's scene (tau0 = {wp['tau0']:g}). Hollow markers are bounds |bias| + 2 SE where the",
+        "bias is below 3 standard errors. Made by",
+        "",
+        "```sh",
+        f".venv/bin/{wp['command']}",
+        "```",
+        "",
+        f"(load average before the run: {', '.join(map(str, wp['load']))}; "
+        f"{wp['total_seconds'] / 60:.1f} minutes)",
+        "",
+        "![work-precision](bench/results/work_precision.png)",
+        "",
+        f"Wall time per path to reach an error of {wp['target_error']:g} in each of the paper's four",
+        "curves at tau = 5 (a power-law fit of |bias| against dt through the resolved points, or the",
+        "cheapest run whose bound is below the target), and the ratio best peer / best crandall:",
+        "",
+        "| curve at tau = 5 | best crandall method | its time per path | best peer | its time per path | ratio |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, r in wp["at_target"].items():
+        ours = r["costs"].get(r["best_crandall"]) if r["best_crandall"] else None
+        peer = r["costs"].get(r["best_peer"]) if r["best_peer"] else None
+        ratio = f"{r['ratio_peer_over_crandall']:.0f}" if r["ratio_peer_over_crandall"] else "n/a"
+        lines.append(
+            f"| {name.split('@')[0].replace('_', ' ')} | {r['best_crandall'] or 'n/a'} "
+            f"({ours['how'] if ours else ''}) | {fmt_time(ours['time_per_path_s'] if ours else None)} "
+            f"| {r['best_peer'] or 'not resolved'} | "
+            f"{fmt_time(peer['time_per_path_s'] if peer else None)} | {ratio} |")
+    lines += [
+        "",
+        "Raw numbers, standard errors and the fits: "
+        "[bench/results/work_precision.json](bench/results/work_precision.json).",
+        "",
+        "Throughput (scaled units, exact method, tau0 = "
+        f"{tp['tau0']:g}, dt = {tp['dt']:g}: {tp['steps_per_path']} steps per path; best of "
+        f"{tp['repeat']} runs; load average before: {', '.join(map(str, tp['load']))}). Made by",
+        "",
+        "```sh",
+        f".venv/bin/{tp['command']}",
+        "```",
+        "",
+        "![throughput](bench/results/throughput.png)",
+        "",
+        "| kernel | M path-steps / s | target |",
+        "|---|---|---|",
+    ]
+    r = tp["path_steps_per_second"]
+    t = tp["targets"]
+    targets = {"full_1_thread": f"≥ {t['full_1_thread_msteps']:g}",
+               "full_2_thread": f"≥ {t['two_thread_speedup']:g} × 1 thread",
+               "random_floor_1_thread": f"full kernel within {t['floor_factor']:g}× of it"}
+    labels = {"full_1_thread": "full (velocity, displacement, distance), 1 thread",
+              "full_2_thread": "full, 2 threads",
+              "velocity_only_1_thread": "velocity only (output at every step), 1 thread",
+              "random_floor_1_thread": "random-number floor (Philox + normal/exponential/coin), 1 thread",
+              "random_floor_2_thread": "random-number floor, 2 threads"}
+    for k, v in r.items():
+        lines.append(f"| {labels.get(k, k)} | {v / 1e6:.1f} | {targets.get(k, '')} |")
+    a = tp["against_targets"]
+    other = HERE / "results" / "throughput_other_build.json"
+    if other.exists():
+        ob = json.loads(other.read_text())["path_steps_per_second"]
+        lines += [
+            "",
+            f"For comparison, the kernel before the structure-of-arrays/vectorised rewrite (commit "
+            f"7f7ff0d, installed with `pip install --target /tmp/before_pkg`, measured by "
+            f"`.venv/bin/python bench/throughput.py --module-path /tmp/before_pkg --repeat 2 --publish`): "
+            f"{ob['full_1_thread'] / 1e6:.1f} M path-steps/s on 1 thread, "
+            f"{ob['full_2_thread'] / 1e6:.1f} M on 2 "
+            "([bench/results/throughput_other_build.json](bench/results/throughput_other_build.json)).",
+        ]
+    lines += [
+        "",
+        f"Two threads give {a['two_thread_speedup']:.2f}× one thread; the full kernel runs at "
+        f"1/{a['floor_factor']:.2f} of the random-number floor.",
+        "",
+        "| velocity + stop scene, 1 thread | M paths / s |",
+        "|---|---|",
+    ]
+    for tau0, v in tp["velocity_stop_paths_per_second_1_thread"].items():
+        lines.append(f"| tau0 = {tau0} | {v / 1e6:.1f} |")
+    lines += [
+        f"| target (any tau0) | ≥ {t['velocity_stop_mpaths']:g} |",
+        "",
+        "Cost of each observable set (tau0 = 5, outputs at tau = 1 and 5, dt = "
+        f"{tp['dt']:g}, 1 thread):",
+        "",
+        "| observed | s per 10^6 paths | relative to velocity only |",
+        "|---|---|---|",
+    ]
+    for name, c in tp["observable_cost_1_thread"].items():
+        lines.append(f"| {name} | {c['seconds_per_million_paths']:.3g} | {c['relative_to_velocity']:.3g} |")
+    lines += ["", "Raw numbers: [bench/results/throughput.json](bench/results/throughput.json). "
+              "This section is rendered by `.venv/bin/python bench/report.py`.", ""]
+    return "\n".join(lines)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--check", action="store_true")
+    args = ap.parse_args()
+    readme = (ROOT / "README.md").read_text()
+    head = readme.split(HEADING)[0].rstrip("\n") + "\n\n"
+    new = head + render()
+    if args.check:
+        sys.exit(0 if new == readme else 1)
+    (ROOT / "README.md").write_text(new)
+
+
+if __name__ == "__main__":
+    main()
