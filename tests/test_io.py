@@ -50,7 +50,7 @@ def test_xarray_layout_units_and_scene(physical_result):
     assert json.loads(ds.attrs["scene"]) == r.scene.to_dict()
     assert ds.attrs["scene_mu"] == 0.3 and ds.attrs["scene_mass"] == 100.0
     assert ds.attrs["seed"] == "3" and ds.attrs["paths"] == 5000
-    assert ds.attrs["method"] == "exact" and ds.attrs["dt"] == 0.05
+    assert ds.attrs["method"] == crandall.methods.DEFAULT_METHOD and ds.attrs["dt"] == 0.05
 
 
 def test_scaled_units_are_dimensionless(scaled_result):

@@ -65,10 +65,11 @@ def test_velocity_only_scene_jumps_with_exact_law():
               float(analytic.velocity_var(tau)), what=f"Var U1({tau})")
 
 
-@pytest.fixture(scope="module")
-def paper_run():
+@pytest.fixture(scope="module", params=["exact", "richardson"])
+def paper_run(request):
+    """The paper's scene at dt = 0.01 with the plain exact skeleton and with the default."""
     scene = crandall.Scene.scaled(tau0=5.0, times=[0.5, 1.0, 5.0])
-    return crandall.simulate(scene, paths=1_000_000, seed=4242, dt=0.01, method="exact")
+    return crandall.simulate(scene, paths=1_000_000, seed=4242, dt=0.01, method=request.param)
 
 
 CURVES = [
@@ -88,7 +89,7 @@ def test_paper_curves_at_dt_001(paper_run, curve):
             sim, se = r.mean(name)[i], r.stderr(name)[i]
         else:
             sim, se = r.var(name)[i], r.var_stderr(name)[i]
-        bias = measured_bias("exact", 0.01, key, tau) if name != "velocity" else (0.0, 0.0)
+        bias = measured_bias(r.method, 0.01, key, tau) if name != "velocity" else (0.0, 0.0)
         check(sim, se, float(ref(tau)), bias, what=f"{key}({tau})")
 
 
@@ -100,22 +101,23 @@ def test_stop_and_energy_law_tau0_5(paper_run):
           what="Var tau_s")
     # U3(tau_s) = U3(tau0) + U1(tau0)^2 / 4 with U1(tau0) exact: its bias is that of E U3(tau0).
     check(r.mean("distance_at_stop"), r.stderr("distance_at_stop"), 2.5,
-          measured_bias("exact", 0.01, "distance_mean", 5.0), what="energy law E U3(tau_s)")
+          measured_bias(r.method, 0.01, "distance_mean", 5.0), what="energy law E U3(tau_s)")
     # The same law in energy terms: E[dissipated energy at stop] = tau0 (scaled, eq7).
     assert r.mean("dissipated_energy_at_stop") == pytest.approx(2 * r.mean("distance_at_stop"),
                                                                 rel=1e-15)
 
 
-def test_stop_and_energy_law_tau0_1():
+@pytest.mark.parametrize("method", ["exact", "richardson"])
+def test_stop_and_energy_law_tau0_1(method):
     scene = crandall.Scene.scaled(tau0=1.0, times=[1.0], observe=["distance", "stop"])
-    r = crandall.simulate(scene, paths=1_000_000, seed=77, dt=0.01)
+    r = crandall.simulate(scene, paths=1_000_000, seed=77, dt=0.01, method=method)
     check(r.mean("stop_time"), r.stderr("stop_time"), float(analytic.stop_time_mean(1.0)),
           what="E tau_s")
     check(r.mean("distance_at_stop"), r.stderr("distance_at_stop"), 0.5,
-          measured_bias("exact", 0.01, "distance_mean", 1.0), what="energy law E U3(tau_s)")
+          measured_bias(method, 0.01, "distance_mean", 1.0), what="energy law E U3(tau_s)")
     check(r.var("distance_at_stop"), r.var_stderr("distance_at_stop"),
           float(analytic.distance_at_stop_var(1.0)),
-          measured_bias("exact", 0.01, "distance_var", 1.0), what="Var U3(tau_s)")
+          measured_bias(method, 0.01, "distance_var", 1.0), what="Var U3(tau_s)")
 
 
 def test_physical_scene_against_analytic_in_si():
@@ -125,19 +127,20 @@ def test_physical_scene_against_analytic_in_si():
     t0 = s.to_t(1.0)
     times = s.to_t(np.array(taus))
     r = crandall.simulate(crandall.Scene(mu=mu, h=h, t0=t0, g=g, times=times),
-                          paths=400_000, seed=5)
-    assert r.dt == pytest.approx(s.to_t(0.01))  # the default step is 0.01 in scaled time
+                          paths=400_000, seed=5)  # default method and step
+    assert r.dt == pytest.approx(s.to_t(crandall.methods.DEFAULT_DT_TAU))
+    assert r.method == crandall.methods.DEFAULT_METHOD
     ref_d = analytic.physical("distance_mean", times, mu=mu, h=h, g=g, t0=t0)
     ref_v = analytic.physical("velocity_var", times, mu=mu, h=h, g=g, t0=t0)
     for i, tau in enumerate(taus):
-        b, b_se = measured_bias("exact", 0.01, "distance_mean", tau)
+        b, b_se = measured_bias(r.method, r.dt / s.time_scale, "distance_mean", tau)
         check(r.mean("distance")[i], r.stderr("distance")[i], float(ref_d[i]),
               (b * s.length_scale, b_se * s.length_scale), what=f"E S(tau={tau})")
         check(r.var("velocity")[i], r.var_stderr("velocity")[i], float(ref_v[i]),
               what=f"Var V(tau={tau})")
     # Energy law in SI: mean friction loss at the stop = m h^2 t0 / 2 (eq7); its bias is the
     # distance bias at tau0, times mu g and the length scale.
-    b, b_se = measured_bias("exact", 0.01, "distance_mean", 1.0)
+    b, b_se = measured_bias(r.method, r.dt / s.time_scale, "distance_mean", 1.0)
     f = mu * g * s.length_scale
     check(r.mean("dissipated_energy_at_stop"), r.stderr("dissipated_energy_at_stop"),
           h**2 * t0 / 2, (b * f, b_se * f), what="energy law (J)")

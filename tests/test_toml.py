@@ -21,8 +21,8 @@ def write(tmp_path, text, name="scene.toml"):
 def test_paper_file_is_the_paper_scene():
     scene = crandall.Scene.from_toml(SCENES / "paper.toml")
     assert scene.to_dict() == default_scene().to_dict()
-    assert scene.run_settings == {"paths": crandall.paper.DEFAULT_PATHS, "seed": 20261121,
-                                  "method": "exact"}
+    # No method: the paper's run uses the engine's default, like `crandall run` without a file.
+    assert scene.run_settings == {"paths": crandall.paper.DEFAULT_PATHS, "seed": 20261121}
 
 
 @pytest.mark.parametrize("name", ["crate.toml", "vibrating_table.toml"])

@@ -16,7 +16,7 @@ from typing import List, Optional, Sequence
 import numpy as np
 
 from . import analytic, paper
-from .methods import METHODS
+from .methods import DEFAULT_METHOD, METHODS
 from .scene import Scene
 from .simulate import simulate
 
@@ -76,7 +76,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--dt", type=_float, metavar="DT",
                      help="longest internal step in the scene's time units (default: the "
                           "file's, else crandall.default_dt)")
-    run.add_argument("--method", choices=METHODS, help="simulation method (default: exact)")
+    run.add_argument("--method", choices=METHODS, help=f"simulation method (default: {DEFAULT_METHOD})")
     run.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                      help=f"output folder (default: ./{DEFAULT_OUT})")
     run.add_argument("--checkpoint", metavar="PATH",
@@ -180,7 +180,7 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     start = time.perf_counter()
     try:
         result = simulate(scene, paths=n, seed=settings.get("seed"), dt=settings.get("dt"),
-                          method=settings.get("method", "exact"), threads=threads,
+                          method=settings.get("method", DEFAULT_METHOD), threads=threads,
                           checkpoint=checkpoint, client=client, progress=progress)
     finally:
         if client is not None:
