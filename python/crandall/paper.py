@@ -15,7 +15,7 @@ from . import analytic
 from .results import Result
 from .scene import Scene
 
-__all__ = ["default_scene", "DEFAULT_PATHS", "comparison"]
+__all__ = ["default_scene", "DEFAULT_PATHS", "comparison", "scaled_factors"]
 
 #: Paths of the main job.
 DEFAULT_PATHS = 1_000_000
@@ -29,8 +29,14 @@ def default_scene() -> Scene:
     return Scene.scaled(tau0=PAPER_TAU0, times=times)
 
 
-def _scaled(result: Result):
-    """Time in tau and factors turning the result's quantities into scaled U1, U2, U3."""
+def scaled_factors(result: Result):
+    """A result's times in the paper's scaled units, and the factors to scale its quantities.
+
+    Returns (tau, tau0, velocity factor, length factor, time factor): multiply a velocity by
+    the first factor to get U1, a displacement or distance by the second to get U2 or U3, a
+    time by the third to get tau (all 1 for a scaled scene). Physical scenes need mu > 0 and
+    h > 0 (eq8); otherwise ValueError.
+    """
     sc = result.scene
     if sc.units == "scaled":
         return sc.times, sc.t0, 1.0, 1.0, 1.0
@@ -55,7 +61,7 @@ def comparison(result: Result) -> str:
     values only while the noise is on (tau <= tau0). The simulated numbers carry the method's
     bias (bench/bias.py) on top of the statistical error.
     """
-    tau, tau0, fv, fl, ft = _scaled(result)
+    tau, tau0, fv, fl, ft = scaled_factors(result)
     obs = result.scene.observe
     lines = [f"paths={result.paths}  seed={result.seed}  method={result.method}  "
              f"dt={result.dt:.4g}  (scaled units; z = (simulated - analytic) / stderr)"]

@@ -17,7 +17,7 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 
 from . import _core, analytic
-from .paper import _scaled
+from .paper import scaled_factors
 from .results import Result
 
 __all__ = [
@@ -70,7 +70,7 @@ def _moment_figure(result: Result, *, name: str, kind: str, curve, noise_on_only
         raise ValueError(f"result must be a crandall.Result, got {type(result).__name__}")
     if name not in result.names:
         raise ValueError(f"result: {name!r} was not observed in this scene")
-    tau, tau0, fv, fl, _ = _scaled(result)
+    tau, tau0, fv, fl, _ = scaled_factors(result)
     f = fv if name == "velocity" else fl
     if kind == "mean":
         sim, se = result.mean(name) * f, result.stderr(name) * f
@@ -291,7 +291,7 @@ def figures(result: Result, *, paths: int = 200_000) -> Dict[str, object]:
         Keys among ``fig2_distance_mean``, ``fig3_velocity_var``, ``fig4_displacement_var``,
         ``fig5_distance_var``, ``velocity_density``, ``stop_time_density``.
     """
-    tau, tau0, *_ = _scaled(result)  # raises ValueError for scenes without scaled units
+    tau, tau0, *_ = scaled_factors(result)  # raises ValueError for scenes without scaled units
     names = result.names
     out = {}
     if "distance" in names:
