@@ -8,6 +8,10 @@
 #include <cmath>
 #include <cstdint>
 
+#if defined(__AVX2__) || defined(__AVX512F__)
+#include <immintrin.h>
+#endif
+
 namespace crandall {
 
 // Noise consumed by one time step of one path: a standard normal, a standard exponential
@@ -29,12 +33,133 @@ void sincos_n(const double* in, double* sin_out, double* cos_out, int n);
 // normal[j][l] is the normal of step 2*pair + j of path path0 + l.
 template <int N>
 struct PairNoise {
-  alignas(32) double normal[2][N];
-  alignas(32) double exponential[2][N];
-  alignas(32) double coin[2][N];  // 1.0 or 0.0
+  alignas(64) double normal[2][N];
+  alignas(64) double exponential[2][N];
+  alignas(64) double coin[2][N];  // 1.0 or 0.0
 };
 
-// One Philox4x32-10 block yields// One Philox4x32-10 block yields the noise of two consecutive steps (k = 2*pair, 2*pair+1).
+// Philox4x32-10 (Random123's rounds and key schedule) for `count` consecutive paths at once:
+// word j of the block of path path0 + l, counter (pair, path0 + l), goes to the low 32 bits of
+// w[j][l] (the high bits are garbage). With AVX-512 or AVX2, 8 or 4 paths per register, one
+// path per 64-bit lane, since the 32x32->64 multiply (vpmuludq) works on 64-bit lanes;
+// otherwise Random123's scalar generator. The three give bitwise the same words (checked in
+// cpp/tests/test_run.cpp against Random123).
+namespace detail {
+constexpr std::uint32_t kPhiloxM0 = 0xD2511F53u, kPhiloxM1 = 0xCD9E8D57u;
+constexpr std::uint32_t kPhiloxW0 = 0x9E3779B9u, kPhiloxW1 = 0xBB67AE85u;
+
+inline void philox_scalar(std::uint64_t seed, std::uint64_t path, std::uint64_t pair,
+                          std::uint64_t out[4]) {
+  using Philox = r123::Philox4x32;
+  const Philox::key_type key = {{static_cast<std::uint32_t>(seed),
+                                 static_cast<std::uint32_t>(seed >> 32)}};
+  const Philox::ctr_type ctr = {{static_cast<std::uint32_t>(pair),
+                                 static_cast<std::uint32_t>(pair >> 32),
+                                 static_cast<std::uint32_t>(path),
+                                 static_cast<std::uint32_t>(path >> 32)}};
+  const Philox::ctr_type r = Philox()(ctr, key);
+  for (int j = 0; j < 4; ++j) out[j] = r[j];
+}
+
+#if defined(__AVX512F__)
+constexpr int kPhiloxWidth = 8;
+// Paths path0 .. path0 + 7; outputs to o[j] (8 consecutive uint64).
+inline void philox_vector(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair,
+                          std::uint64_t* o0, std::uint64_t* o1, std::uint64_t* o2,
+                          std::uint64_t* o3) {
+  const __m512i lo_mask = _mm512_set1_epi64(0xFFFFFFFFll);
+  const __m512i path = _mm512_add_epi64(_mm512_set1_epi64(static_cast<long long>(path0)),
+                                        _mm512_setr_epi64(0, 1, 2, 3, 4, 5, 6, 7));
+  __m512i c0 = _mm512_set1_epi64(static_cast<long long>(pair & 0xFFFFFFFFu));
+  __m512i c1 = _mm512_set1_epi64(static_cast<long long>(pair >> 32));
+  __m512i c2 = _mm512_and_si512(path, lo_mask);
+  constexpr __mmask8 kAll = 0xFF;
+  __m512i c3 = _mm512_maskz_srli_epi64(kAll, path, 32);
+  const __m512i m0 = _mm512_set1_epi64(kPhiloxM0), m1 = _mm512_set1_epi64(kPhiloxM1);
+  std::uint32_t k0 = static_cast<std::uint32_t>(seed), k1 = static_cast<std::uint32_t>(seed >> 32);
+  for (int r = 0; r < 10; ++r) {
+    if (r > 0) {
+      k0 += kPhiloxW0;
+      k1 += kPhiloxW1;
+    }
+    // vpmuludq reads the low 32 bits of each lane, so high garbage in c0, c2 is harmless.
+    // (The zero-masked forms with an all-ones mask are the plain instructions; GCC 12's plain
+    // intrinsics trip its own -Wuninitialized through _mm512_undefined_epi32.)
+    const __m512i p0 = _mm512_maskz_mul_epu32(kAll, c0, m0);
+    const __m512i p1 = _mm512_maskz_mul_epu32(kAll, c2, m1);
+    const __m512i n0 = _mm512_xor_si512(
+        _mm512_xor_si512(_mm512_maskz_srli_epi64(kAll, p1, 32), c1), _mm512_set1_epi64(k0));
+    const __m512i n2 = _mm512_xor_si512(
+        _mm512_xor_si512(_mm512_maskz_srli_epi64(kAll, p0, 32), c3), _mm512_set1_epi64(k1));
+    c1 = p1;
+    c3 = p0;
+    c0 = n0;
+    c2 = n2;
+  }
+  _mm512_storeu_si512(o0, c0);
+  _mm512_storeu_si512(o1, c1);
+  _mm512_storeu_si512(o2, c2);
+  _mm512_storeu_si512(o3, c3);
+}
+#elif defined(__AVX2__)
+constexpr int kPhiloxWidth = 4;
+inline void philox_vector(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair,
+                          std::uint64_t* o0, std::uint64_t* o1, std::uint64_t* o2,
+                          std::uint64_t* o3) {
+  const __m256i lo_mask = _mm256_set1_epi64x(0xFFFFFFFFll);
+  const __m256i path = _mm256_add_epi64(_mm256_set1_epi64x(static_cast<long long>(path0)),
+                                        _mm256_setr_epi64x(0, 1, 2, 3));
+  __m256i c0 = _mm256_set1_epi64x(static_cast<long long>(pair & 0xFFFFFFFFu));
+  __m256i c1 = _mm256_set1_epi64x(static_cast<long long>(pair >> 32));
+  __m256i c2 = _mm256_and_si256(path, lo_mask);
+  __m256i c3 = _mm256_srli_epi64(path, 32);
+  const __m256i m0 = _mm256_set1_epi64x(kPhiloxM0), m1 = _mm256_set1_epi64x(kPhiloxM1);
+  std::uint32_t k0 = static_cast<std::uint32_t>(seed), k1 = static_cast<std::uint32_t>(seed >> 32);
+  for (int r = 0; r < 10; ++r) {
+    if (r > 0) {
+      k0 += kPhiloxW0;
+      k1 += kPhiloxW1;
+    }
+    const __m256i p0 = _mm256_mul_epu32(c0, m0), p1 = _mm256_mul_epu32(c2, m1);
+    const __m256i n0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p1, 32), c1),
+                                        _mm256_set1_epi64x(k0));
+    const __m256i n2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p0, 32), c3),
+                                        _mm256_set1_epi64x(k1));
+    c1 = p1;
+    c3 = p0;
+    c0 = n0;
+    c2 = n2;
+  }
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(o0), c0);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(o1), c1);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(o2), c2);
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(o3), c3);
+}
+#else
+constexpr int kPhiloxWidth = 1;
+#endif
+}  // namespace detail
+
+// Words of the blocks of paths path0 .. path0 + count - 1 (count a multiple of the vector width
+// or smaller than it), word j of path l in w[j][l].
+template <int N>
+inline void philox_paths(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair, int count,
+                         std::uint64_t (&w)[4][N]) {
+  int l = 0;
+#if defined(__AVX512F__) || defined(__AVX2__)
+  constexpr int V = detail::kPhiloxWidth;
+  for (; l + V <= count; l += V)
+    detail::philox_vector(seed, path0 + static_cast<std::uint64_t>(l), pair, &w[0][l], &w[1][l],
+                          &w[2][l], &w[3][l]);
+#endif
+  for (; l < count; ++l) {
+    std::uint64_t o[4];
+    detail::philox_scalar(seed, path0 + static_cast<std::uint64_t>(l), pair, o);
+    for (int j = 0; j < 4; ++j) w[j][l] = o[j];
+  }
+}
+
+// One Philox4x32-10 block yields the noise of two consecutive steps (k = 2*pair, 2*pair+1).
 //   key     = seed (64 bits)
 //   counter = (pair index, 64 bits; path index, 64 bits)
 //   word 0       -> radius uniform of Box-Muller
@@ -43,35 +168,37 @@ struct PairNoise {
 // Disjoint bits of a uniform word are independent, so the coins are independent of the angle.
 // Box-Muller's cosine and sine outputs are independent normals, one per step.
 // Layout documented in docs/random-numbers.md; changing it changes every result.
+// Lanes l >= lanes (padding of a partial group) hold the draws of paths that are not simulated;
+// they are never read.
 template <int N>
 inline void draw_pairs(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair, int lanes,
                        PairNoise<N>& out) {
-  using Philox = r123::Philox4x32;
-  const Philox::key_type key = {{static_cast<std::uint32_t>(seed),
-                                 static_cast<std::uint32_t>(seed >> 32)}};
+  (void)lanes;
   constexpr double k2m32 = 2.3283064365386962890625e-10;  // 2^-32
   constexpr double k2m30 = 9.31322574615478515625e-10;    // 2^-30
   constexpr double kTwoPi = 6.283185307179586476925286766559;
+  alignas(64) std::uint64_t w[4][N];
+  philox_paths<N>(seed, path0, pair, N, w);
   // Uniforms in (0, 1), then one batched log for radius and exponentials, one sincos.
-  alignas(32) double u[3][N], angle[N], lg[3][N];
+  alignas(64) double u[3][N], angle[N], lg[3][N];
+#pragma omp simd
   for (int l = 0; l < N; ++l) {
-    const std::uint64_t path = path0 + static_cast<std::uint64_t>(l < lanes ? l : 0);
-    const Philox::ctr_type ctr = {{static_cast<std::uint32_t>(pair),
-                                   static_cast<std::uint32_t>(pair >> 32),
-                                   static_cast<std::uint32_t>(path),
-                                   static_cast<std::uint32_t>(path >> 32)}};
-    const Philox::ctr_type w = Philox()(ctr, key);
+    const std::uint32_t w0 = static_cast<std::uint32_t>(w[0][l]);
+    const std::uint32_t w1 = static_cast<std::uint32_t>(w[1][l]);
+    const std::uint32_t w2 = static_cast<std::uint32_t>(w[2][l]);
+    const std::uint32_t w3 = static_cast<std::uint32_t>(w[3][l]);
     // (w + 1/2) 2^-32 lies strictly inside (0, 1): log never sees 0 and never returns 0.
-    u[0][l] = (static_cast<double>(w[0]) + 0.5) * k2m32;
-    angle[l] = kTwoPi * ((static_cast<double>(w[1] >> 2) + 0.5) * k2m30);
-    u[1][l] = (static_cast<double>(w[2]) + 0.5) * k2m32;
-    u[2][l] = (static_cast<double>(w[3]) + 0.5) * k2m32;
-    out.coin[0][l] = (w[1] & 1u) ? 1.0 : 0.0;
-    out.coin[1][l] = (w[1] & 2u) ? 1.0 : 0.0;
+    u[0][l] = (static_cast<double>(w0) + 0.5) * k2m32;
+    angle[l] = kTwoPi * ((static_cast<double>(w1 >> 2) + 0.5) * k2m30);
+    u[1][l] = (static_cast<double>(w2) + 0.5) * k2m32;
+    u[2][l] = (static_cast<double>(w3) + 0.5) * k2m32;
+    out.coin[0][l] = (w1 & 1u) ? 1.0 : 0.0;
+    out.coin[1][l] = (w1 & 2u) ? 1.0 : 0.0;
   }
   log_n(&u[0][0], &lg[0][0], 3 * N);
-  alignas(32) double sn[N], cs[N];
+  alignas(64) double sn[N], cs[N];
   sincos_n(angle, sn, cs, N);
+#pragma omp simd
   for (int l = 0; l < N; ++l) {
     const double radius = std::sqrt(-2.0 * lg[0][l]);
     out.normal[0][l] = radius * cs[l];
