@@ -86,6 +86,16 @@ TEST(Rng, VectorPhiloxMatchesRandom123) {
       }
 }
 
+// The vector form is what a host with AVX2 builds, so the test above checks the code that runs.
+TEST(Rng, VectorPhiloxIsBuiltWhereTheHostHasIt) {
+  if (__builtin_cpu_supports("avx2")) {
+    EXPECT_GT(crandall::detail::kPhiloxWidth, 1);
+  }
+  if (__builtin_cpu_supports("avx512f")) {
+    EXPECT_EQ(crandall::detail::kPhiloxWidth, 8);
+  }
+}
+
 // Random123's published known-answer vectors for Philox4x32-10 (kat_vectors), so the scalar
 // reference above is itself pinned.
 TEST(Rng, PhiloxKnownAnswers) {

@@ -145,12 +145,14 @@ constexpr int kPhiloxWidth = 1;
 template <int N>
 inline void philox_paths(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair, int count,
                          std::uint64_t (&w)[4][N]) {
+  count = count < N ? count : N;
   int l = 0;
 #if defined(__AVX512F__) || defined(__AVX2__)
   constexpr int V = detail::kPhiloxWidth;
-  for (; l + V <= count; l += V)
-    detail::philox_vector(seed, path0 + static_cast<std::uint64_t>(l), pair, &w[0][l], &w[1][l],
-                          &w[2][l], &w[3][l]);
+  if constexpr (N >= V)
+    for (; l + V <= count; l += V)
+      detail::philox_vector(seed, path0 + static_cast<std::uint64_t>(l), pair, &w[0][l],
+                            &w[1][l], &w[2][l], &w[3][l]);
 #endif
   for (; l < count; ++l) {
     std::uint64_t o[4];
