@@ -77,6 +77,9 @@ def render() -> str:
         "",
         "![throughput](bench/results/throughput.png)",
         "",
+        *([f"Build: {tp['build']['isa']}, Philox on {tp['build']['philox_paths_per_register']} "
+           f"paths per register, libmvec on {tp['build']['math_values_per_call']} values per call "
+           f"(`crandall._core.build_info()`).", ""] if tp.get("build") else []),
         "| kernel | M path-steps / s | target |",
         "|---|---|---|",
     ]

@@ -72,6 +72,7 @@ def main() -> None:
            + (f" --repeat {args.repeat}" if args.repeat != 3 else ""),
            "crandall_version": crandall.__version__, "crandall_path": os.path.dirname(crandall.__file__),
            "machine": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
+           "build": _core.build_info() if hasattr(_core, "build_info") else None,
            "tau0": TAU0, "dt": DT, "steps_per_path": STEPS, "paths": paths, "repeat": args.repeat,
            "targets": TARGETS}
 

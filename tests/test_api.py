@@ -260,3 +260,30 @@ def test_velocity_only_scene_has_no_internal_steps():
 def test_core_exposes_chunking_constants():
     assert _core.CHUNK_PATHS % _core.BLOCK_PATHS == 0
     assert _core.BLOCK_PATHS % _core.LANES == 0
+
+
+# -- build ------------------------------------------------------------------------------------
+
+def _cpu_flags() -> set:
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("flags"):
+                    return set(line.split(":", 1)[1].split())
+    except OSError:
+        pass
+    return set()
+
+
+def test_build_info_says_what_the_build_targets():
+    info = _core.build_info()
+    assert set(info) == {"philox_paths_per_register", "math_values_per_call", "isa", "compiler"}
+    assert info["philox_paths_per_register"] in (1, 4, 8)
+    assert info["math_values_per_call"] in (1, 4, 8)
+    # The package is built where it runs (-march=native): a host with AVX2 or AVX-512 gets the
+    # vector generator, or the speed the README quotes is not what users get.
+    flags = _cpu_flags()
+    if "avx512f" in flags:
+        assert info["isa"].startswith("avx512f") and info["philox_paths_per_register"] == 8
+    elif "avx2" in flags:
+        assert info["isa"].startswith("avx2") and info["philox_paths_per_register"] == 4

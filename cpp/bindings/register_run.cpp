@@ -150,6 +150,20 @@ void register_run(py::module_& m) {
       "Generate the kernel's noise for paths x steps with no physics (a throughput floor).");
 
   m.def(
+      "build_info",
+      [] {
+        const crandall::BuildInfo b = crandall::build_info();
+        py::dict d;
+        d["philox_paths_per_register"] = b.philox_paths_per_register;
+        d["math_values_per_call"] = b.math_values_per_call;
+        d["isa"] = b.isa;
+        d["compiler"] = b.compiler;
+        return d;
+      },
+      "What the build targets: Philox paths per register, libmvec values per call, vector "
+      "extensions, compiler (a seed's numbers belong to a build).");
+
+  m.def(
       "exact_steps",
       [](const std::vector<double>& start, double h, double drift, double noise, std::uint64_t seed) {
         std::vector<double> out;

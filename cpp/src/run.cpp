@@ -233,6 +233,30 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   return result;
 }
 
+BuildInfo build_info() {
+  BuildInfo b;
+  b.philox_paths_per_register = detail::kPhiloxWidth;
+#ifdef CRANDALL_LIBMVEC
+  b.math_values_per_call = kMathWidth;
+#else
+  b.math_values_per_call = 1;
+#endif
+#if defined(__AVX512F__)
+  b.isa = "avx512f";
+#elif defined(__AVX2__)
+  b.isa = "avx2";
+#elif defined(__AVX__)
+  b.isa = "avx";
+#else
+  b.isa = "baseline";
+#endif
+#if defined(__FMA__)
+  b.isa += "+fma";
+#endif
+  b.compiler = __VERSION__;
+  return b;
+}
+
 std::vector<double> exact_steps(const std::vector<double>& start, double h, double drift,
                                 double noise, std::uint64_t seed) {
   if (!(std::isfinite(h) && h > 0.0)) throw std::invalid_argument("h must be finite and > 0");

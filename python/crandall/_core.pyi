@@ -88,3 +88,7 @@ def exact_steps(
 
 def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
     """Generate the kernel's noise for paths x steps with no physics (a throughput floor)."""
+
+def build_info() -> dict[str, Union[int, str]]:
+    """What the build targets: Philox paths per register, libmvec values per call, vector
+    extensions, compiler (a seed's numbers belong to a build)."""

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <functional>
 #include <stdexcept>
 #include <vector>
@@ -39,5 +40,16 @@ std::vector<double> exact_steps(const std::vector<double>& start, double h, doub
 // generation for `paths` paths and `steps` steps, no physics. Returns a checksum (so that the
 // work is not optimised away). For bench/throughput.py.
 double random_floor(std::uint64_t paths, std::uint64_t steps, std::uint64_t seed, int threads);
+
+// What the build targets, for benchmark records: paths per Philox register (1 = scalar
+// Random123), values per libmvec call (1 = scalar libm), the vector extensions compiled in, and
+// the compiler. A seed's numbers belong to a build; this says which.
+struct BuildInfo {
+  int philox_paths_per_register;
+  int math_values_per_call;
+  std::string isa;
+  std::string compiler;
+};
+BuildInfo build_info();
 
 }  // namespace crandall
