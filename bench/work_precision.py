@@ -129,23 +129,29 @@ def peer_runner(module):
 
 
 def families(quick: bool) -> dict:
-    # (runner, dt ladder, path-steps per statistics run, threads for the statistics run)
+    # (runner, dt ladder, path-steps per statistics run, threads for the statistics run, most
+    # paths per run). crandall's own methods get a larger budget than the peers: they are
+    # several times faster per path-step, and the variances' biases near 1e-3 are only resolved
+    # with 10^7-10^8 paths (the standard error of a variance ~ Var sqrt(2 / paths)).
     budget = 3e7 if quick else 4e8
+    big = 3e7 if quick else 3e9
+    cap, big_cap = 2e7, (2e7 if quick else 2e8)
     coarse = [0.8, 0.4, 0.2, 0.1, 0.05]
     fams = {
-        "crandall exact": (crandall_runner("exact"), coarse, budget, 2),
-        "crandall richardson": (crandall_runner("richardson"), coarse, budget, 2),
-        "crandall richardson2": (crandall_runner("richardson2"), coarse[:-1], budget, 2),
-        "crandall refine": (crandall_runner("refine"), [0.8, 0.4, 0.2], budget / 4, 2),
-        "crandall euler": (crandall_runner("euler"), [0.1, 0.05, 0.02, 0.01], budget / 2, 2),
-        "NumPy Euler-Maruyama": (peer_runner(numpy_em), [0.1, 0.05, 0.02, 0.01], budget / 4, 1),
+        "crandall exact": (crandall_runner("exact"), coarse, big, 2, big_cap),
+        "crandall richardson": (crandall_runner("richardson"), coarse, big, 2, big_cap),
+        "crandall richardson2": (crandall_runner("richardson2"), coarse[:-1], big, 2, big_cap),
+        "crandall refine": (crandall_runner("refine"), [0.8, 0.4, 0.2], budget / 4, 2, cap),
+        "crandall euler": (crandall_runner("euler"), [0.1, 0.05, 0.02, 0.01], big / 2, 2, big_cap),
+        "NumPy Euler-Maruyama": (peer_runner(numpy_em), [0.1, 0.05, 0.02, 0.01], budget / 4, 1,
+                                 cap),
     }
     if numba_em is not None:
         numba_em.warm_up()
         fams["Numba Euler-Maruyama"] = (peer_runner(numba_em), [0.1, 0.05, 0.02, 0.01],
-                                        budget / 2, 1)
+                                        budget / 2, 1, cap)
     if quick:
-        fams = {k: (r, l[:3], b, t) for k, (r, l, b, t) in fams.items()}
+        fams = {k: (r, l[:3], b, t, c) for k, (r, l, b, t, c) in fams.items()}
     return fams
 
 
@@ -236,13 +242,13 @@ def main() -> None:
     data = {"script": "bench/work_precision.py", "command": "python bench/work_precision.py"
             + (" --quick" if args.quick else "") + (" --publish" if args.publish else ""),
             "crandall_version": crandall.__version__, "machine": platform.processor() or platform.machine(),
-            "cpus": os.cpu_count(), "tau0": TAU0, "times": TIMES, "target_error": TARGET,
+            "cpus": os.cpu_count(), "build": crandall._core.build_info(), "tau0": TAU0, "times": TIMES, "target_error": TARGET,
             "reference": ref, "families": {}}
-    for fam, (run, ladder, budget, threads) in families(args.quick).items():
+    for fam, (run, ladder, budget, threads, most) in families(args.quick).items():
         points = []
         for dt in ladder:
             steps = math.ceil(TAU0 / dt)
-            paths = int(max(20_000, min(2e7, budget / steps)))
+            paths = int(max(20_000, min(most, budget / steps)))
             t0 = time.perf_counter()
             stats, steps_per_path = run(paths, dt, 1, threads)
             wall = time.perf_counter() - t0
