@@ -62,6 +62,14 @@ def render() -> str:
             f"({ours['how'] if ours else ''}) | {fmt_time(ours['time_per_path_s'] if ours else None)} "
             f"| {r['best_peer'] or 'not resolved'} | "
             f"{fmt_time(peer['time_per_path_s'] if peer else None)} | {ratio} |")
+    below = [name.split("@")[0].replace("_", " ") for name, r in wp["at_target"].items()
+             if r["ratio_peer_over_crandall"] is not None and r["ratio_peer_over_crandall"] < 100]
+    if below:
+        lines += [
+            "",
+            f"Below the goal of 100: {', '.join(below)}. Why, and what was tried: "
+            "[docs/methods/richardson.md](docs/methods/richardson.md#what-limits-the-variance-of-the-distance).",
+        ]
     lines += [
         "",
         "Raw numbers, standard errors and the fits: "

@@ -14,21 +14,20 @@ METHODS = ("exact", "euler", "richardson", "richardson2", "refine")
 
 #: The method ``simulate`` uses when none is given: "richardson", the cheapest for a given
 #: accuracy in bench/work_precision.py (bench/results/work_precision.json): its bias in the
-#: mean distance at tau = 5 is within 1e-3 for every step measured (up to dt = 0.8, where
-#: "exact" is off by 6.5e-2), and it needs the least time per path for 1e-3 in the mean
-#: distance and in the variances of displacement and distance.
+#: mean distance at tau = 5 is within 1e-3 for every step measured (|bias| <= 4.5e-4 +- 7e-5
+#: up to dt = 0.8, where "exact" is off by 6.5e-2), and it needs the least time per path for
+#: 1e-3 in the mean distance and in the variances of displacement and distance.
 DEFAULT_METHOD = "richardson"
 
 #: Default internal step in scaled time (tau), where time integrals are observed. Accuracy of
 #: the default method at this step (paper's scene, tau0 = 5, outputs tau = 1 and 5; measured
 #: by bench/work_precision.py against crandall.analytic): the mean distance's bias is below
-#: 1e-3 (measured: |bias| <= 6.4e-4 +- 3e-4 for all dt <= 0.8); the velocity is exact in law
-#: (no bias at any step); the variances of displacement and distance have biases of order
-#: 1e-3 at dt = 0.05 (measured -2.2e-3 +- 3e-3 and -1.9e-3 +- 2e-3) that the power-law fit
-#: through the resolved steps puts at 1e-3 near dt = 0.05-0.07 and at about 1e-4 at this
-#: step (0.025 would already meet 1e-3 at half the cost; 0.01 is kept so that the default
-#: grid, and tests pinned to it, stay as they were). Costs about 1.2 times the former default
-#: ("exact" at the same step, whose mean-distance bias was -4.5e-4).
+#: 1e-3 at every step measured (dt <= 0.8); the velocity is exact in law (no bias at any step);
+#: the variances of displacement and distance have biases of -7e-4 +- 8e-4 and
+#: -1.2e-3 +- 5e-4 at dt = 0.1, and -6e-4 +- 1e-3 and -5e-4 +- 6e-4 at dt = 0.05, falling about
+#: as dt^2 (docs/methods/richardson.md), so of order 1e-5 at this step. 0.025 would meet 1e-3
+#: at a quarter of the cost; 0.01 is kept so that the default grid, and tests pinned to it,
+#: stay as they were.
 DEFAULT_DT_TAU = 0.01
 
 #: Without friction there is no natural time scale: the default step is the horizon over this.
