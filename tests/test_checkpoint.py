@@ -84,6 +84,51 @@ def test_complete_checkpoint_returns_without_simulating(tmp_path, monkeypatch):
     assert same_result(first, again)
 
 
+def sweep():
+    return [crandall.Scene.scaled(tau0=t, times=[0.25, 0.5]) for t in (0.5, 1.0, 1.5)]
+
+
+def test_sweep_resumes_every_scene_bitwise(tmp_path, monkeypatch):
+    folder = tmp_path / "sweep"
+    plain = crandall.simulate_many(sweep(), paths=PATHS, seed=9, dt=0.05)
+    # Stop in the second scene's fourth chunk: scene 0 is complete, scene 1 has 3 chunks.
+    calls = []
+
+    def run_chunk(plan, chunk, threads):
+        if len(calls) == 5 + 3:
+            raise Stop
+        calls.append(chunk)
+        return REAL_RUN_CHUNK(plan, chunk, threads)
+
+    monkeypatch.setattr(SIM._core, "run_chunk", run_chunk)
+    with pytest.raises(Stop):
+        crandall.simulate_many(sweep(), paths=PATHS, seed=9, dt=0.05, checkpoint_dir=folder)
+    assert sorted(p.name for p in folder.iterdir()) == ["scene-0000.ckpt", "scene-0001.ckpt"]
+    calls = counting_run_chunk(monkeypatch)
+    resumed = crandall.simulate_many(sweep(), paths=PATHS, dt=0.05, checkpoint_dir=folder)
+    assert calls == [3, 4] + [0, 1, 2, 3, 4]  # scene 0 from its file, scene 1 from chunk 3
+    assert all(r.seed == 9 for r in resumed)  # seed=None: taken from the checkpoints
+    assert all(same_result(a, b) for a, b in zip(plain, resumed))
+
+
+def test_sweep_checkpoints_of_another_sweep_are_refused(tmp_path):
+    folder = tmp_path / "sweep"
+    crandall.simulate_many(sweep(), paths=1000, seed=9, dt=0.05, checkpoint_dir=folder)
+    with pytest.raises(ValueError, match="seed"):
+        crandall.simulate_many(sweep(), paths=1000, seed=10, dt=0.05, checkpoint_dir=folder)
+    with pytest.raises(ValueError, match="scene"):
+        crandall.simulate_many(sweep()[::-1], paths=1000, seed=9, dt=0.05, checkpoint_dir=folder)
+
+
+def test_sweep_checkpoint_dir_must_be_a_directory(tmp_path):
+    f = tmp_path / "file"
+    f.write_text("x")
+    with pytest.raises(ValueError, match="checkpoint_dir"):
+        crandall.simulate_many(sweep(), paths=1000, seed=9, checkpoint_dir=f)
+    with pytest.raises(ValueError, match="checkpoint_dir"):
+        crandall.simulate_many(sweep(), paths=1000, seed=9, checkpoint_dir=3)
+
+
 @pytest.mark.parametrize("change, word", [
     ({"seed": 6}, "seed"),
     ({"paths": PATHS + 1}, "paths"),

@@ -341,6 +341,7 @@ def simulate_many(
     dt: Optional[float] = None,
     method: str = DEFAULT_METHOD,
     threads: Optional[int] = None,
+    checkpoint_dir: Optional[Union[str, "os.PathLike[str]"]] = None,
     client: Any = None,
     progress: Optional[bool] = None,
 ) -> List[Result]:
@@ -361,6 +362,14 @@ def simulate_many(
         parameter); None draws one, recorded on every result.
     dt : float, optional
         As for :func:`simulate`; None: each scene's :func:`default_dt`.
+    checkpoint_dir : str or os.PathLike, optional
+        A directory (created if missing) holding one checkpoint per scene,
+        ``scene-0000.ckpt``, ``scene-0001.ckpt``, ... in the order of ``scenes``, each as
+        ``checkpoint`` of :func:`simulate`. Rerunning the same call after an interruption
+        resumes every scene where it stopped (finished scenes return at once) with a bitwise
+        identical result. With ``seed=None`` the seed is taken from the first existing
+        checkpoint. Checkpoints of a different sweep (scene, paths, seed, dt, method) are a
+        ValueError.
 
     Returns
     -------
@@ -370,6 +379,17 @@ def simulate_many(
         raise ValueError(f"scenes must be a list of crandall.Scene, got {type(scenes).__name__}")
     if not scenes:
         raise ValueError("scenes must not be empty")
+    files: List[Optional[str]] = [None] * len(scenes)
+    if checkpoint_dir is not None:
+        if not isinstance(checkpoint_dir, (str, os.PathLike)):
+            raise ValueError(f"checkpoint_dir must be a path, got {checkpoint_dir!r}")
+        if os.path.exists(checkpoint_dir) and not os.path.isdir(checkpoint_dir):
+            raise ValueError(f"checkpoint_dir must be a directory: {os.fspath(checkpoint_dir)!r}")
+        os.makedirs(checkpoint_dir, exist_ok=True)
+        files = [os.path.join(checkpoint_dir, f"scene-{i:04d}.ckpt") for i in range(len(scenes))]
+        if seed is None:
+            stored = [_ckpt.stored_seed(f) for f in files]
+            seed = next((x for x in stored if x is not None), None)
     task_threads = threads
     runs = []
     for i, scene in enumerate(scenes):
@@ -377,8 +397,9 @@ def simulate_many(
             raise ValueError(f"scenes[{i}] must be a crandall.Scene, got {type(scene).__name__}")
         p, s, d, m, t = validate_run(scene, paths, seed, dt, method, threads)
         seed = s  # a drawn seed is shared by the following scenes
-        runs.append(_Run(scene, paths=p, seed=s, dt=d, method=m, threads=t, checkpoint=None))
-    bar = _progress_bar(progress, total=sum(r.paths for r in runs), initial=0)
+        runs.append(_Run(scene, paths=p, seed=s, dt=d, method=m, threads=t, checkpoint=files[i]))
+    bar = _progress_bar(progress, total=sum(r.paths for r in runs),
+                        initial=sum(r.paths_in(0, r.done) for r in runs))
     try:
         if client is not None:
             _run_distributed(runs, client, task_threads, bar)
