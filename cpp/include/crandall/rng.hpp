@@ -62,78 +62,65 @@ inline void philox_scalar(std::uint64_t seed, std::uint64_t path, std::uint64_t 
 }
 
 #if defined(__AVX512F__)
-constexpr int kPhiloxWidth = 8;
-// Paths path0 .. path0 + 7; outputs to o[j] (8 consecutive uint64).
-inline void philox_vector(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair,
-                          std::uint64_t* o0, std::uint64_t* o1, std::uint64_t* o2,
-                          std::uint64_t* o3) {
-  const __m512i lo_mask = _mm512_set1_epi64(0xFFFFFFFFll);
-  const __m512i path = _mm512_add_epi64(_mm512_set1_epi64(static_cast<long long>(path0)),
-                                        _mm512_setr_epi64(0, 1, 2, 3, 4, 5, 6, 7));
-  __m512i c0 = _mm512_set1_epi64(static_cast<long long>(pair & 0xFFFFFFFFu));
-  __m512i c1 = _mm512_set1_epi64(static_cast<long long>(pair >> 32));
-  __m512i c2 = _mm512_and_si512(path, lo_mask);
-  constexpr __mmask8 kAll = 0xFF;
-  __m512i c3 = _mm512_maskz_srli_epi64(kAll, path, 32);
-  const __m512i m0 = _mm512_set1_epi64(kPhiloxM0), m1 = _mm512_set1_epi64(kPhiloxM1);
-  std::uint32_t k0 = static_cast<std::uint32_t>(seed), k1 = static_cast<std::uint32_t>(seed >> 32);
-  for (int r = 0; r < 10; ++r) {
-    if (r > 0) {
-      k0 += kPhiloxW0;
-      k1 += kPhiloxW1;
-    }
-    // vpmuludq reads the low 32 bits of each lane, so high garbage in c0, c2 is harmless.
-    // (The zero-masked forms with an all-ones mask are the plain instructions; GCC 12's plain
-    // intrinsics trip its own -Wuninitialized through _mm512_undefined_epi32.)
-    const __m512i p0 = _mm512_maskz_mul_epu32(kAll, c0, m0);
-    const __m512i p1 = _mm512_maskz_mul_epu32(kAll, c2, m1);
-    const __m512i n0 = _mm512_xor_si512(
-        _mm512_xor_si512(_mm512_maskz_srli_epi64(kAll, p1, 32), c1), _mm512_set1_epi64(k0));
-    const __m512i n2 = _mm512_xor_si512(
-        _mm512_xor_si512(_mm512_maskz_srli_epi64(kAll, p0, 32), c3), _mm512_set1_epi64(k1));
-    c1 = p1;
-    c3 = p0;
-    c0 = n0;
-    c2 = n2;
-  }
-  _mm512_storeu_si512(o0, c0);
-  _mm512_storeu_si512(o1, c1);
-  _mm512_storeu_si512(o2, c2);
-  _mm512_storeu_si512(o3, c3);
-}
+// One path per 64-bit lane. vpmuludq reads the low 32 bits of each lane, so the high garbage
+// that the rounds leave in c0, c2 is harmless. (The zero-masked forms with an all-ones mask are
+// the plain instructions; GCC 12's plain intrinsics trip its own -Wuninitialized through
+// _mm512_undefined_epi32.)
+struct PhiloxOps {
+  using V = __m512i;
+  static constexpr int kWidth = 8;
+  static V set1(std::uint64_t x) { return _mm512_set1_epi64(static_cast<long long>(x)); }
+  static V lanes() { return _mm512_setr_epi64(0, 1, 2, 3, 4, 5, 6, 7); }
+  static V add(V a, V b) { return _mm512_add_epi64(a, b); }
+  static V mul32(V a, V b) { return _mm512_maskz_mul_epu32(0xFF, a, b); }
+  static V high32(V a) { return _mm512_maskz_srli_epi64(0xFF, a, 32); }
+  static V bitxor(V a, V b) { return _mm512_xor_si512(a, b); }
+  static void store(std::uint64_t* p, V a) { _mm512_storeu_si512(p, a); }
+};
 #elif defined(__AVX2__)
-constexpr int kPhiloxWidth = 4;
+struct PhiloxOps {
+  using V = __m256i;
+  static constexpr int kWidth = 4;
+  static V set1(std::uint64_t x) { return _mm256_set1_epi64x(static_cast<long long>(x)); }
+  static V lanes() { return _mm256_setr_epi64x(0, 1, 2, 3); }
+  static V add(V a, V b) { return _mm256_add_epi64(a, b); }
+  static V mul32(V a, V b) { return _mm256_mul_epu32(a, b); }
+  static V high32(V a) { return _mm256_srli_epi64(a, 32); }
+  static V bitxor(V a, V b) { return _mm256_xor_si256(a, b); }
+  static void store(std::uint64_t* p, V a) { _mm256_storeu_si256(reinterpret_cast<V*>(p), a); }
+};
+#endif
+
+#if defined(__AVX512F__) || defined(__AVX2__)
+constexpr int kPhiloxWidth = PhiloxOps::kWidth;
+// Random123's Philox4x32-10 for paths path0 .. path0 + kPhiloxWidth - 1 at once; word j of
+// lane l goes to the low 32 bits of o_j[l].
 inline void philox_vector(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair,
                           std::uint64_t* o0, std::uint64_t* o1, std::uint64_t* o2,
                           std::uint64_t* o3) {
-  const __m256i lo_mask = _mm256_set1_epi64x(0xFFFFFFFFll);
-  const __m256i path = _mm256_add_epi64(_mm256_set1_epi64x(static_cast<long long>(path0)),
-                                        _mm256_setr_epi64x(0, 1, 2, 3));
-  __m256i c0 = _mm256_set1_epi64x(static_cast<long long>(pair & 0xFFFFFFFFu));
-  __m256i c1 = _mm256_set1_epi64x(static_cast<long long>(pair >> 32));
-  __m256i c2 = _mm256_and_si256(path, lo_mask);
-  __m256i c3 = _mm256_srli_epi64(path, 32);
-  const __m256i m0 = _mm256_set1_epi64x(kPhiloxM0), m1 = _mm256_set1_epi64x(kPhiloxM1);
+  using O = PhiloxOps;
+  const O::V path = O::add(O::set1(path0), O::lanes());
+  O::V c0 = O::set1(pair & 0xFFFFFFFFu), c1 = O::set1(pair >> 32);
+  O::V c2 = path, c3 = O::high32(path);  // c2's high half is ignored by mul32
+  const O::V m0 = O::set1(kPhiloxM0), m1 = O::set1(kPhiloxM1);
   std::uint32_t k0 = static_cast<std::uint32_t>(seed), k1 = static_cast<std::uint32_t>(seed >> 32);
   for (int r = 0; r < 10; ++r) {
     if (r > 0) {
       k0 += kPhiloxW0;
       k1 += kPhiloxW1;
     }
-    const __m256i p0 = _mm256_mul_epu32(c0, m0), p1 = _mm256_mul_epu32(c2, m1);
-    const __m256i n0 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p1, 32), c1),
-                                        _mm256_set1_epi64x(k0));
-    const __m256i n2 = _mm256_xor_si256(_mm256_xor_si256(_mm256_srli_epi64(p0, 32), c3),
-                                        _mm256_set1_epi64x(k1));
-    c1 = p1;
-    c3 = p0;
+    const O::V p0 = O::mul32(c0, m0), p1 = O::mul32(c2, m1);
+    const O::V n0 = O::bitxor(O::bitxor(O::high32(p1), c1), O::set1(k0));
+    const O::V n2 = O::bitxor(O::bitxor(O::high32(p0), c3), O::set1(k1));
+    c1 = p1;  // lo1 in the low half
+    c3 = p0;  // lo0 in the low half
     c0 = n0;
     c2 = n2;
   }
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(o0), c0);
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(o1), c1);
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(o2), c2);
-  _mm256_storeu_si256(reinterpret_cast<__m256i*>(o3), c3);
+  O::store(o0, c0);
+  O::store(o1, c1);
+  O::store(o2, c2);
+  O::store(o3, c3);
 }
 #else
 constexpr int kPhiloxWidth = 1;
