@@ -51,8 +51,12 @@ ctest: deps venv
 pytest: install
 	$(VPY) -m pytest
 
+# The published figures (bench/results, rendered into the README by bench/report.py); long.
 bench: install
-	$(VPY) bench/run_all.py
+	$(VPY) bench/throughput.py --publish
+	$(VPY) bench/work_precision.py --publish
+	$(VPY) bench/analytic_speed.py
+	$(VPY) bench/report.py
 
 clean:
 	rm -rf build $(VENV)
