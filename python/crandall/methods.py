@@ -1,6 +1,6 @@
 """The simulation methods the engine offers, the default one, and the default step."""
 
-__all__ = ["METHODS", "DEFAULT_METHOD", "DEFAULT_DT_TAU", "DEFAULT_STEPS_FREE"]
+__all__ = ["METHODS", "DEFAULT_METHOD", "DEFAULT_DT_TAU", "DEFAULT_MIN_STEPS", "DEFAULT_STEPS_FREE"]
 
 #: Method names accepted by ``simulate(method=...)``:
 #: "exact": velocity exact in law for any step; displacement and distance by the trapezoid
@@ -32,3 +32,6 @@ DEFAULT_DT_TAU = 0.01
 
 #: Without friction there is no natural time scale: the default step is the horizon over this.
 DEFAULT_STEPS_FREE = 2000
+
+#: Graded grid of the default step (provisional; set by bench/resolution.py).
+DEFAULT_MIN_STEPS = 64
