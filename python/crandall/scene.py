@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 import os
 import sys
 from typing import Any, Dict, Iterable, Optional, Sequence, Union
@@ -55,27 +56,44 @@ def _number(name: str, value, *, positive: bool = False, allow_inf: bool = False
     return value
 
 
+def _check_real(items) -> None:
+    for i, v in enumerate(items):
+        if isinstance(v, (list, tuple, np.ndarray)):
+            continue  # nested: refused later as not one-dimensional
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+            kind = ("booleans" if isinstance(v, (bool, np.bool_)) else
+                    "complex numbers" if isinstance(v, numbers.Complex) else
+                    "strings" if isinstance(v, (str, bytes)) else type(v).__name__)
+            raise ValueError(f"times must be real numbers, got {kind} (times[{i}] = {v!r})")
+
+
 def _times(times, t0: float, observe: Sequence[str]) -> np.ndarray:
     if times is None:
         times = []
     if isinstance(times, (str, bytes)):
         raise ValueError(f"times must be a sequence of numbers, got a string {times!r}")
+    if not isinstance(times, np.ndarray):
+        # Element by element: NumPy would turn [True, 2.0] into [1.0, 2.0] silently.
+        try:
+            times = list(times)  # also takes a generator once
+        except TypeError:
+            times = [times]
+        _check_real(times)
     try:
         raw = np.asarray(times)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"times must be a sequence of numbers: {exc}") from None
     if raw.dtype.kind == "O":
-        # Mixed or non-NumPy element types: check each element as a scalar parameter.
-        flat = np.atleast_1d(raw).ravel()
-        for i, v in enumerate(flat):
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-                raise ValueError(f"times[{i}] must be a real number, got {v!r}")
+        _check_real(raw.ravel())  # an object array would convert "1" to 1.0
     elif raw.dtype.kind not in "iuf":
         what = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes",
                 "M": "datetimes", "m": "timedeltas"}.get(raw.dtype.kind, str(raw.dtype))
         raise ValueError(f"times must be real numbers, got {what}")
-    # A copy: the scene's times are made read-only, the caller's array must stay as it was.
-    arr = np.array(np.atleast_1d(raw), dtype=float, copy=True)
+    try:
+        arr = np.array(np.atleast_1d(raw), dtype=float, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"times must be a sequence of numbers: {exc}") from None
+    # ``arr`` is a copy: the scene's times are made read-only, the caller's array stays as it was.
     if arr.ndim != 1:
         raise ValueError(f"times must be one-dimensional, got shape {arr.shape}")
     if np.isnan(arr).any():
