@@ -35,7 +35,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-from scipy import integrate
 
 import crandall
 from crandall import analytic
@@ -73,11 +72,11 @@ def _richardson_weights():
 
 
 def brownian_limit():
-    inner = integrate.quad(lambda u: np.sqrt(u) * (2 / np.pi) * (
-        np.sqrt(1 - u) + np.sqrt(u) * np.arcsin(np.sqrt(u))), 0, 1, epsabs=1e-15,
-        epsrel=1e-14)[0]
     mean_true = (2 / 3) * math.sqrt(2 / math.pi)       # E int_0^1 |W|
-    second_true = (2 / 3) * inner                      # E (int_0^1 |W|)^2
+    # E (int_0^1 |W|)^2 = 2 int_0^1 t^2 dt int_0^1 sqrt(u) k(sqrt u) du with
+    # k(r) = (2/pi)(sqrt(1 - r^2) + r arcsin r); u = sin^2 q turns the inner integral into
+    # (4/pi) int_0^(pi/2) sin^2 q cos q (cos q + q sin q) dq = (4/pi)(pi/16 + 5 pi/64) = 9/16.
+    second_true = (2 / 3) * (9 / 16)
     var_true = second_true - mean_true**2
     disp_true = 1 / 3                                  # Var int_0^1 W
     w = _richardson_weights()
