@@ -6,7 +6,7 @@ import math
 import numbers
 import os
 import sys
-from typing import Any, Dict, Iterable, Optional, Sequence, Union
+from typing import Any, Dict, Iterable, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
@@ -294,14 +294,32 @@ class Scene:
 
     @classmethod
     def from_dict(cls, data: Dict[str, Any]) -> "Scene":
-        """Rebuild a scene from :meth:`to_dict`'s output."""
+        """Rebuild a scene from :meth:`to_dict`'s output.
+
+        Raises
+        ------
+        ValueError
+            If ``data`` is not a mapping, ``units`` is not "SI" or "scaled", a key is missing
+            or unknown, or a value is bad (the message names the key).
+        """
+        if not isinstance(data, Mapping):
+            raise ValueError(f"data must be a dict (Scene.to_dict()), got {type(data).__name__}")
         data = dict(data)
         units = data.pop("units", None)
         if units == "SI":
-            return cls(**data)
-        if units == "scaled":
-            return cls.scaled(**data)
-        raise ValueError(f"units must be 'SI' or 'scaled', got {units!r}")
+            keys, required = _SI_KEYS + ("times", "observe"), ("mu", "h", "t0", "times")
+        elif units == "scaled":
+            keys, required = _SCALED_KEYS + ("times", "observe"), ("tau0", "times")
+        else:
+            raise ValueError(f"units must be 'SI' or 'scaled', got {units!r}")
+        for k in data:
+            if k not in keys:
+                raise ValueError(f"{k}: unknown key for units = {units!r}; allowed: "
+                                 f"{', '.join(keys)}")
+        for k in required:
+            if k not in data:
+                raise ValueError(f"{k}: missing (units = {units!r} needs {', '.join(required)})")
+        return cls(**data) if units == "SI" else cls.scaled(**data)
 
     @classmethod
     def from_toml(cls, path: Union[str, "os.PathLike[str]"]) -> "Scene":

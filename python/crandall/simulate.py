@@ -319,22 +319,24 @@ class _Run:
         # Means and variances must be numbers; only fourth moments may overflow (var_stderr
         # then says so). Non-finite values come from scenes whose values exceed doubles.
         obs = set(self.scene.observe)
-        variables = [v for v, names in ((0, {"velocity", "kinetic_energy"}),
-                                        (1, {"displacement"}),
-                                        (2, {"distance", "dissipated_energy"}))
-                     if names & obs]
-        second = [i for i, e in enumerate(_core.monomial_exponents())
-                  if sum(e) == 2 and all(e[v] in (0, 2) for v in range(3))
-                  and any(e[v] == 2 for v in variables)]
-        for acc in (self.times_acc, self.stop_acc if "stop" in obs else None):
-            if acc is None or acc.slots == 0:
+        integrals = [v for v, names in ((1, {"displacement"}),
+                                        (2, {"distance", "dissipated_energy"})) if names & obs]
+        at_times = ([0] if obs & {"velocity", "kinetic_energy"} else []) + integrals
+        at_stop = [0] + integrals  # the stop time, and the integrals at the stop
+        exps = _core.monomial_exponents()
+        for acc, variables in ((self.times_acc, at_times),
+                               (self.stop_acc if "stop" in obs else None, at_stop)):
+            if acc is None or acc.slots == 0 or not variables:
                 continue
+            second = [i for i, e in enumerate(exps)
+                      if sorted(e) == [0, 0, 2] and any(e[v] == 2 for v in variables)]
             if not (np.isfinite(acc.means[:, variables]).all()
                     and np.isfinite(acc.central[:, second]).all()):
                 names = ("mu, h, g, t0, times" if self.scene.units == "SI" else "tau0, times")
-                raise ValueError(f"{names}: this scene's values overflow doubles (their "
-                                 "second moments are not finite); choose units or times in "
-                                 "which they are nearer 1")
+                raise ValueError(f"{names}: this scene's means or variances are not finite "
+                                 "numbers (its values exceed the range of doubles, or the "
+                                 "computation failed); choose units or times in which they "
+                                 "are nearer 1")
 
 
 def _client_threads(client) -> int:
