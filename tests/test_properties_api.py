@@ -153,6 +153,23 @@ def test_si_scene_is_a_value_error_or_valid(mu, h, t0, g, mass, times, observe):
 
 
 @SETTINGS
+@given(times=any_times, observe=observe, units=st.sampled_from(["SI", "scaled"]))
+def test_times_and_observe_are_a_value_error_or_valid(times, observe, units):
+    try:
+        if units == "SI":
+            scene = crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=times, observe=observe)
+        else:
+            scene = crandall.Scene.scaled(tau0=2.0, times=times, observe=observe)
+    except ValueError as exc:
+        assert names_a_parameter(exc), str(exc)
+        return
+    assert _real_times(times), times
+    assert observe is None or isinstance(observe, str) or all(isinstance(n, str)
+                                                              for n in observe), observe
+    assert set(scene.observe) <= set(crandall.OBSERVABLES)
+
+
+@SETTINGS
 @given(tau0=parameter, times=any_times, observe=observe)
 def test_scaled_scene_is_a_value_error_or_valid(tau0, times, observe):
     try:
