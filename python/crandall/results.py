@@ -86,6 +86,7 @@ class Result:
         self.steps_per_path = int(steps_per_path)
         self._moments = moments
         self._stop = stop_moments
+        self._warned: set = set()
         self._raw = moments.raw() if moments.slots else np.zeros((0, len(_EXPONENTS)))
         self._stop_raw = stop_moments.raw() if stop_moments is not None else None
 
@@ -141,15 +142,23 @@ class Result:
             return float(mean[0]), float(var[0]), float(n[0])
         return mean, var, n
 
-    @staticmethod
-    def _warn_nan(name: str, what: str, values, reason: str) -> None:
-        if np.isnan(np.asarray(values, dtype=float)).any():
-            warnings.warn(f"{what} of {name} is NaN: {reason}", StatisticsWarning, stacklevel=3)
+    def _warn_nan(self, name: str, what: str, values, reason: str, stacklevel: int) -> None:
+        if not np.isnan(np.asarray(values, dtype=float)).any():
+            return
+        # Once per result and reason: a table of every statistic would repeat it dozens of
+        # times.
+        key = (what, reason) if reason.startswith("fewer") or "2 paths" in reason else (
+            what, name, reason)
+        if key in self._warned:
+            return
+        self._warned.add(key)
+        warnings.warn(f"{what} of {name} is NaN: {reason}", StatisticsWarning,
+                      stacklevel=stacklevel + 1)
 
     def _var(self, name: str):
         _, var, n = self._stats(name)
         if np.any(np.asarray(n) < 2):
-            self._warn_nan(name, "the variance", var, "a variance needs at least 2 paths")
+            self._warn_nan(name, "the variance", var, "a variance needs at least 2 paths", 3)
         return var, n
 
     def mean(self, name: str):
@@ -204,7 +213,7 @@ class Result:
                 reasons.append(f"the {self.method} combination's fourth-moment term "
                                "m4 - m2^2 is negative (the step is too long for the "
                                "extrapolation; use a smaller dt)")
-            self._warn_nan(name, "the standard error of the variance", se, "; ".join(reasons))
+            self._warn_nan(name, "the standard error of the variance", se, "; ".join(reasons), 2)
         return float(se[0]) if scalar else se
 
     def moment(self, j: int, k: int, l: int) -> np.ndarray:  # noqa: E741 - the paper's index
