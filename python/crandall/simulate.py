@@ -137,15 +137,15 @@ def _available_memory() -> int:
 
 
 def _memory_need(scene: Scene, threads: int, method: str) -> int:
-    # Accumulators: per output time, count + 3 means + 35 central sums (Moments), and the
-    # kernel's block sums (3 centres + 35 raw + 1 count). Per grid (3 for richardson): one
-    # block's sums per thread, up to one finished block per thread waiting for its turn, the
-    # chunk's sums; then the combined chunk, the total and a few copies in Python. Nothing
-    # grows with the number of paths. Each OpenMP thread also maps a stack.
-    per_slot = (1 + 3 + 35) * 8 + (3 + 35 + 1) * 8
+    # Per output time, 39 doubles: a Moments (count, 3 means, 35 central sums) or a block's
+    # sums (3 centres, 35 raw sums, count). Per grid (3 for richardson, 2 for richardson2):
+    # each thread's block sums, up to one finished block per thread waiting for its turn, and
+    # the chunk's sums; then the combined chunk, the total, and raw moments and copies in
+    # Python. Nothing grows with the number of paths. Each OpenMP thread also maps a stack.
+    per_slot = 39 * 8
     grids = {"richardson": 3, "richardson2": 2}.get(method, 1)
     slots = scene.times.size
-    return slots * per_slot * (grids * (2 * threads + 1) + 6) + threads * (16 << 20)
+    return slots * per_slot * (grids * (2 * threads + 1) + 5) + threads * (16 << 20)
 
 
 def _check_memory(scene: Scene, threads: int, method: str = DEFAULT_METHOD) -> None:
