@@ -324,8 +324,9 @@ class _Run:
         at_times = ([0] if obs & {"velocity", "kinetic_energy"} else []) + integrals
         at_stop = [0] + integrals  # the stop time, and the integrals at the stop
         exps = _core.monomial_exponents()
-        for acc, variables in ((self.times_acc, at_times),
-                               (self.stop_acc if "stop" in obs else None, at_stop)):
+        for acc, variables, what in ((self.times_acc, at_times, "at the output times"),
+                                     (self.stop_acc if "stop" in obs else None, at_stop,
+                                      "at the stop")):
             if acc is None or acc.slots == 0 or not variables:
                 continue
             second = [i for i, e in enumerate(exps)
@@ -333,10 +334,13 @@ class _Run:
             if not (np.isfinite(acc.means[:, variables]).all()
                     and np.isfinite(acc.central[:, second]).all()):
                 names = ("mu, h, g, t0, times" if self.scene.units == "SI" else "tau0, times")
-                raise ValueError(f"{names}: this scene's means or variances are not finite "
-                                 "numbers (its values exceed the range of doubles, or the "
-                                 "computation failed); choose units or times in which they "
-                                 "are nearer 1")
+                if what == "at the stop":
+                    names = "observe, " + names
+                raise ValueError(f"{names}: this scene's means or variances {what} are not "
+                                 "finite numbers (its values exceed the range of doubles, or "
+                                 "the computation failed); choose units or times in which "
+                                 "they are nearer 1" + (", or leave 'stop' out of observe"
+                                                        if what == "at the stop" else ""))
 
 
 def _client_threads(client) -> int:
