@@ -1,5 +1,6 @@
 """The public API: scenes, validation, reproducibility, special scenes (fast unit tests)."""
 
+import importlib
 import math
 
 import numpy as np
@@ -287,3 +288,221 @@ def test_build_info_says_what_the_build_targets():
         assert info["isa"].startswith("avx512f") and info["philox_paths_per_register"] == 8
     elif "avx2" in flags:
         assert info["isa"].startswith("avx2") and info["philox_paths_per_register"] == 4
+
+
+# -- hardening: no raw exception, no silent wrong number -----------------------------------
+
+@pytest.mark.parametrize("paths", [2**63 + 1, 2**64 - 1, 2**64, 2**100])
+def test_too_many_paths_is_a_value_error(paths):
+    scene = crandall.Scene.scaled(tau0=1.0, times=[1.0], observe=["velocity"])
+    with pytest.raises(ValueError, match="paths"):
+        crandall.simulate(scene, paths=paths, seed=1)
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    ({"mu": 1e308, "h": 1.0}, "mu, g"),
+    ({"mu": 1e300, "h": 1.0, "g": 1e10}, "mu, g"),
+])
+def test_friction_that_overflows_is_a_value_error(kwargs, words):
+    with pytest.raises(ValueError, match=words):
+        crandall.Scene(t0=1.0, times=[1.0], **kwargs)
+
+
+@pytest.mark.parametrize("mu, h", [(1e-300, 1.0), (1.0, 1e300), (1e300, 1e-300), (1e-200, 1e100)])
+def test_scaling_beyond_doubles_is_a_value_error_naming_mu_h_g(mu, h):
+    with pytest.raises(ValueError, match="mu, h, g"):
+        crandall.Scaling(mu, h)
+
+
+def test_scales_are_computed_without_overflow():
+    # 2 h^4 / (mu g)^3 = 2 (h / mu g)^3 h: the powers of h and mu g alone overflow.
+    s = crandall.Scaling(mu=1e-150, h=1e-110, g=1.0)
+    assert s.time_scale == pytest.approx(2e80, rel=1e-12)
+    assert s.velocity_scale == pytest.approx(1e-70, rel=1e-12)
+    assert s.length_scale == pytest.approx(2e10, rel=1e-12)
+
+
+def test_tiny_friction_scene_runs_with_the_default_step():
+    # mu = 1e-300: the scaled units overflow; the scene is simulated in SI units (no scaling),
+    # with the frictionless default step, and matches the free body (Var V = h^2 t).
+    scene = crandall.Scene(mu=1e-300, h=1.0, t0=math.inf, times=[0.5, 1.0])
+    assert scene.scaling is None
+    r = crandall.simulate(scene, paths=20_000, seed=3)
+    var = r.var("velocity")
+    assert np.all(np.abs(var - np.array([0.5, 1.0])) <= 5 * r.var_stderr("velocity"))
+    with pytest.raises(ValueError, match="scaled units"):
+        r.moment(2, 0, 0)
+
+
+def test_huge_noise_scene_is_a_value_error_not_nan():
+    # h = 1e300: Var V = h^2 t overflows doubles; a ValueError naming the parameters, not NaN.
+    scene = crandall.Scene(mu=1.0, h=1e300, t0=1.0, times=[1.0], observe=["velocity"])
+    with pytest.raises(ValueError, match="not finite"):
+        crandall.simulate(scene, paths=100, seed=1)
+
+
+@pytest.mark.parametrize("times, word", [
+    ("1.0", "string"),
+    (b"1.0", "string"),
+    (["1", "2"], "strings"),
+    ([True], "booleans"),
+    ([True, 2.0], "booleans"),
+    ([1 + 0j], "complex"),
+    (np.array([1.0, 2.0], dtype=complex), "complex"),
+    ([1.0, "2"], "strings"),
+    ([1.0, None], "times"),
+    ([[1.0, 2.0]], "one-dimensional"),
+])
+def test_times_must_be_real_numbers(times, word):
+    with pytest.raises(ValueError, match="times") as info:
+        crandall.Scene.scaled(tau0=1.0, times=times)
+    assert word in str(info.value)
+
+
+def test_object_arrays_of_numbers_are_accepted():
+    from fractions import Fraction
+    scene = crandall.Scene.scaled(tau0=1.0, times=[Fraction(1, 2), np.float32(1.0), 2])
+    assert scene.times.tolist() == [0.5, 1.0, 2.0]
+
+
+def test_callers_times_array_stays_writeable():
+    times = np.array([0.5, 1.0])
+    scene = crandall.Scene.scaled(tau0=1.0, times=times)
+    assert times.flags.writeable
+    times[0] = 0.25  # the scene has its own copy
+    assert scene.times[0] == 0.5 and not scene.times.flags.writeable
+
+
+@pytest.mark.parametrize("observe", [b"velocity", bytearray(b"velocity"), [b"velocity"], [1],
+                                     {"velocity": 1}])
+def test_observe_must_be_names(observe):
+    # Before: b"velocity" was read as the names 118, 101, ... ("unknown observable 118").
+    with pytest.raises(ValueError, match="observe.* must be"):
+        crandall.Scene.scaled(tau0=1.0, times=[1.0], observe=observe)
+
+
+@pytest.mark.parametrize("client", ["tcp://127.0.0.1:8786", 42, object()])
+def test_client_must_be_a_dask_client(client):
+    scene = crandall.Scene.scaled(tau0=1.0, times=[1.0], observe=["velocity"])
+    with pytest.raises(ValueError, match="client"):
+        crandall.simulate(scene, paths=10, seed=1, client=client)
+    with pytest.raises(ValueError, match="client"):
+        crandall.simulate_many([scene], paths=10, seed=1, client=client)
+
+
+# -- memory: the check honours rlimits and cgroups -------------------------------------------
+
+def test_cgroup_v2_and_v1_limits_are_read(tmp_path, monkeypatch):
+    sim = importlib.import_module("crandall.simulate")
+
+    monkeypatch.setattr(sim, "open", open, raising=False)
+    (tmp_path / "memory.max").write_text("1000000000\n")
+    (tmp_path / "memory.current").write_text("400000000\n")
+    assert sim._cgroup_available(str(tmp_path)) == 600_000_000
+    (tmp_path / "memory.max").write_text("max\n")
+    assert sim._cgroup_available(str(tmp_path)) is None
+    v1 = tmp_path / "memory"
+    v1.mkdir()
+    (v1 / "memory.limit_in_bytes").write_text("300000000\n")
+    (v1 / "memory.usage_in_bytes").write_text("100000000\n")
+    assert sim._cgroup_available(str(tmp_path)) == 200_000_000
+    (v1 / "memory.limit_in_bytes").write_text(str(2**63 - 4096))  # v1's "unlimited"
+    assert sim._cgroup_available(str(tmp_path)) is None
+
+
+def test_memory_check_uses_the_smallest_limit(monkeypatch):
+    sim = importlib.import_module("crandall.simulate")
+
+    monkeypatch.setattr(sim, "_cgroup_available", lambda root="/sys/fs/cgroup": 10 << 20)
+    assert sim._available_memory() <= 10 << 20
+    scene = crandall.Scene.scaled(tau0=1.0, times=np.linspace(0.1, 1.0, 10_000))
+    with pytest.raises(ValueError, match="times"):
+        crandall.simulate(scene, paths=10, seed=1, threads=1)
+
+
+_RLIMIT_SCRIPT = r"""
+import resource, sys
+import numpy as np
+import crandall
+import importlib
+sim = importlib.import_module('crandall.simulate')
+sizes = sim._process_sizes()
+limit = sizes["VmSize"] + (1 << 30)
+resource.setrlimit(resource.RLIMIT_AS, (limit, resource.RLIM_INFINITY))
+scene = crandall.Scene.scaled(tau0=5.0, times=np.linspace(1e-3, 10.0, 10**6))
+try:
+    crandall.simulate(scene, paths=1, seed=1, threads=2)
+except ValueError as exc:
+    print("ValueError:", exc)
+    sys.exit(0)
+print("no error")
+sys.exit(3)
+"""
+
+
+def test_address_space_rlimit_gives_a_value_error_not_an_abort():
+    import os
+    import subprocess
+    import sys
+
+    if not os.path.exists("/proc/self/status"):
+        pytest.skip("needs /proc")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.run([sys.executable, "-c", _RLIMIT_SCRIPT], capture_output=True,
+                          text=True, timeout=120, env=env)
+    assert proc.returncode == 0, (proc.returncode, proc.stdout, proc.stderr[-2000:])
+    assert "ValueError: times" in proc.stdout
+
+
+def test_times_from_a_generator_and_object_arrays():
+    scene = crandall.Scene.scaled(tau0=1.0, times=(t for t in (0.5, 1.0)))
+    assert scene.times.tolist() == [0.5, 1.0]
+    with pytest.raises(ValueError, match="strings"):
+        crandall.Scene.scaled(tau0=1.0, times=np.array(["1", "2"], dtype=object))
+
+
+# -- few paths, and standard errors that cannot be estimated ---------------------------------
+
+@pytest.mark.parametrize("method", ["richardson", "richardson2", "exact"])
+def test_variances_are_never_negative_and_the_summary_never_fails(method):
+    # Before: richardson's extrapolated second moment went negative for 1 or 2 paths, and
+    # the summary raised "math domain error".
+    scene = crandall.Scene.scaled(tau0=5, times=[0.5, 1.0, 6.0])
+    for paths in (2, 3, 5):
+        for seed in range(1, 16):
+            r = crandall.simulate(scene, paths=paths, seed=seed, method=method)
+            for name in r.names:
+                var = np.atleast_1d(r.var(name))
+                assert np.all(var >= 0), (paths, seed, name, var)
+                assert np.all(np.isfinite(r.std(name)))
+            str(r)
+
+
+def test_one_path_has_no_variance():
+    r = crandall.simulate(crandall.Scene.scaled(tau0=5, times=[1.0]), paths=1, seed=1)
+    with pytest.warns(crandall.StatisticsWarning, match="at least 2 paths"):
+        var = r.var("distance")
+    assert np.isnan(var).all()
+    assert math.isnan(r.var("stop_time"))  # said once per result (warnings are errors here)
+    with pytest.warns(crandall.StatisticsWarning):
+        assert np.isnan(r.var_stderr("distance")).all()
+    text = str(r)  # no warning, no error: "n/a"
+    assert "n/a" in text
+    assert np.isfinite(r.mean("distance")).all()
+
+
+def test_var_stderr_is_nan_with_a_warning_when_it_cannot_be_estimated():
+    # richardson at dt = 5 (tau0 = 10): the combined fourth-moment term m4 - m2^2 is negative.
+    # Before: var_stderr reported 0.0.
+    r = crandall.simulate(crandall.Scene.scaled(tau0=10, times=[10]), paths=400_000, seed=10,
+                          dt=5.0)
+    with pytest.warns(crandall.StatisticsWarning, match="negative"):
+        se = r.var_stderr("distance")
+    assert np.isnan(se).all()
+
+
+def test_var_stderr_of_a_constant_is_zero_without_warning():
+    r = crandall.simulate(crandall.Scene.scaled(tau0=0.0, times=[0.0, 1.0]), paths=50, seed=1)
+    assert np.all(r.var_stderr("distance") == 0.0)
+    r = crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[1.0]), paths=5000, seed=1)
+    assert np.all(r.var_stderr("distance") > 0)

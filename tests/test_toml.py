@@ -128,3 +128,25 @@ def test_errors_name_the_file_and_the_key(tmp_path, text, key, what):
 def test_missing_file_is_a_value_error(tmp_path):
     with pytest.raises(ValueError, match="nowhere.toml: cannot read"):
         crandall.Scene.from_toml(tmp_path / "nowhere.toml")
+
+
+@pytest.mark.parametrize("times, key", [
+    ("{ start = 0, stop = 1, num = 100000000 }", "scene.times.num"),
+    ("{ start = 0, stop = 1, num = 10000001 }", "scene.times.num"),
+    ("{ start = 0, stop = 1, step = 1e-8 }", "scene.times.step"),
+    ("{ start = 0, stop = 1, step = 5e-324 }", "scene.times.step"),
+    ("{ start = 0, stop = 1e300, step = 1e-300 }", "scene.times.step"),
+])
+def test_huge_ranges_are_refused_before_they_are_built(tmp_path, times, key):
+    # Before: num was not capped (27 s to build 1e8 times before the scene refused them);
+    # a subnormal step raised OverflowError. One cap, scene.MAX_RANGE_TIMES, for both forms.
+    import time
+
+    from crandall.scene import MAX_RANGE_TIMES
+
+    path = write(tmp_path, f"[scene]\nunits = 'scaled'\ntau0 = 1\ntimes = {times}\n")
+    start = time.perf_counter()
+    with pytest.raises(ValueError, match=key) as info:
+        crandall.Scene.from_toml(path)
+    assert time.perf_counter() - start < 0.5
+    assert str(MAX_RANGE_TIMES) in str(info.value)

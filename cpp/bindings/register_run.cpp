@@ -55,6 +55,7 @@ void register_run(py::module_& m) {
       .def_readwrite("switch_off", &crandall::Options::switch_off)
       .def_readwrite("times", &crandall::Options::times)
       .def_readwrite("dt", &crandall::Options::dt)
+      .def_readwrite("min_steps", &crandall::Options::min_steps)
       .def_property(
           "method",
           [](const crandall::Options& o) { return std::string(crandall::method_name(o.method)); },

@@ -10,6 +10,9 @@ void require(bool ok, const std::string& message) {
   if (!ok) throw std::invalid_argument(message);
 }
 
+// Far above any useful resolution; keeps gap / until * min_steps exact in a double.
+constexpr std::uint64_t kMaxMinSteps = std::uint64_t{1} << 30;
+
 }  // namespace
 
 const char* method_name(Method m) {
@@ -79,6 +82,7 @@ void Options::validate() const {
     require(i == 0 || times[i] > times[i - 1], "times must be strictly increasing");
   }
   require(std::isfinite(dt) && dt > 0.0, "dt must be finite and > 0");
+  require(min_steps <= kMaxMinSteps, "min_steps must be <= 2^30");
   require(paths >= 1, "paths must be >= 1");
   require(velocity || displacement || distance || stop, "observe at least one quantity");
   require(!times.empty() || stop, "times must not be empty unless only the stop is observed");
@@ -103,7 +107,12 @@ Plan::Plan(Options options) : options_(std::move(options)) {
     const double gap = until - previous;
     std::uint64_t n = 0;
     if (gap > 0.0) {
-      const double want = fine ? std::ceil(gap / o.dt * (1.0 - 1e-12)) : 1.0;
+      double want = fine ? std::ceil(gap / o.dt * (1.0 - 1e-12)) : 1.0;
+      if (fine && o.min_steps > 0) {
+        // gap <= until, so this is at most min_steps: no overflow even for subnormal times.
+        const double graded = std::ceil(gap / until * static_cast<double>(o.min_steps) * (1.0 - 1e-12));
+        if (graded > want) want = graded;
+      }
       require(want < 9.0e15, "dt is too small for the horizon: the grid would not fit in 2^53 steps");
       n = want < 1.0 ? 1 : static_cast<std::uint64_t>(want);
       // Richardson's coarse grids are every 2nd (4th) point of the fine one, segment by

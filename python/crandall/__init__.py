@@ -11,10 +11,11 @@ Berezin & Zayats (see ``crandall.analytic``).
 """
 
 from .io import load
-from .results import Result
+from .results import Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene
 from .simulate import METHODS, default_dt, simulate, simulate_many
 from .units import Scaling
 
-__all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS"]
+__all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS",
+           "StatisticsWarning"]
 __version__ = "0.1.0"

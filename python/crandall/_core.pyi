@@ -23,6 +23,8 @@ class Options:
     switch_off: float
     times: List[float]
     dt: float
+    #: Graded grid: the step before time t is at most t / min_steps (0: off).
+    min_steps: int
     method: str
     velocity: bool
     displacement: bool

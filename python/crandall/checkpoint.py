@@ -28,13 +28,14 @@ FORMAT = "crandall-checkpoint"
 FORMAT_VERSION = 1
 
 
-def identity(scene, *, paths: int, seed: int, dt: float, method: str) -> Dict[str, Any]:
+def identity(scene, *, paths: int, seed: int, dt: float, method: str,
+             min_steps: int = 0) -> Dict[str, Any]:
     """What makes two runs the same run (plain data, compared for equality)."""
     from . import __version__
 
     return {"format": FORMAT, "format_version": FORMAT_VERSION, "crandall": __version__,
             "scene": scene.to_dict(), "paths": int(paths), "seed": int(seed),
-            "dt": float(dt), "method": str(method)}
+            "dt": float(dt), "method": str(method), "min_steps": int(min_steps)}
 
 
 def _read(path) -> Tuple[Dict[str, Any], Dict[str, np.ndarray]]:

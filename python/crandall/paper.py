@@ -46,11 +46,17 @@ def scaled_factors(result: Result):
     return s.to_tau(sc.times), s.to_tau(sc.t0), 1 / s.velocity_scale, 1 / s.length_scale, 1 / s.time_scale
 
 
+def _num(x, spec: str) -> str:
+    # NaN: not estimable from this run (e.g. a variance of 1 path), shown as "n/a".
+    width = spec.split(".")[0].lstrip(">+")
+    return f"{'n/a':>{width}}" if np.isnan(x) else format(x, spec)
+
+
 def _cell(sim, se, ref):
     if ref is None or not np.isfinite(ref):
-        return f"{sim:>10.5f} ±{se:8.5f} {'':>10} {'':>6}"
-    z = (sim - ref) / se if se > 0 else 0.0
-    return f"{sim:>10.5f} ±{se:8.5f} {ref:>10.5f} {z:>+6.1f}"
+        return f"{_num(sim, '>10.5f')} ±{_num(se, '8.5f')} {'':>10} {'':>6}"
+    z = (sim - ref) / se if se > 0 else (0.0 if se == 0 else math.nan)
+    return f"{_num(sim, '>10.5f')} ±{_num(se, '8.5f')} {ref:>10.5f} {_num(z, '>+6.1f')}"
 
 
 def comparison(result: Result) -> str:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from typing import Optional
 
 import numpy as np
@@ -10,7 +11,17 @@ import numpy as np
 from . import _core
 from .scene import STOP_QUANTITIES, Scene
 
-__all__ = ["Result"]
+__all__ = ["Result", "StatisticsWarning"]
+
+
+class StatisticsWarning(UserWarning):
+    """A statistic could not be estimated from this run and is returned as NaN.
+
+    Raised (as a warning) by :meth:`Result.var`, :meth:`Result.std`, :meth:`Result.stderr` and
+    :meth:`Result.var_stderr` when they return NaN: a variance from fewer than 2 paths, or a
+    standard error of a variance whose fourth-moment term is negative (an extrapolated method
+    at a step far too long for it) or overflows doubles.
+    """
 
 _EXPONENTS = [tuple(e) for e in _core.monomial_exponents()]
 _INDEX = {e: i for i, e in enumerate(_EXPONENTS)}
@@ -19,6 +30,16 @@ _VARIABLE = {"velocity": 0, "displacement": 1, "distance": 2, "dissipated_energy
              "kinetic_energy": 0}
 _STOP_VARIABLE = {"stop_time": 0, "displacement_at_stop": 1, "distance_at_stop": 2,
                   "dissipated_energy_at_stop": 2}
+
+
+def _sqrt(x: float) -> float:
+    return math.sqrt(x) if x >= 0 else math.nan  # NaN (n/a) stays NaN
+
+
+def _fmt(x: float, spec: str) -> str:
+    width = "".join(c for c in spec.split(".")[0] if c.isdigit())
+    text = "n/a" if math.isnan(x) else format(x, spec)
+    return f"{text:>{width}}" if width else text
 
 
 def _e(v: int, power: int) -> int:
@@ -34,18 +55,38 @@ class Result:
     "dissipated_energy") give arrays over :attr:`times`; stop quantities ("stop_time",
     "displacement_at_stop", "distance_at_stop", "dissipated_energy_at_stop") give floats.
     Variances are the unbiased sample variances; ``stderr`` is the standard error of the mean.
+
+    With few paths:
+
+    - A variance needs at least 2 paths: with 1 path ``var``, ``std``, ``stderr`` and
+      ``var_stderr`` are NaN, with a :class:`StatisticsWarning`, and the summary shows "n/a".
+    - The extrapolating methods ("richardson", "richardson2") combine the raw moments of coupled
+      grids linearly (docs/methods/richardson.md); with a handful of paths the combined second
+      central moment can come out negative although every grid's is >= 0. The variance is then
+      reported as 0 (the extrapolated value truncated at 0): it is an estimate of a quantity
+      >= 0 whose statistical error, at that path count, is larger than the value.
+
+    Attributes
+    ----------
+    dt : float
+        Longest internal step, in the scene's time units.
+    min_steps : int
+        The graded grid's resolution: the step before an output time or the switch-off t is at
+        most t / min_steps (0: steps of dt only). See :func:`crandall.simulate`.
     """
 
     def __init__(self, *, scene: Scene, paths: int, seed: int, dt: float, method: str,
-                 moments, stop_moments, steps_per_path: int) -> None:
+                 moments, stop_moments, steps_per_path: int, min_steps: int = 0) -> None:
         self.scene = scene
         self.paths = int(paths)
         self.seed = int(seed)
         self.dt = float(dt)
         self.method = method
+        self.min_steps = int(min_steps)
         self.steps_per_path = int(steps_per_path)
         self._moments = moments
         self._stop = stop_moments
+        self._warned: set = set()
         self._raw = moments.raw() if moments.slots else np.zeros((0, len(_EXPONENTS)))
         self._stop_raw = stop_moments.raw() if stop_moments is not None else None
 
@@ -86,38 +127,67 @@ class Result:
         acc, raw, v, scalar = self._source(name)
         n = acc.counts
         f = self._factor(name)
-        if name == "kinetic_energy":
-            m2, m4 = raw[:, _e(v, 2)], raw[:, _e(v, 4)]
-            mean = f * m2
-            var = f * f * np.maximum(m4 - m2 * m2, 0.0) * n / np.maximum(n - 1, 1)
-        else:
-            mean = f * acc.means[:, v]
-            var = f * f * acc.central[:, _e(v, 2)] / np.maximum(n - 1, 1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            if name == "kinetic_energy":
+                m2, m4 = raw[:, _e(v, 2)], raw[:, _e(v, 4)]
+                mean = f * m2
+                spread = (m4 - m2 * m2) * n
+            else:
+                mean = f * acc.means[:, v]
+                spread = acc.central[:, _e(v, 2)]
+            # An extrapolated second moment may be negative with few paths: truncated at 0
+            # (see the class docstring). Fewer than 2 paths: undefined (NaN).
+            var = np.where(n >= 2, f * f * np.maximum(spread, 0.0) / (n - 1), np.nan)
         if scalar:
             return float(mean[0]), float(var[0]), float(n[0])
         return mean, var, n
+
+    def _warn_nan(self, name: str, what: str, values, reason: str, stacklevel: int) -> None:
+        if not np.isnan(np.asarray(values, dtype=float)).any():
+            return
+        # Once per result and reason: a table of every statistic would repeat it dozens of
+        # times.
+        key = (what, reason) if reason.startswith("fewer") or "2 paths" in reason else (
+            what, name, reason)
+        if key in self._warned:
+            return
+        self._warned.add(key)
+        warnings.warn(f"{what} of {name} is NaN: {reason}", StatisticsWarning,
+                      stacklevel=stacklevel + 1)
+
+    def _var(self, name: str):
+        _, var, n = self._stats(name)
+        if np.any(np.asarray(n) < 2):
+            self._warn_nan(name, "the variance", var, "a variance needs at least 2 paths", 3)
+        return var, n
 
     def mean(self, name: str):
         """Sample mean of a quantity (array over times, or a float for stop quantities)."""
         return self._stats(name)[0]
 
     def var(self, name: str):
-        """Unbiased sample variance of a quantity."""
-        return self._stats(name)[1]
+        """Unbiased sample variance of a quantity (NaN, with a warning, for 1 path)."""
+        return self._var(name)[0]
 
     def std(self, name: str):
         """Sample standard deviation of a quantity."""
-        return np.sqrt(self._stats(name)[1])
+        return np.sqrt(self._var(name)[0])
 
     def stderr(self, name: str):
         """Standard error of the mean of a quantity: sqrt(var / paths)."""
-        _, var, n = self._stats(name)
+        var, n = self._var(name)
         return np.sqrt(var / n)
 
     def var_stderr(self, name: str):
         """Standard error of the sample variance, sqrt((m4 - m2^2) / n) from central moments.
 
         Not available for the kinetic energy (it would need 8th moments of the velocity).
+
+        NaN, with a :class:`StatisticsWarning`, where it cannot be estimated: fewer than 2
+        paths; a fourth-moment term m4 - m2^2 that is negative beyond rounding (impossible for
+        a sample, so only from an extrapolated method whose step is far too long for the
+        scene: the combination of the grids is then no distribution's moments); or fourth
+        moments that overflow doubles. Never 0 unless the quantity is constant (m2 = m4 = 0).
         """
         if name == "kinetic_energy":
             raise ValueError("name: the variance of kinetic_energy has no standard error "
@@ -125,9 +195,25 @@ class Result:
         acc, _, v, scalar = self._source(name)
         n = acc.counts
         f = self._factor(name)
-        m2 = acc.central[:, _e(v, 2)] / n
-        m4 = acc.central[:, _e(v, 4)] / n
-        se = f * f * np.sqrt(np.maximum(m4 - m2 * m2, 0.0) / n)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            m2 = acc.central[:, _e(v, 2)] / n
+            m4 = acc.central[:, _e(v, 4)] / n
+            d = m4 - m2 * m2
+            # Rounding can leave a two-point law's m4 - m2^2 = 0 slightly negative.
+            tiny = 1e-12 * m2 * m2
+            ok = (n >= 2) & np.isfinite(d) & (d >= -tiny)
+            se = np.where(ok, f * f * np.sqrt(np.maximum(d, 0.0) / n), np.nan)
+        if np.isnan(se).any():
+            reasons = []
+            if np.any(n < 2):
+                reasons.append("fewer than 2 paths")
+            if np.any((n >= 2) & ~np.isfinite(d)):
+                reasons.append("its fourth moments overflow doubles")
+            if np.any((n >= 2) & np.isfinite(d) & (d < -tiny)):
+                reasons.append(f"the {self.method} combination's fourth-moment term "
+                               "m4 - m2^2 is negative (the step is too long for the "
+                               "extrapolation; use a smaller dt)")
+            self._warn_nan(name, "the standard error of the variance", se, "; ".join(reasons), 2)
         return float(se[0]) if scalar else se
 
     def moment(self, j: int, k: int, l: int) -> np.ndarray:  # noqa: E741 - the paper's index
@@ -151,8 +237,13 @@ class Result:
         if self.scene.units == "SI":
             s = self.scene.scaling
             if s is None:
-                raise ValueError("moment: scaled units need mu > 0 and h > 0 (eq8)")
-            value /= s.velocity_scale**j * s.length_scale ** (k + l)
+                raise ValueError("moment: scaled units need mu > 0 and h > 0 with scales "
+                                 "that fit in doubles (eq8; Scene.scaling is None)")
+            # One factor at a time: the product of the scales may overflow where the moment
+            # itself does not.
+            for scale, power in ((s.velocity_scale, j), (s.length_scale, k + l)):
+                for _ in range(power):
+                    value /= scale
         return value
 
     # -- presentation -------------------------------------------------------------------
@@ -163,8 +254,10 @@ class Result:
         lines = [
             f"crandall result: {sc!r}",
             f"  paths={self.paths}  seed={self.seed}  method={self.method}  dt={self.dt:.6g}  "
-            f"steps/path={self.steps_per_path}",
+            f"min_steps={self.min_steps}  steps/path={self.steps_per_path}",
         ]
+        if self.paths < 2:
+            lines.append("  (n/a: a variance needs at least 2 paths)")
         time_names = [n for n in self.names if n not in STOP_QUANTITIES]
         if time_names and self.times.size:
             # One block per quantity: time, mean ± standard error, variance, standard deviation.
@@ -175,17 +268,17 @@ class Result:
                              f"{'var':>12}  {'std':>12}")
                 mean, var, cnt = self._stats(n)
                 for i, t in enumerate(self.times):
-                    se = math.sqrt(var[i] / cnt[i])
-                    lines.append(f"    {t:>10.4g}  {mean[i]:>13.6g}  {se:>10.2g}  "
-                                 f"{var[i]:>12.6g}  {math.sqrt(var[i]):>12.6g}")
+                    lines.append(f"    {t:>10.4g}  {mean[i]:>13.6g}  "
+                                 f"{_fmt(_sqrt(var[i] / cnt[i]), '10.2g')}  "
+                                 f"{_fmt(var[i], '12.6g')}  {_fmt(_sqrt(var[i]), '12.6g')}")
         stop_names = [n for n in self.names if n in STOP_QUANTITIES]
         if stop_names:
             lines.append("  at the stop:")
             for n in stop_names:
                 mean, var, cnt = self._stats(n)
                 u = sc.units_of(n)
-                lines.append(f"    {n:<26} mean {mean:.6g} ± {math.sqrt(var / cnt):.2g}"
-                             f"   var {var:.6g}" + (f"   [{u}]" if u else ""))
+                lines.append(f"    {n:<26} mean {mean:.6g} ± {_fmt(_sqrt(var / cnt), '.2g')}"
+                             f"   var {_fmt(var, '.6g')}" + (f"   [{u}]" if u else ""))
         return "\n".join(lines)
 
     def __str__(self) -> str:

@@ -3,16 +3,17 @@
 from __future__ import annotations
 
 import math
+import numbers
 import os
 import sys
-from typing import Any, Dict, Iterable, Optional, Sequence, Union
+from typing import Any, Dict, Iterable, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
 from .methods import METHODS
 from .units import Scaling
 
-__all__ = ["Scene", "OBSERVABLES", "STOP_QUANTITIES", "RUN_SETTINGS"]
+__all__ = ["Scene", "OBSERVABLES", "STOP_QUANTITIES", "RUN_SETTINGS", "MAX_RANGE_TIMES"]
 
 #: Everything a scene can observe. "stop" is the stop time; with displacement, distance or
 #: dissipated energy also observed, their values at the stop as well.
@@ -37,6 +38,10 @@ STOP_QUANTITIES = {
 #: Keys of a scene file's [run] table, as ``simulate`` takes them.
 RUN_SETTINGS = ("paths", "seed", "method", "dt")
 
+#: Most output times a scene file's range may give (either form, {start, stop, num} or
+#: {start, stop, step}); checked before the times are built.
+MAX_RANGE_TIMES = 10_000_000
+
 
 def _number(name: str, value, *, positive: bool = False, allow_inf: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
@@ -51,14 +56,44 @@ def _number(name: str, value, *, positive: bool = False, allow_inf: bool = False
     return value
 
 
+def _check_real(items) -> None:
+    for i, v in enumerate(items):
+        if isinstance(v, (list, tuple, np.ndarray)):
+            continue  # nested: refused later as not one-dimensional
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+            kind = ("booleans" if isinstance(v, (bool, np.bool_)) else
+                    "complex numbers" if isinstance(v, numbers.Complex) else
+                    "strings" if isinstance(v, (str, bytes)) else type(v).__name__)
+            raise ValueError(f"times must be real numbers, got {kind} (times[{i}] = {v!r})")
+
+
 def _times(times, t0: float, observe: Sequence[str]) -> np.ndarray:
     if times is None:
         times = []
+    if isinstance(times, (str, bytes)):
+        raise ValueError(f"times must be a sequence of numbers, got a string {times!r}")
+    if not isinstance(times, np.ndarray):
+        # Element by element: NumPy would turn [True, 2.0] into [1.0, 2.0] silently.
+        try:
+            times = list(times)  # also takes a generator once
+        except TypeError:
+            times = [times]
+        _check_real(times)
     try:
-        arr = np.asarray(times, dtype=float)
+        raw = np.asarray(times)
     except (TypeError, ValueError) as exc:
         raise ValueError(f"times must be a sequence of numbers: {exc}") from None
-    arr = np.atleast_1d(arr)
+    if raw.dtype.kind == "O":
+        _check_real(raw.ravel())  # an object array would convert "1" to 1.0
+    elif raw.dtype.kind not in "iuf":
+        what = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes",
+                "M": "datetimes", "m": "timedeltas"}.get(raw.dtype.kind, str(raw.dtype))
+        raise ValueError(f"times must be real numbers, got {what}")
+    try:
+        arr = np.array(np.atleast_1d(raw), dtype=float, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"times must be a sequence of numbers: {exc}") from None
+    # ``arr`` is a copy: the scene's times are made read-only, the caller's array stays as it was.
     if arr.ndim != 1:
         raise ValueError(f"times must be one-dimensional, got shape {arr.shape}")
     if np.isnan(arr).any():
@@ -77,10 +112,15 @@ def _times(times, t0: float, observe: Sequence[str]) -> np.ndarray:
 def _observe(observe) -> tuple:
     if isinstance(observe, str):
         observe = (observe,)
+    if isinstance(observe, (bytes, bytearray, dict)):
+        raise ValueError(f"observe must be a name or a list of names, got {observe!r}")
     try:
         names = list(observe)
     except TypeError:
         raise ValueError(f"observe must be a name or a list of names, got {observe!r}") from None
+    for n in names:
+        if not isinstance(n, str):
+            raise ValueError(f"observe: names must be strings, got {n!r}")
     unknown = [n for n in names if n not in OBSERVABLES]
     if unknown:
         raise ValueError(
@@ -89,6 +129,17 @@ def _observe(observe) -> tuple:
     if not names:
         raise ValueError("observe must name at least one observable")
     return tuple(n for n in OBSERVABLES if n in names)
+
+
+def _scaling(mu: float, h: float, g: float) -> Optional[Scaling]:
+    if mu == 0 or h == 0:
+        return None
+    try:
+        return Scaling(mu, h, g)
+    except ValueError:
+        # Scales beyond doubles (e.g. mu = 1e-300, h = 1: a time scale of 1e598 s). The scene
+        # is still simulated, in its own units; only the scaled view is unavailable.
+        return None
 
 
 class Scene:
@@ -120,6 +171,20 @@ class Scene:
         (without "stop" when the body cannot stop: mu = 0 or t0 infinite).
 
     Use :meth:`Scene.scaled` for the paper's dimensionless units (eq3, eq8).
+
+    Attributes
+    ----------
+    scaling : Scaling or None
+        The scaled units of eq8 of this scene; None when mu = 0, h = 0, or when its scales are
+        not finite, normal doubles (e.g. mu = 1e-300, h = 1: the friction is then negligible
+        over any representable time, and the scene is simulated in SI units only;
+        ``Result.moment`` and the analytic comparison are unavailable).
+
+    Raises
+    ------
+    ValueError
+        Naming the parameter: a non-number, NaN, a negative or infinite value, a friction
+        deceleration mu g that overflows doubles, or bad ``times`` / ``observe``.
     """
 
     def __init__(
@@ -138,6 +203,9 @@ class Scene:
         t0 = _number("t0", t0, allow_inf=True)
         g = _number("g", g, positive=True)
         mass = _number("mass", mass, positive=True)
+        if not math.isfinite(mu * g):
+            raise ValueError(f"mu, g: the friction deceleration mu g = {mu!r} * {g!r} overflows "
+                             "doubles")
         self._setup(
             units="SI",
             drift=mu * g,
@@ -147,7 +215,7 @@ class Scene:
             observe=observe,
             mass=mass,
             params={"mu": mu, "h": h, "t0": t0, "g": g, "mass": mass},
-            scaling=Scaling(mu, h, g) if mu > 0 and h > 0 else None,
+            scaling=_scaling(mu, h, g),
         )
 
     @classmethod
@@ -226,14 +294,32 @@ class Scene:
 
     @classmethod
     def from_dict(cls, data: Dict[str, Any]) -> "Scene":
-        """Rebuild a scene from :meth:`to_dict`'s output."""
+        """Rebuild a scene from :meth:`to_dict`'s output.
+
+        Raises
+        ------
+        ValueError
+            If ``data`` is not a mapping, ``units`` is not "SI" or "scaled", a key is missing
+            or unknown, or a value is bad (the message names the key).
+        """
+        if not isinstance(data, Mapping):
+            raise ValueError(f"data must be a dict (Scene.to_dict()), got {type(data).__name__}")
         data = dict(data)
         units = data.pop("units", None)
         if units == "SI":
-            return cls(**data)
-        if units == "scaled":
-            return cls.scaled(**data)
-        raise ValueError(f"units must be 'SI' or 'scaled', got {units!r}")
+            keys, required = _SI_KEYS + ("times", "observe"), ("mu", "h", "t0", "times")
+        elif units == "scaled":
+            keys, required = _SCALED_KEYS + ("times", "observe"), ("tau0", "times")
+        else:
+            raise ValueError(f"units must be 'SI' or 'scaled', got {units!r}")
+        for k in data:
+            if k not in keys:
+                raise ValueError(f"{k}: unknown key for units = {units!r}; allowed: "
+                                 f"{', '.join(keys)}")
+        for k in required:
+            if k not in data:
+                raise ValueError(f"{k}: missing (units = {units!r} needs {', '.join(required)})")
+        return cls(**data) if units == "SI" else cls.scaled(**data)
 
     @classmethod
     def from_toml(cls, path: Union[str, "os.PathLike[str]"]) -> "Scene":
@@ -345,14 +431,19 @@ def _times_from_file(path, value):
             raise _file_error(path, f"{key}.num", f"must be an integer >= 1, got {num!r}")
         if num == 1 and stop != start:
             raise _file_error(path, f"{key}.num", "num = 1 needs start == stop")
+        if num > MAX_RANGE_TIMES:
+            raise _file_error(path, f"{key}.num",
+                              f"gives {num} times; at most {MAX_RANGE_TIMES} are allowed")
         return np.linspace(start, stop, num).tolist()
     step = _real(path, f"{key}.step", value["step"])
     if not math.isfinite(step) or step <= 0:
         raise _file_error(path, f"{key}.step", f"must be finite and > 0, got {step!r}")
     # The stop is included when it lies on the grid (up to rounding).
-    n = int(math.floor((stop - start) / step * (1 + 1e-12) + 1e-9)) + 1
-    if n > 10_000_000:
-        raise _file_error(path, f"{key}.step", f"gives {n} times; too many")
+    count = (stop - start) / step * (1 + 1e-12) + 1e-9 + 1.0
+    if not count <= MAX_RANGE_TIMES:  # compared as a float: (stop - start) / step may be inf
+        raise _file_error(path, f"{key}.step",
+                          f"gives {count:.3g} times; at most {MAX_RANGE_TIMES} are allowed")
+    n = int(math.floor(count))
     return (start + step * np.arange(n)).tolist()
 
 

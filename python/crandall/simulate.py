@@ -11,20 +11,29 @@ import numpy as np
 
 from . import _core
 from . import checkpoint as _ckpt
-from .methods import DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_STEPS_FREE, METHODS
+from .methods import (DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE,
+                      METHODS)
 from .results import Result
 from .scene import Scene
 
-__all__ = ["simulate", "simulate_many", "default_dt", "METHODS"]
+__all__ = ["simulate", "simulate_many", "default_dt", "METHODS", "MAX_PATHS"]
+
+#: Most paths one run may have: path indices and chunk counts stay well inside 64 bits.
+MAX_PATHS = 1 << 63
 
 
 def default_dt(scene: Scene) -> float:
-    """The internal step that ``simulate(dt=None)`` uses for this scene, in its time units.
+    """The longest internal step that ``simulate(dt=None)`` uses for this scene, in its units.
 
     Scaled scenes: ``DEFAULT_DT_TAU`` (0.01). Physical scenes with friction and excitation: the
-    same step in scaled time, ``0.01 * 2 h^2 / (mu g)^2`` seconds. Without friction (mu = 0):
-    the horizon (the last output time or t0) over ``DEFAULT_STEPS_FREE``. Without excitation
+    same step in scaled time, ``0.01 * 2 h^2 / (mu g)^2`` seconds. Without friction (mu = 0),
+    or when that time scale is beyond doubles (``Scene.scaling`` is None): the horizon (the
+    last output time or t0) over ``DEFAULT_STEPS_FREE``. Without excitation
     (h = 0) the body stays at rest and the step does not matter.
+
+    With ``dt=None`` the grid is also graded (``DEFAULT_MIN_STEPS``): before an output time or
+    the switch-off t the step is at most ``t / DEFAULT_MIN_STEPS``, so horizons far shorter
+    than this step are still resolved.
     """
     if scene.units == "scaled":
         return DEFAULT_DT_TAU
@@ -46,28 +55,113 @@ def _check_int(name: str, value, minimum: int, maximum: Optional[int] = None) ->
     return value
 
 
-def _available_memory() -> int:
+def _read_int(path: str) -> Optional[int]:
     try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        with open(path) as f:
+            text = f.read().strip()
+    except OSError:
+        return None
+    try:
+        return int(text)
+    except ValueError:  # "max": no limit
+        return None
+
+
+def _cgroup_available(root: str = "/sys/fs/cgroup") -> Optional[int]:
+    """Bytes the memory cgroup of this process may still allocate (None: no limit found)."""
+    found = []
+    # cgroup v2: this process's group (from /proc/self/cgroup) and, in a container whose
+    # cgroup namespace hides it, the root of the mount.
+    groups = [""]
+    try:
+        with open("/proc/self/cgroup") as f:
+            for line in f:
+                parts = line.strip().split(":", 2)
+                if len(parts) == 3 and parts[0] == "0":
+                    groups.insert(0, parts[2].lstrip("/"))
+    except OSError:
+        pass
+    for group in groups:
+        base = os.path.join(root, group) if group else root
+        limit = _read_int(os.path.join(base, "memory.max"))
+        used = _read_int(os.path.join(base, "memory.current"))
+        if limit is not None and used is not None:
+            found.append(limit - used)
+    # cgroup v1.
+    limit = _read_int(os.path.join(root, "memory", "memory.limit_in_bytes"))
+    used = _read_int(os.path.join(root, "memory", "memory.usage_in_bytes"))
+    if limit is not None and used is not None and limit < 1 << 60:  # 2^63-ish: unlimited
+        found.append(limit - used)
+    return min(found) if found else None
+
+
+def _process_sizes() -> dict:
+    """VmSize and VmData of this process, bytes (empty where /proc is missing)."""
+    out = {}
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                key, _, value = line.partition(":")
+                if key in ("VmSize", "VmData"):
+                    out[key] = int(value.split()[0]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return out
+
+
+def _available_memory() -> int:
+    """Bytes this process can still allocate: the least of free RAM, its address-space and
+    data rlimits (less what it uses) and its memory cgroup's limit (less what it uses)."""
+    have = []
+    try:
+        have.append(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
     except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
-        return 1 << 62
+        pass
+    try:
+        import resource
+    except ImportError:  # pragma: no cover - not on POSIX
+        resource = None
+    if resource is not None:
+        sizes = _process_sizes()
+        for name, used in (("RLIMIT_AS", "VmSize"), ("RLIMIT_DATA", "VmData")):
+            limit = getattr(resource, name, None)
+            if limit is None:
+                continue
+            soft, _ = resource.getrlimit(limit)
+            if soft != resource.RLIM_INFINITY:
+                have.append(soft - sizes.get(used, 0))
+    cgroup = _cgroup_available()
+    if cgroup is not None:
+        have.append(cgroup)
+    return max(0, min(have)) if have else 1 << 62
 
 
-def _check_memory(scene: Scene, threads: int) -> None:
-    # Accumulators: per output time, count + 3 means + 35 central sums; one per thread for the
-    # block sums (raw sums and centres), one for the chunk, one for the total, a few copies in
-    # Python. Nothing grows with the number of paths.
-    per_slot = (1 + 3 + 35) * 8 + (3 + 35 + 1) * 8
-    need = scene.times.size * per_slot * (threads + 6)
+def _memory_need(scene: Scene, threads: int, method: str) -> int:
+    # Per output time, 39 doubles: a Moments (count, 3 means, 35 central sums) or a block's
+    # sums (3 centres, 35 raw sums, count). Per grid (3 for richardson, 2 for richardson2):
+    # each thread's block sums, up to one finished block per thread waiting for its turn, and
+    # the chunk's sums; then the combined chunk, the total, and raw moments and copies in
+    # Python. Nothing grows with the number of paths. Each OpenMP thread also maps a stack.
+    per_slot = 39 * 8
+    grids = {"richardson": 3, "richardson2": 2}.get(method, 1)
+    slots = scene.times.size
+    return slots * per_slot * (grids * (2 * threads + 1) + 5) + threads * (16 << 20)
+
+
+def _check_memory(scene: Scene, threads: int, method: str = DEFAULT_METHOD) -> None:
+    need = _memory_need(scene, threads, method)
     have = _available_memory()
     if need > have:
         raise ValueError(
-            f"times: {scene.times.size} output times need about {need / 2**30:.1f} GiB of "
-            f"accumulators, more than the {have / 2**30:.1f} GiB available"
+            f"times: {scene.times.size} output times ({len(scene.observe)} observables, "
+            f"{threads} threads) need about {need / 2**20:.0f} MiB of accumulators, more than "
+            f"the {have / 2**20:.0f} MiB this process may still allocate (free memory, "
+            "rlimits, cgroup); give fewer times or threads"
         )
 
 
-def make_plan(scene: Scene, *, paths: int, seed: int, dt: float, method: str) -> "_core.Plan":
+def make_plan(scene: Scene, *, paths: int, seed: int, dt: float, method: str,
+              min_steps: int = 0) -> "_core.Plan":
     """The core's validated plan for a scene (used by simulate and by distributed runs)."""
     o = _core.Options()
     o.drift = scene.drift
@@ -75,6 +169,7 @@ def make_plan(scene: Scene, *, paths: int, seed: int, dt: float, method: str) ->
     o.switch_off = scene.t0
     o.times = scene.times.tolist()
     o.dt = dt
+    o.min_steps = min_steps
     o.method = method
     obs = set(scene.observe)
     o.velocity = bool(obs & {"velocity", "kinetic_energy"}) or not (
@@ -88,16 +183,22 @@ def make_plan(scene: Scene, *, paths: int, seed: int, dt: float, method: str) ->
 
 
 def validate_run(scene, paths, seed, dt, method, threads):
-    """Check simulate's arguments; return them normalised (seed drawn if None)."""
+    """Check simulate's arguments; return them normalised (seed drawn if None), and the
+    graded grid's ``min_steps`` (``DEFAULT_MIN_STEPS`` with the default dt, else 0)."""
     if not isinstance(scene, Scene):
         raise ValueError(f"scene must be a crandall.Scene, got {type(scene).__name__}")
-    paths = _check_int("paths", paths, 1)
+    paths = _check_int("paths", paths, 1, MAX_PATHS)
     if seed is None:
         # Recorded on the result so the run can be repeated.
         seed = int(np.random.SeedSequence().entropy % (1 << 64))
     seed = _check_int("seed", seed, 0, (1 << 64) - 1)
+    min_steps = 0
     if dt is None:
         dt = default_dt(scene)
+        min_steps = DEFAULT_MIN_STEPS
+        if not (math.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt: the scene's default step {dt!r} is not a usable number "
+                             "(times or t0 out of range); give dt")
     else:
         if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
             raise ValueError(f"dt must be a number, got {dt!r}")
@@ -109,21 +210,31 @@ def validate_run(scene, paths, seed, dt, method, threads):
     if threads is None:
         threads = os.cpu_count() or 1
     threads = _check_int("threads", threads, 1, 1024)
-    _check_memory(scene, threads)
-    return paths, seed, dt, method, threads
+    _check_memory(scene, threads, method)
+    return paths, seed, dt, method, threads, min_steps
 
 
-def _plan_from_fields(scene_dict, paths, seed, dt, method):
-    return make_plan(Scene.from_dict(scene_dict), paths=paths, seed=seed, dt=dt, method=method)
+def _check_client(client) -> None:
+    if client is None:
+        return
+    for attr in ("submit", "nthreads", "cancel"):
+        if not callable(getattr(client, attr, None)):
+            raise ValueError(f"client must be a distributed.Client (or None), got {client!r}: "
+                             f"it has no {attr}()")
 
 
-def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads):
+def _plan_from_fields(scene_dict, paths, seed, dt, method, min_steps=0):
+    return make_plan(Scene.from_dict(scene_dict), paths=paths, seed=seed, dt=dt, method=method,
+                     min_steps=min_steps)
+
+
+def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads, min_steps=0):
     """Chunks ``first..last-1`` of a run, as a list of ``(times, stop)`` accumulators.
 
     The task a Dask worker runs: plain data in, picklable accumulators out. The caller merges
     the lists of all tasks in chunk order, which makes the result bitwise that of a local run.
     """
-    plan = _plan_from_fields(scene_dict, paths, seed, dt, method)
+    plan = _plan_from_fields(scene_dict, paths, seed, dt, method, min_steps)
     out = []
     for chunk in range(first, last):
         part = _core.run_chunk(plan, chunk, threads)
@@ -159,14 +270,17 @@ def _progress_bar(progress, *, total: int, initial: int):
 class _Run:
     """One scene's run: the plan, the merge in chunk order, the checkpoint, the result."""
 
-    def __init__(self, scene, *, paths, seed, dt, method, threads, checkpoint):
+    def __init__(self, scene, *, paths, seed, dt, method, threads, checkpoint, min_steps=0):
         self.scene = scene
         self.paths, self.seed, self.dt, self.method, self.threads = paths, seed, dt, method, threads
-        self.plan = make_plan(scene, paths=paths, seed=seed, dt=dt, method=method)
+        self.min_steps = min_steps
+        self.plan = make_plan(scene, paths=paths, seed=seed, dt=dt, method=method,
+                              min_steps=min_steps)
         self.checkpoint = checkpoint
         self.done, self.times_acc, self.stop_acc = 0, None, None
         if checkpoint is not None:
-            self.ident = _ckpt.identity(scene, paths=paths, seed=seed, dt=dt, method=method)
+            self.ident = _ckpt.identity(scene, paths=paths, seed=seed, dt=dt, method=method,
+                                        min_steps=min_steps)
             self.done, self.times_acc, self.stop_acc = _ckpt.load(checkpoint, self.ident,
                                                                  self.plan.chunks)
 
@@ -195,10 +309,38 @@ class _Run:
         return (self.scene.to_dict(), self.paths, self.seed, self.dt, self.method)
 
     def result(self):
+        self._check_finite()
         return Result(scene=self.scene, paths=self.paths, seed=self.seed, dt=self.dt,
                       method=self.method, moments=self.times_acc,
                       stop_moments=self.stop_acc if "stop" in self.scene.observe else None,
-                      steps_per_path=self.plan.steps_per_path)
+                      steps_per_path=self.plan.steps_per_path, min_steps=self.min_steps)
+
+    def _check_finite(self):
+        # Means and variances must be numbers; only fourth moments may overflow (var_stderr
+        # then says so). Non-finite values come from scenes whose values exceed doubles.
+        obs = set(self.scene.observe)
+        integrals = [v for v, names in ((1, {"displacement"}),
+                                        (2, {"distance", "dissipated_energy"})) if names & obs]
+        at_times = ([0] if obs & {"velocity", "kinetic_energy"} else []) + integrals
+        at_stop = [0] + integrals  # the stop time, and the integrals at the stop
+        exps = _core.monomial_exponents()
+        for acc, variables, what in ((self.times_acc, at_times, "at the output times"),
+                                     (self.stop_acc if "stop" in obs else None, at_stop,
+                                      "at the stop")):
+            if acc is None or acc.slots == 0 or not variables:
+                continue
+            second = [i for i, e in enumerate(exps)
+                      if sorted(e) == [0, 0, 2] and any(e[v] == 2 for v in variables)]
+            if not (np.isfinite(acc.means[:, variables]).all()
+                    and np.isfinite(acc.central[:, second]).all()):
+                names = ("mu, h, g, t0, times" if self.scene.units == "SI" else "tau0, times")
+                if what == "at the stop":
+                    names = "observe, " + names
+                raise ValueError(f"{names}: this scene's means or variances {what} are not "
+                                 "finite numbers (its values exceed the range of doubles, or "
+                                 "the computation failed); choose units or times in which "
+                                 "they are nearer 1" + (", or leave 'stop' out of observe"
+                                                        if what == "at the stop" else ""))
 
 
 def _client_threads(client) -> int:
@@ -217,7 +359,8 @@ def _run_distributed(runs, client, threads, bar):
     pending = []  # (run index, first, last, future)
     for i, run in enumerate(runs):
         for first, last in run.ranges(tasks):
-            fut = client.submit(run_chunks, *run.task_args(), first, last, per_task, pure=False)
+            fut = client.submit(run_chunks, *run.task_args(), first, last, per_task,
+                                run.min_steps, pure=False)
             pending.append((i, first, last, fut))
     by_future = {fut: (i, first, last) for i, first, last, fut in pending}
     waiting = [dict() for _ in runs]  # per run: first chunk -> (last, parts)
@@ -266,7 +409,8 @@ def simulate(
     scene : Scene
         What to simulate (physical or scaled units).
     paths : int
-        Number of independent paths, >= 1. Memory does not grow with it.
+        Number of independent paths, 1 <= paths <= ``MAX_PATHS`` (2**63). Memory does not grow
+        with it. Variances need at least 2 (see :class:`Result`).
     seed : int, optional
         0 <= seed < 2**64. The result is a pure function of (seed, scene, paths, dt, method,
         crandall version): bitwise the same for any ``threads``, checkpointed or not, local or
@@ -276,7 +420,11 @@ def simulate(
         Longest internal step, in the scene's time units, used where a time integral
         (displacement, distance, dissipated energy) is observed, and always by "euler". The
         exact method needs no internal step for velocity, kinetic energy and the stop: it steps
-        from one output time to the next. Default: :func:`default_dt`.
+        from one output time to the next. Default: :func:`default_dt`, on a graded grid: the
+        step before each output time or the switch-off t is also at most
+        ``t / DEFAULT_MIN_STEPS`` (``crandall.methods``), so that every output time and the
+        switch-off are resolved to the default method's documented accuracy whatever the
+        scene's units and horizon. An explicit dt gives a uniform grid of steps <= dt.
     method : str
         One of ``crandall.METHODS`` (see ``crandall.methods``); default ``DEFAULT_METHOD``.
     threads : int, optional
@@ -303,8 +451,10 @@ def simulate(
     Raises
     ------
     ValueError
-        On any bad argument (the message names it). KeyboardInterrupt (Ctrl-C) stops the run
-        within a fraction of a second.
+        On any bad argument (the message names it); when the output times' accumulators would
+        not fit in the memory this process may still allocate (free memory, its rlimits and
+        its memory cgroup), before allocating them; when a scene's values overflow doubles.
+        KeyboardInterrupt (Ctrl-C) stops the run within a fraction of a second.
 
     See Also
     --------
@@ -316,9 +466,11 @@ def simulate(
         if seed is None:
             seed = _ckpt.stored_seed(checkpoint)
     task_threads = threads
-    paths, seed, dt, method, threads = validate_run(scene, paths, seed, dt, method, threads)
+    _check_client(client)
+    paths, seed, dt, method, threads, min_steps = validate_run(scene, paths, seed, dt, method,
+                                                               threads)
     run = _Run(scene, paths=paths, seed=seed, dt=dt, method=method, threads=threads,
-               checkpoint=checkpoint)
+               checkpoint=checkpoint, min_steps=min_steps)
     bar = None
     if run.done < run.plan.chunks:
         bar = _progress_bar(progress, total=paths, initial=run.paths_in(0, run.done))
@@ -391,13 +543,15 @@ def simulate_many(
             stored = [_ckpt.stored_seed(f) for f in files]
             seed = next((x for x in stored if x is not None), None)
     task_threads = threads
+    _check_client(client)
     runs = []
     for i, scene in enumerate(scenes):
         if not isinstance(scene, Scene):
             raise ValueError(f"scenes[{i}] must be a crandall.Scene, got {type(scene).__name__}")
-        p, s, d, m, t = validate_run(scene, paths, seed, dt, method, threads)
+        p, s, d, m, t, n = validate_run(scene, paths, seed, dt, method, threads)
         seed = s  # a drawn seed is shared by the following scenes
-        runs.append(_Run(scene, paths=p, seed=s, dt=d, method=m, threads=t, checkpoint=files[i]))
+        runs.append(_Run(scene, paths=p, seed=s, dt=d, method=m, threads=t, checkpoint=files[i],
+                         min_steps=n))
     bar = _progress_bar(progress, total=sum(r.paths for r in runs),
                         initial=sum(r.paths_in(0, r.done) for r in runs))
     try:

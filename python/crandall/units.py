@@ -15,12 +15,17 @@ Energies per unit mass: kinetic ``V^2/2 = velocity_scale^2 * U1^2/2`` and dissip
 ``mu g S = 2 velocity_scale^2 * U3`` (eq4).
 
 The scaling is singular when ``mu == 0`` (no friction) or ``h == 0`` (no excitation); those
-scenes have no scaled form and these functions raise ``ValueError`` for them.
+scenes have no scaled form and these functions raise ``ValueError`` for them. The scales are
+computed from the ratio ``h / (mu g)`` (no intermediate power of h or mu g that could overflow
+while the scale itself fits), and a ``Scaling`` whose time, velocity, length or energy scale
+is not a finite, normal double (e.g. ``mu = 1e-300, h = 1``: a time scale of 1e598 s) is
+refused with a ``ValueError`` naming mu, h and g.
 """
 
 from __future__ import annotations
 
 import math
+import sys
 from dataclasses import dataclass
 
 __all__ = ["Scaling"]
@@ -56,31 +61,51 @@ class Scaling:
     def __post_init__(self) -> None:
         for name in ("mu", "h", "g"):
             object.__setattr__(self, name, _check_positive_finite(name, getattr(self, name)))
+        bad = [name for name in ("deceleration", "time_scale", "velocity_scale", "length_scale",
+                                 "energy_scale")
+               if not sys.float_info.min <= getattr(self, name) <= sys.float_info.max]
+        if bad:
+            raise ValueError(
+                f"mu, h, g: the scaled units of eq8 do not fit in doubles for mu={self.mu!r}, "
+                f"h={self.h!r}, g={self.g!r} ({', '.join(bad)} outside the range of "
+                "normal doubles); "
+                "choose units in which h / (mu g) is nearer 1"
+            )
+
+    @property
+    def _ratio(self) -> float:
+        # h / (mu g), the scale every other one is built from: m s^-3/2 / (m s^-2) = s^1/2.
+        return self.h / self.mu / self.g
 
     @property
     def deceleration(self) -> float:
         """Friction deceleration mu g, m s^-2."""
         return self.mu * self.g
 
+    # Products, not powers: a float product overflows to inf (checked in __post_init__),
+    # where ``**`` raises OverflowError.
     @property
     def time_scale(self) -> float:
         """Seconds per unit of scaled time tau: 2 h^2 / (mu g)^2."""
-        return 2.0 * (self.h / self.deceleration) ** 2
+        r = self._ratio
+        return 2.0 * r * r
 
     @property
     def velocity_scale(self) -> float:
         """m/s per unit of scaled velocity U1: h^2 / (mu g)."""
-        return self.h**2 / self.deceleration
+        return self.h * self._ratio
 
     @property
     def length_scale(self) -> float:
         """Metres per unit of scaled displacement U2 or distance U3: 2 h^4 / (mu g)^3."""
-        return 2.0 * self.h**4 / self.deceleration**3
+        r = self._ratio
+        return 2.0 * (self.h * r) * r * r
 
     @property
     def energy_scale(self) -> float:
         """J/kg per unit of U1^2 (kinetic energy per unit mass is energy_scale * U1^2 / 2)."""
-        return self.velocity_scale**2
+        v = self.velocity_scale
+        return v * v
 
     def to_tau(self, t):
         """Physical time t (s) to scaled time tau."""

@@ -35,6 +35,11 @@ struct Options {
   double switch_off = std::numeric_limits<double>::infinity();  // t0; may be +inf
   std::vector<double> times;  // output times, strictly increasing, >= 0
   double dt = 0.01;           // longest internal step where integrals are observed
+  // Graded grid: in the segment that ends at time t (an output time or the switch-off) the step
+  // is also at most t / min_steps, so every output time and the switch-off are reached in at
+  // least min_steps steps, whatever dt, while a tiny first output time does not force tiny
+  // steps on the rest of the path. 0: off (steps of at most dt only).
+  std::uint64_t min_steps = 0;
   Method method = Method::exact;
   bool velocity = true;
   bool displacement = false;

@@ -1,0 +1,101 @@
+// The graded grid (Options::min_steps): every output time and the switch-off are reached in at
+// least min_steps steps, and the longest step is still dt where that is finer.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+#include "crandall/plan.hpp"
+
+namespace {
+
+crandall::Options integrals(std::vector<double> times, double dt, std::uint64_t min_steps) {
+  crandall::Options o;
+  o.times = std::move(times);
+  o.dt = dt;
+  o.min_steps = min_steps;
+  o.distance = true;
+  return o;
+}
+
+TEST(GradedGrid, OffKeepsTheUniformGrid) {
+  const crandall::Plan plan(integrals({0.05, 0.1, 1.0}, 0.5, 0));
+  // One step to 0.05, one to 0.1, two to 1.0: dt alone sets the grid.
+  EXPECT_EQ(plan.steps_per_path(), 4u);
+}
+
+TEST(GradedGrid, EveryOutputTimeGetsAtLeastMinSteps) {
+  const crandall::Plan plan(integrals({0.05, 0.1, 1.0}, 0.5, 64));
+  const auto& seg = plan.segments();
+  ASSERT_EQ(seg.size(), 3u);
+  double t = 0.0;
+  std::uint64_t before = 0;
+  const double ends[] = {0.05, 0.1, 1.0};
+  for (std::size_t i = 0; i < seg.size(); ++i) {
+    before += seg[i].steps;
+    t += seg[i].h * static_cast<double>(seg[i].steps);
+    EXPECT_NEAR(t, ends[i], 1e-12);
+    EXPECT_GE(before, 64u) << "output " << i;
+    // The step of a segment is at most its end over min_steps (up to rounding).
+    EXPECT_LE(seg[i].h, ends[i] / 64 * (1 + 1e-12));
+  }
+  // Graded, not uniform: 64 steps to 0.05, steps of 0.1/64 to 0.1, then of 1/64 to 1.
+  EXPECT_EQ(seg[0].steps, 64u);
+  EXPECT_EQ(seg[1].steps, 32u);
+  EXPECT_EQ(seg[2].steps, 58u);
+}
+
+TEST(GradedGrid, DtStillBoundsTheStep) {
+  const crandall::Plan plan(integrals({10.0}, 0.01, 8));
+  EXPECT_EQ(plan.steps_per_path(), 1000u);
+}
+
+TEST(GradedGrid, SwitchOffIsResolvedToo) {
+  crandall::Options o = integrals({1e-6, 3.0}, 0.01, 16);
+  o.switch_off = 1e-3;
+  o.stop = true;
+  const crandall::Plan plan(o);
+  const auto& seg = plan.segments();
+  ASSERT_EQ(seg.size(), 2u);  // to 1e-6, then to the switch-off; 3.0 is in closed form
+  EXPECT_EQ(seg[0].steps, 16u);
+  EXPECT_GE(seg[0].steps + seg[1].steps, 16u);
+  EXPECT_LE(seg[1].h, 1e-3 / 16 * (1 + 1e-12));
+}
+
+TEST(GradedGrid, ScaleFreeInTime) {
+  // The same scene in other time units has the same step counts: 64 steps to 0.5, then dt
+  // (finer than 1/64) to 1.
+  for (double unit : {1e-300, 1e-12, 1.0, 1e12, 1e290}) {
+    const crandall::Plan plan(integrals({0.5 * unit, 1.0 * unit}, 0.01 * unit, 64));
+    EXPECT_EQ(plan.segments()[0].steps, 64u) << unit;
+    EXPECT_EQ(plan.segments()[1].steps, 50u) << unit;
+  }
+}
+
+TEST(GradedGrid, RichardsonGroupsStayWhole) {
+  crandall::Options o = integrals({1e-3, 1.0}, 0.01, 10);
+  o.method = crandall::Method::richardson;
+  const crandall::Plan plan(o);
+  for (const auto& s : plan.segments()) EXPECT_EQ(s.steps % 4, 0u);
+  EXPECT_GE(plan.segments()[0].steps, 10u);
+}
+
+TEST(GradedGrid, VelocityOnlyStillJumps) {
+  crandall::Options o;
+  o.times = {1e-9, 1.0};
+  o.min_steps = 64;
+  EXPECT_EQ(crandall::Plan(o).steps_per_path(), 2u);  // the exact step needs no grid
+}
+
+TEST(GradedGrid, SubnormalTimes) {
+  const crandall::Plan plan(integrals({5e-324, 1e-310}, 1.0, 64));
+  EXPECT_EQ(plan.segments()[0].steps, 64u);
+  EXPECT_GE(plan.segments()[0].steps + plan.segments()[1].steps, 64u);
+}
+
+TEST(GradedGrid, AbsurdMinStepsIsRefused) {
+  EXPECT_THROW(crandall::Plan(integrals({1.0}, 0.1, std::uint64_t{1} << 40)),
+               std::invalid_argument);
+}
+
+}  // namespace
