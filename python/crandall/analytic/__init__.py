@@ -135,7 +135,7 @@ def distance_mean(tau, tau0=np.inf):
     on = t <= t0
     out[on] = _distance_mean_on(t[on])
     if np.any(~on):
-        tt = t[~on]
-        h = _so.coast_velocity_second_moment(tt, t0)
-        out[~on] = distance_at_stop_mean(t0) - 0.25 * np.asarray(h)
+        # E U3(tau0) + E[a delta' - delta'^2]: a sum of non-negative terms (a form
+        # t0/2 - H/4 would cancel catastrophically just after the switch-off)
+        out[~on] = _distance_mean_on(np.array([t0]))[0] + _so.coast_distance_increment(t[~on], t0)
     return scalar_or_array(out)

@@ -87,10 +87,21 @@ def distance_second_moment(tau, tau0=np.inf):
     Laplace transform of eq10pp has it (docs/analytic.md, "Correction to eq10u").
 
     Parameters, returns and accuracy as :func:`displacement_var`; scaled units of U3^2.
+    tau above 2 sqrt(DBL_MAX) ~ 2.7e154, where the value overflows a double, raises ValueError.
     """
     t = as_time(tau)
     only_before_switch_off(t, as_tau0(tau0), "distance_second_moment")
+    if np.any(t > _M002_TAU_MAX):
+        raise ValueError(
+            f"tau must be <= {_M002_TAU_MAX:.4g} for distance_second_moment: E[U3^2] ~ tau^2/4 "
+            f"is beyond the range of a double, got {float(t.max())!r} (distance_var stays finite)"
+        )
     return scalar_or_array(_data.M002(t, SWITCH))
+
+
+# E[U3^2] = tau^2/4 + tau/8 - 11/32 + (exponentially small): the largest tau whose value is a
+# finite double (the Horner sum itself overflows a little earlier than tau^2/4 = DBL_MAX).
+_M002_TAU_MAX = 2.0 * math.sqrt(np.finfo(float).max) * (1 - 1e-12)
 
 
 def distance_var(tau, tau0=np.inf):

@@ -19,6 +19,7 @@ from ._check import as_time, as_tau0, scalar_or_array
 from .noise_on import SWITCH, velocity_pdf
 
 __all__ = [
+    "coast_distance_increment",
     "coast_velocity_second_moment",
     "displacement_at_stop_var",
     "distance_at_stop_mean",
@@ -67,32 +68,56 @@ def _scaled_ierfc(v):
 
 
 def _coast_h(c, tau0):
-    """H(c) = E[(|U1(tau0)| - c)_+^2], c >= 0, tau0 > 0 (arrays, broadcast).
+    """H(c) = E[(|U1(tau0)| - c)_+^2], c >= 0 (array), tau0 > 0 (float).
 
-    With N ~ Normal(-2 tau0, 2 tau0), S(y) = P(|U1(tau0)| > y) = P(N > y)
-    + e^(-2y) erfc((y - 2 tau0)/(2 sqrt tau0)) / 2, and H(c) = int_c^inf 2 (y - c) S(y) dy
-    = E[(N - c)_+^2] - E[(N - c)_+] - P(N > c)/2 + e^(-2c) erfc(w)/4,
-    E[(N - c)_+^n] = (2 sqrt tau0)^n n! i^n erfc(v) / 2,
-    v = (c + 2 tau0)/(2 sqrt tau0), w = (c - 2 tau0)/(2 sqrt tau0).
+    With S(y) = P(|U1(tau0)| > y) = [erfc(v_y) + e^(-2y) erfc(w_y)] / 2,
+    v_y = (y + 2 tau0)/(2 sqrt tau0), w_y = (y - 2 tau0)/(2 sqrt tau0), and H(c) =
+    int_c^inf 2 (y - c) S(y) dy:
+
+        H(c) = 4 tau0 i^2erfc(v) - sqrt(tau0) i^1erfc(v) - erfc(v)/4 + e^(-2c) erfc(w)/4
+
+    at v = v_c, w = w_c. Regimes (docs/analytic.md, "Evaluating the coast"):
+
+    * H <= 4 tau0 exp(-w^2) for w >= 0 (both halves of S are below erfc(w_y)), so where
+      that bound is below the smallest double H is 0;
+    * exp(-v^2) underflows for v > 27.3 and with it every i^n erfc(v) term (each is at most
+      tau0 / v^3, v >= sqrt(tau0)): only e^(-2c) erfc(w)/4 is left;
+    * tau0 < 0.05: the O(1) and O(sqrt tau0) terms cancel twice (H = O(tau0)), relative
+      loss ~ 1/tau0: the same formula in mpmath with log10(1/tau0) + 30 digits.
     """
-    c, t = np.broadcast_arrays(np.asarray(c, float), np.asarray(tau0, float))
-    c, t = np.atleast_1d(c).astype(float), np.atleast_1d(t).astype(float)
-    rt = np.sqrt(t)
-    v = (c + 2 * t) / (2 * rt)
+    c = np.atleast_1d(np.asarray(c, dtype=float))
+    t = float(tau0)
+    rt = math.sqrt(t)
+    out = np.zeros(c.shape)
     w = (c - 2 * t) / (2 * rt)
-    J0, J1, J2 = _scaled_ierfc(v)
-    bracket = 4 * t * J2 - rt * J1 - J0 / 4
-    out = np.empty(c.shape)
-    pos = w >= 0
-    # 2c + w^2 = v^2: for w >= 0 both pieces share the factor exp(-v^2)
-    out[pos] = np.exp(-v[pos] ** 2) * (bracket[pos] + erfcx(w[pos]) / 4)
-    neg = ~pos
-    out[neg] = np.exp(-v[neg] ** 2) * bracket[neg] + np.exp(-2 * c[neg]) * erfc(w[neg]) / 4
-    # For small tau0 the O(1) and O(sqrt tau0) terms cancel twice (H = O(tau0)): relative loss
-    # ~ 1/tau0 in double. There the same formula is evaluated in 40-digit arithmetic.
-    tiny = t < _MP_BELOW
-    for i in np.flatnonzero(tiny):
-        out.flat[i] = _coast_h_mp(float(c.flat[i]), float(t.flat[i]))
+    v = (c + 2 * t) / (2 * rt)
+    live = ~((w > 0) & (w * w > 745.0 + math.log(4 * t)))
+    if t < _MP_BELOW:
+        for i in np.flatnonzero(live):
+            out.flat[i] = _coast_h_mp(float(c.flat[i]), t)
+        return np.maximum(out, 0.0)
+    vv = live & (v < 27.3)
+    if np.any(vv):
+        J0, J1, J2 = _scaled_ierfc(v[vv])
+        bracket = 4 * t * J2 - rt * J1 - J0 / 4
+        ev = np.exp(-v[vv] ** 2)
+        wv = w[vv]
+        pos = wv >= 0
+        part = np.empty(wv.shape)
+        # 2c + w^2 = v^2: for w >= 0 both pieces share the factor exp(-v^2)
+        part[pos] = ev[pos] * (bracket[pos] + erfcx(wv[pos]) / 4)
+        neg = ~pos
+        part[neg] = ev[neg] * bracket[neg] + np.exp(-2 * c[vv][neg]) * erfc(wv[neg]) / 4
+        out[vv] = part
+    rest = live & ~vv
+    if np.any(rest):
+        wr = w[rest]
+        # exp(-2c) erfc(w) = exp(-v^2) erfcx(w) for w >= 0: both factors stay in range
+        out[rest] = np.where(
+            wr >= 0,
+            np.exp(-np.minimum(v[rest], 1e154) ** 2) * erfcx(np.maximum(wr, 0)) / 4,
+            np.exp(-2 * c[rest]) * erfc(np.minimum(wr, 0)) / 4,
+        )
     return np.maximum(out, 0.0)
 
 
@@ -100,7 +125,10 @@ _MP_BELOW = 0.05
 
 
 def _coast_h_mp(c, t):
-    ctx = _MP
+    import mpmath
+
+    ctx = mpmath.MPContext()
+    ctx.dps = 30 + math.ceil(-math.log10(t))
     c = ctx.mpf(c)
     t = ctx.mpf(t)
     rt = ctx.sqrt(t)
@@ -109,18 +137,51 @@ def _coast_h_mp(c, t):
     i0 = ctx.erfc(v)
     i1 = ctx.exp(-v * v) / ctx.sqrt(ctx.pi) - v * i0
     i2 = (i0 - 2 * v * i1) / 4
-    return float(4 * t * i2 - rt * i1 - i0 / 4 + ctx.exp(-2 * c) * ctx.erfc(w) / 4)
+    h = 4 * t * i2 - rt * i1 - i0 / 4 + ctx.exp(-2 * c) * ctx.erfc(w) / 4
+    return float(h) if h > ctx.mpf("1e-320") else 0.0
 
 
-def _mp_context():
-    import mpmath
-
-    ctx = mpmath.MPContext()
-    ctx.dps = 40
-    return ctx
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(24)
 
 
-_MP = _mp_context()
+def _abs_cdf(y, t):
+    """P(|U1(t)| <= y), y >= 0, t > 0 (absolute error ~1e-16: used where that suffices)."""
+    rt = math.sqrt(t)
+    v = (y + 2 * t) / (2 * rt)
+    w = (y - 2 * t) / (2 * rt)
+    return 1.0 - 0.5 * (erfc(v) + np.exp(-2 * y) * erfc(w))
+
+
+def _coast_k(delta, tau0):
+    """K(delta) = E[U3(tau0 + delta)] - E[U3(tau0)] = E[a delta' - delta'^2],
+    a = |U1(tau0)|, delta' = min(delta, a/2); delta >= 0 (array), tau0 > 0.
+
+    Two exact forms, each used where it does not cancel:
+
+    * K = (E a^2 - H(2 delta)) / 4, for delta > E a / 4 (then K >= E a^2 / 16 roughly, the
+      difference loses at most a digit);
+    * K = delta E a - delta^2 + int_0^(2 delta) P(a <= y) (delta - y/2) dy, for delta <= E a / 4
+      (d^2K/d delta^2 = -2 P(a > 2 delta)): a sum of non-negative terms with the first
+      dominant; the integral, at most 3 % of K, by 24-point Gauss-Legendre.
+    """
+    d = np.atleast_1d(np.asarray(delta, dtype=float))
+    t = float(tau0)
+    ea = float(_data.S100(np.array([t]), SWITCH)[0])
+    ea2 = float(_data.M200(np.array([t]), SWITCH)[0])
+    out = np.empty(d.shape)
+    big = d > ea / 4
+    if np.any(big):
+        out[big] = (ea2 - _coast_h(2 * d[big], t)) / 4
+    small = ~big
+    for i in np.flatnonzero(small):
+        di = float(d.flat[i])
+        if di == 0.0:
+            out.flat[i] = 0.0
+            continue
+        y = di * (1 + _GL_X)  # nodes on [0, 2 delta]
+        r = di * float(np.sum(_GL_W * _abs_cdf(y, t) * (di - y / 2)))
+        out.flat[i] = di * ea - di * di + r
+    return np.maximum(out, 0.0)
 
 
 def coast_velocity_second_moment(tau, tau0):
@@ -132,7 +193,24 @@ def coast_velocity_second_moment(tau, tau0):
     t0 = as_tau0(tau0)
     if t0 == 0:
         return scalar_or_array(np.zeros_like(t))
-    return scalar_or_array(_coast_h(2 * (t - t0), t0))
+    return scalar_or_array(_coast_h(_coast_c(t, t0), t0))
+
+
+def _coast_c(t, t0):
+    """c = 2 (tau - tau0), finite even where tau - tau0 overflows (|tau|, tau0 near 1e308)."""
+    with np.errstate(over="ignore"):
+        c = 2 * (t - t0)
+    return np.where(np.isfinite(c), c, np.finfo(float).max)
+
+
+def coast_distance_increment(tau, tau0):
+    """E[U3(tau)] - E[U3(tau0)] for tau > tau0 (noise off); see
+    :func:`crandall.analytic.distance_mean`."""
+    t = as_time(tau)
+    t0 = as_tau0(tau0)
+    if t0 == 0:
+        return scalar_or_array(np.zeros_like(t))
+    return scalar_or_array(_coast_k(_coast_c(t, t0) / 2, t0))
 
 
 def _tau0_array(tau0, positive=False):
