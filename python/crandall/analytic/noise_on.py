@@ -12,7 +12,7 @@ import numpy as np
 from scipy.special import erfc, erfcx
 
 from . import _data
-from ._check import as_time, as_tau0, only_before_switch_off, scalar_or_array
+from ._check import as_real, as_time, as_tau0, only_before_switch_off, scalar_or_array
 
 __all__ = [
     "displacement_var",
@@ -165,13 +165,16 @@ _LOG_4PI = math.log(4 * math.pi)
 
 
 def _pdf_parts(y, tau):
-    y = np.asarray(y, dtype=float)
+    y = as_real(y, "y")
     if np.any(np.isnan(y)):
         raise ValueError("y must not be NaN")
     if np.any(np.isinf(y)):
         raise ValueError("y must be finite")
     t = as_time(tau, allow_zero=False)
-    ay, t = np.broadcast_arrays(np.abs(y), t)
+    try:
+        ay, t = np.broadcast_arrays(np.abs(y), t)
+    except ValueError as exc:
+        raise ValueError(f"y and tau must broadcast together, got shapes {y.shape} and {t.shape}") from exc
     ay = ay.astype(float)
     rt = np.sqrt(t)
     x = (ay - 2 * t) / (2 * rt)

@@ -15,7 +15,7 @@ import numpy as np
 from scipy.special import erfc, erfcx
 
 from . import _data
-from ._check import as_time, as_tau0, scalar_or_array
+from ._check import as_real, as_time, as_tau0, scalar_or_array
 from .noise_on import SWITCH, velocity_pdf
 
 __all__ = [
@@ -282,11 +282,14 @@ def stop_time_pdf(t, tau0):
     float or ndarray
         Density in 1 / (scaled time); accuracy as :func:`velocity_pdf`.
     """
-    t = np.asarray(t, dtype=float)
+    t = as_real(t, "t")
     if np.any(np.isnan(t)) or np.any(np.isinf(t)):
         raise ValueError("t must be finite and not NaN")
     t0 = as_time(tau0, "tau0", allow_zero=False)
-    t, t0 = np.broadcast_arrays(t, t0)
+    try:
+        t, t0 = np.broadcast_arrays(t, t0)
+    except ValueError as exc:
+        raise ValueError(f"t and tau0 must broadcast together, got shapes {t.shape} and {t0.shape}") from exc
     y = np.where(t >= t0, 2 * (t - t0), 0.0)
     out = np.where(t >= t0, 4 * velocity_pdf(y, t0), 0.0)
     return scalar_or_array(out)
