@@ -89,9 +89,10 @@ def _coast_h(c, tau0):
     t = float(tau0)
     rt = math.sqrt(t)
     out = np.zeros(c.shape)
-    w = (c - 2 * t) / (2 * rt)
-    v = (c + 2 * t) / (2 * rt)
-    live = ~((w > 0) & (w * w > 745.0 + math.log(4 * t)))
+    with np.errstate(over="ignore"):  # c / sqrt(tau0) -> inf is cut by `live` below
+        w = (c - 2 * t) / (2 * rt)
+        v = (c + 2 * t) / (2 * rt)
+        live = ~((w > 0) & (w * w > 745.0 + math.log(4 * t)))
     if t < _MP_BELOW:
         for i in np.flatnonzero(live):
             out.flat[i] = _coast_h_mp(float(c.flat[i]), t)
