@@ -177,8 +177,16 @@ def _pdf_parts(y, tau):
         raise ValueError(f"y and tau must broadcast together, got shapes {y.shape} and {t.shape}") from exc
     ay = ay.astype(float)
     rt = np.sqrt(t)
-    x = (ay - 2 * t) / (2 * rt)
+    with np.errstate(over="ignore"):  # |y| / sqrt(tau) -> inf: the density is 0 there
+        x = ay / (2 * rt) - rt  # (|y| - 2 tau) / (2 sqrt tau), without forming 2 tau
     return ay, t, x
+
+
+def _v_squared(ay, t, x):
+    """(|y| + 2 tau)^2 / (4 tau) = y^2/(4 tau) + |y| + tau, as (x + 2 sqrt tau)^2 (inf where it
+    overflows, the density being 0 there)."""
+    with np.errstate(over="ignore"):
+        return (x + 2 * np.sqrt(t)) ** 2
 
 
 def velocity_logpdf(y, tau):
@@ -191,13 +199,19 @@ def velocity_logpdf(y, tau):
     out = np.empty(ay.shape)
     g0 = -0.5 * (_LOG_4PI + np.log(t))  # log of (4 pi tau)^-1/2
     pos = x >= 0
-    if np.any(pos):
-        e = ay[pos] ** 2 / (4 * t[pos]) + ay[pos] + t[pos]
-        out[pos] = -e + np.log(np.exp(g0[pos]) + 0.5 * erfcx(x[pos]))
-    neg = ~pos
-    if np.any(neg):
-        xn = x[neg]
-        out[neg] = -2 * ay[neg] + np.log(0.5 * erfc(xn) + np.exp(g0[neg] - xn * xn))
+    with np.errstate(over="ignore"):
+        if np.any(pos):
+            e = _v_squared(ay[pos], t[pos], x[pos])
+            out[pos] = -e + np.log(np.exp(g0[pos]) + 0.5 * erfcx(x[pos]))
+        neg = ~pos
+        if np.any(neg):
+            xn = x[neg]
+            out[neg] = -2 * ay[neg] + np.log(0.5 * erfc(xn) + np.exp(g0[neg] - xn * xn))
+    if not np.all(np.isfinite(out)):
+        raise ValueError(
+            "y, tau: the log-density is below -1.8e308 (beyond a double) where |y| / sqrt(tau) "
+            "or |y| exceed ~1e308"
+        )
     return scalar_or_array(out)
 
 
@@ -229,13 +243,14 @@ def velocity_pdf(y, tau):
     """
     ay, t, x = _pdf_parts(y, tau)
     out = np.empty(ay.shape)
-    c = 1.0 / np.sqrt(4 * math.pi * t)
+    c = 0.5 / (math.sqrt(math.pi) * np.sqrt(t))  # (4 pi tau)^-1/2 without forming 4 pi tau
     pos = x >= 0
-    if np.any(pos):
-        e = ay[pos] ** 2 / (4 * t[pos]) + ay[pos] + t[pos]
-        out[pos] = np.exp(-e) * (c[pos] + 0.5 * erfcx(x[pos]))
-    neg = ~pos
-    if np.any(neg):
-        xn = x[neg]
-        out[neg] = np.exp(-2 * ay[neg]) * (0.5 * erfc(xn) + c[neg] * np.exp(-xn * xn))
+    with np.errstate(over="ignore"):
+        if np.any(pos):
+            e = _v_squared(ay[pos], t[pos], x[pos])
+            out[pos] = np.exp(-e) * (c[pos] + 0.5 * erfcx(x[pos]))
+        neg = ~pos
+        if np.any(neg):
+            xn = x[neg]
+            out[neg] = np.exp(-2 * ay[neg]) * (0.5 * erfc(xn) + c[neg] * np.exp(-xn * xn))
     return scalar_or_array(out)
