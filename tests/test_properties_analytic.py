@@ -13,7 +13,7 @@ import re
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 import crandall.analytic as A
@@ -67,6 +67,9 @@ TAU_TAU0 = [A.velocity_var, A.distance_mean, A.displacement_var, A.distance_seco
 @pytest.mark.parametrize("func", TAU_TAU0, ids=[f.__name__ for f in TAU_TAU0])
 @SETTINGS
 @given(tau=anything, tau0=st.one_of(anything, st.just(np.inf)))
+@example(tau=1e100, tau0=5.0)  # NaN once (0 * inf in the coast)
+@example(tau=6.57e-39, tau0=1.9e-54)  # negative once (cancellation after a tiny switch-off)
+@example(tau=0.0, tau0=[0.0])
 def test_functions_of_tau(func, tau, tau0):
     r = _call(func, tau, tau0)
     if r is None:
@@ -79,7 +82,7 @@ def test_functions_of_tau(func, tau, tau0):
     if func is A.velocity_abs_mean:
         assert np.all(a <= 0.5)
     if func is A.distance_mean:  # E|U1| <= 1/2 while on, E U3(tau_s) = tau0/2 (eq7)
-        assert np.all(a <= np.minimum(t, float(tau0)) / 2 * (1 + 1e-14) + 1e-300)
+        assert np.all(a <= np.minimum(t, np.asarray(tau0, dtype=float)) / 2 * (1 + 1e-14) + 1e-300)
     if func is A.distance_second_moment:  # Jensen
         assert np.all(a >= A.distance_mean(tau) ** 2 * (1 - 1e-12))
 
@@ -91,6 +94,7 @@ TAU0_ONLY = [A.stop_time_mean, A.stop_time_var, A.distance_at_stop_mean, A.dista
 @pytest.mark.parametrize("func", TAU0_ONLY, ids=[f.__name__ for f in TAU0_ONLY])
 @SETTINGS
 @given(tau0=anything)
+@example(tau0=8.98846567431158e307)  # overflow warning once (K tau in the erfc forms)
 def test_functions_of_tau0(func, tau0):
     r = _call(func, tau0)
     if r is None:
@@ -110,6 +114,7 @@ def test_functions_of_tau0(func, tau0):
                          ids=["velocity_pdf", "velocity_logpdf", "stop_time_pdf"])
 @SETTINGS
 @given(x=anything, t=anything)
+@example(x=0.0, t=8.98846567431158e307)  # overflow once (2 (t - tau0), 4 pi tau)
 def test_densities(func, x, t):
     r = _call(func, x, t)
     if r is None:

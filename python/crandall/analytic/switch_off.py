@@ -291,8 +291,14 @@ def stop_time_pdf(t, tau0):
         t, t0 = np.broadcast_arrays(t, t0)
     except ValueError as exc:
         raise ValueError(f"t and tau0 must broadcast together, got shapes {t.shape} and {t0.shape}") from exc
-    y = np.where(t >= t0, 2 * (t - t0), 0.0)
-    out = np.where(t >= t0, 4 * velocity_pdf(y, t0), 0.0)
+    with np.errstate(over="ignore"):
+        y = np.where(t >= t0, 2 * (t - t0), 0.0)
+    # |U1(tau0)| = y beyond the largest double: the density is 0 to double precision there
+    finite = np.isfinite(y)
+    out = np.zeros(y.shape)
+    on = (t >= t0) & finite
+    if np.any(on):
+        out[on] = 4 * np.asarray(velocity_pdf(y[on], t0[on]))
     return scalar_or_array(out)
 
 
