@@ -26,6 +26,15 @@ from .noise_on import (
     velocity_pdf,
     velocity_var_noise_on as _velocity_var_on,
 )
+from .laws import (
+    stop_time_cdf,
+    stop_time_quantile,
+    stop_time_sf,
+    velocity_atom,
+    velocity_cdf,
+    velocity_quantile,
+    velocity_sf,
+)
 from .physical import physical
 from .switch_off import (
     displacement_at_stop_var,
@@ -48,12 +57,19 @@ __all__ = [
     "moment",
     "physical",
     "signed_moment",
+    "stop_time_cdf",
     "stop_time_mean",
     "stop_time_pdf",
+    "stop_time_quantile",
+    "stop_time_sf",
     "stop_time_var",
     "velocity_abs_mean",
+    "velocity_atom",
+    "velocity_cdf",
     "velocity_logpdf",
     "velocity_pdf",
+    "velocity_quantile",
+    "velocity_sf",
     "velocity_var",
 ]
 

@@ -164,7 +164,7 @@ def velocity_abs_mean(tau, tau0=np.inf):
 _LOG_4PI = math.log(4 * math.pi)
 
 
-def _pdf_parts(y, tau):
+def _pdf_parts(y, tau, tau0=np.inf):
     y = as_real(y, "y")
     if np.any(np.isnan(y)):
         raise ValueError("y must not be NaN")
@@ -176,6 +176,15 @@ def _pdf_parts(y, tau):
     except ValueError as exc:
         raise ValueError(f"y and tau must broadcast together, got shapes {y.shape} and {t.shape}") from exc
     ay = ay.astype(float)
+    t0 = as_tau0(tau0)
+    off = t > t0
+    if np.any(off):
+        if t0 == 0:
+            raise ValueError("tau0 = 0: no noise, U1 = 0 (an atom, no density) at every tau")
+        # coast: U1(tau) = sign(X) (|X| - 2 delta)_+, so |U1(tau)| = y > 0 iff |X| = y + 2 delta
+        with np.errstate(over="ignore"):
+            ay = np.where(off, ay + 2 * (t - t0), ay)
+        t = np.where(off, t0, t)
     rt = np.sqrt(t)
     with np.errstate(over="ignore"):  # |y| / sqrt(tau) -> inf: the density is 0 there
         x = ay / (2 * rt) - rt  # (|y| - 2 tau) / (2 sqrt tau), without forming 2 tau
@@ -189,13 +198,13 @@ def _v_squared(ay, t, x):
         return (x + 2 * np.sqrt(t)) ** 2
 
 
-def velocity_logpdf(y, tau):
+def velocity_logpdf(y, tau, tau0=np.inf):
     """Natural log of :func:`velocity_pdf`, finite wherever the density is positive (all y).
 
     Same parameters as :func:`velocity_pdf`. Use it where the density underflows (far tails
     at small tau). Absolute error below 1e-12 * max(1, |log f|).
     """
-    ay, t, x = _pdf_parts(y, tau)
+    ay, t, x = _pdf_parts(y, tau, tau0)
     out = np.empty(ay.shape)
     g0 = -0.5 * (_LOG_4PI + np.log(t))  # log of (4 pi tau)^-1/2
     pos = x >= 0
@@ -215,7 +224,7 @@ def velocity_logpdf(y, tau):
     return scalar_or_array(out)
 
 
-def velocity_pdf(y, tau):
+def velocity_pdf(y, tau, tau0=np.inf):
     """Density of the scaled velocity U1(tau) for a body at rest at tau = 0, tau <= tau0.
 
     .. math::
@@ -232,7 +241,13 @@ def velocity_pdf(y, tau):
     y : float or array_like
         Scaled velocity, finite; broadcast against tau.
     tau : float or array_like
-        Scaled time, 0 < tau (<= tau0), finite.
+        Scaled time, 0 < tau < inf.
+    tau0 : float, optional
+        Scaled switch-off time (default never). For tau > tau0 the law of U1(tau) is an atom
+        at 0 of mass :func:`velocity_atom` (the bodies that have stopped) plus the density
+        returned here, f(|y| + 2(tau - tau0), tau0) (the coast eq13a shifts |U1| down by
+        2(tau - tau0)); it integrates to 1 - velocity_atom. tau0 = 0 raises ValueError (no
+        density: U1 = 0).
 
     Returns
     -------
@@ -241,7 +256,7 @@ def velocity_pdf(y, tau):
         normal double (> 1e-300), for |y| <= 1e3 and 1e-8 <= tau <= 1e6; 0 where it underflows
         (use :func:`velocity_logpdf` there). Stationary limit e^-2|y|.
     """
-    ay, t, x = _pdf_parts(y, tau)
+    ay, t, x = _pdf_parts(y, tau, tau0)
     out = np.empty(ay.shape)
     c = 0.5 / (math.sqrt(math.pi) * np.sqrt(t))  # (4 pi tau)^-1/2 without forming 4 pi tau
     pos = x >= 0
