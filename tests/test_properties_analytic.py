@@ -168,3 +168,50 @@ def test_physical(name, t, mu, h, g, t0):
     a = _finite(r)
     if "var" in name or name.endswith("_mean"):
         assert np.all(a >= 0)
+
+
+LAWS = [A.velocity_cdf, A.velocity_sf, A.velocity_quantile]
+
+
+@pytest.mark.parametrize("func", LAWS, ids=[f.__name__ for f in LAWS])
+@SETTINGS
+@given(x=st.one_of(anything, st.floats(min_value=0, max_value=1)), tau=anything,
+       tau0=st.one_of(st.just(np.inf), anything))
+@example(x=0.0, tau=8.98846567431158e307, tau0=1.0)
+@example(x=0.0, tau=3.99583814440447e146, tau0=5e-324)
+def test_velocity_law(func, x, tau, tau0):
+    r = _call(func, x, tau, tau0)
+    if r is None:
+        return
+    a = _finite(r)
+    if func is not A.velocity_quantile:
+        assert np.all((a >= 0) & (a <= 1))
+
+
+@SETTINGS
+@given(tau=anything, tau0=st.one_of(st.just(np.inf), anything))
+def test_velocity_atom(tau, tau0):
+    r = _call(A.velocity_atom, tau, tau0)
+    if r is None:
+        return
+    a = _finite(r)
+    assert np.all((a >= 0) & (a <= 1))
+
+
+STOP_LAWS = [A.stop_time_cdf, A.stop_time_sf, A.stop_time_quantile]
+
+
+@pytest.mark.parametrize("func", STOP_LAWS, ids=[f.__name__ for f in STOP_LAWS])
+@SETTINGS
+@given(x=st.one_of(anything, st.floats(min_value=0, max_value=1)), tau0=anything)
+@example(x=8.98846567431158e307, tau0=1.0)
+@example(x=7.686876742965056e-272, tau0=7.686876742965056e-272)
+def test_stop_time_law(func, x, tau0):
+    r = _call(func, x, tau0)
+    if r is None:
+        return
+    a = _finite(r)
+    if func is A.stop_time_quantile:
+        assert np.all(a >= np.asarray(tau0, dtype=float))
+    else:
+        assert np.all((a >= 0) & (a <= 1))

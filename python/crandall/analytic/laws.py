@@ -45,11 +45,14 @@ def _log_s(y, t):
     """
     rt = math.sqrt(t)
     with np.errstate(over="ignore"):
-        w = y / (2 * rt) - rt
-        v = y / (2 * rt) + rt
-        if w < 0:
-            return -2 * y + math.log(0.5 * (erfc(w) + math.exp(-w * w) * erfcx(v)))
-        return -(v * v) + math.log(0.5 * (erfcx(v) + erfcx(w)))
+        w = float(np.float64(y) / (2 * rt) - rt)
+        v = float(np.float64(y) / (2 * rt) + rt)
+    if math.isinf(v):
+        return -math.inf  # |y| / sqrt(t) beyond the largest double: S underflows long before
+    if w < 0:
+        return -2 * y + math.log(0.5 * (erfc(w) + math.exp(-w * w) * erfcx(v)))
+    inner = 0.5 * (erfcx(v) + erfcx(w))
+    return -(v * v) + math.log(inner) if inner > 0 else -math.inf
 
 
 def _s(y, t):
@@ -79,8 +82,9 @@ def _s_inv(p, t):
     hi = _scale(t)
     while _log_s(hi, t) > lp:
         hi *= 2
+    # disp=False: where the root is below the smallest double, the best estimate (0) is right
     return brentq(lambda y: _log_s(y, t) - lp, 0.0, hi, xtol=hi * 1e-300 + 5e-324, rtol=1e-15,
-                  maxiter=500)
+                  maxiter=500, disp=False)
 
 
 def _f_inv(q, t):
@@ -89,7 +93,13 @@ def _f_inv(q, t):
     while _f_abs(hi, t) < q:
         hi *= 2
     return brentq(lambda y: _f_abs(y, t) - q, 0.0, hi, xtol=hi * 1e-300 + 5e-324, rtol=1e-15,
-                  maxiter=500)
+                  maxiter=500, disp=False)
+
+
+def _twice_gap(t, t0):
+    """2 (t - t0) as a float, inf where it overflows (the law is then at its limit)."""
+    with np.errstate(over="ignore"):
+        return float(2 * (np.float64(t) - np.float64(t0)))
 
 
 def _setup(x, name, tau, tau0):
@@ -116,7 +126,8 @@ def _tail(ay, t, t0):
         return _s(ay, t)
     if t0 == 0:
         return 0.0  # never any noise: at rest
-    shifted = ay + 2 * (t - t0)
+    with np.errstate(over="ignore"):
+        shifted = float(np.float64(ay) + _twice_gap(t, t0))
     return _s(shifted, t0) if math.isfinite(shifted) else 0.0
 
 
@@ -213,7 +224,7 @@ def velocity_atom(tau, tau0):
         elif ti <= t0:
             out.flat[i] = 0.0
         else:
-            c = 2 * (ti - t0)
+            c = _twice_gap(ti, t0)
             out.flat[i] = _f_abs(c, t0) if math.isfinite(c) else 1.0
     return scalar_or_array(out)
 
@@ -263,7 +274,7 @@ def velocity_quantile(q, tau, tau0=np.inf):
         if ti <= t0:
             out.flat[i] = sign * _s_inv(p, ti) if qi != 0.5 else 0.0
             continue
-        shift = 2 * (ti - t0)
+        shift = _twice_gap(ti, t0)
         if not math.isfinite(shift) or p >= _s(shift, t0):
             out.flat[i] = 0.0
         else:
@@ -311,7 +322,7 @@ def stop_time_cdf(t, tau0):
         elif t0i == 0:
             out.flat[i] = 1.0
         else:
-            c = 2 * (ti - t0i)
+            c = _twice_gap(ti, t0i)
             out.flat[i] = _f_abs(c, t0i) if math.isfinite(c) else 1.0
     return scalar_or_array(out)
 
@@ -340,7 +351,7 @@ def stop_time_sf(t, tau0):
         elif t0i == 0:
             out.flat[i] = 0.0
         else:
-            c = 2 * (ti - t0i)
+            c = _twice_gap(ti, t0i)
             out.flat[i] = _s(c, t0i) if math.isfinite(c) else 0.0
     return scalar_or_array(out)
 
