@@ -165,3 +165,44 @@ def test_law_inputs_refused_by_name():
             A.stop_time_quantile(q, 1.0)
     with pytest.raises(ValueError, match=r"\btau0\b"):
         A.velocity_pdf(0.1, 2.0, 0.0)
+
+
+# --- against simulation: the kernel's exact velocity step from rest ------------------------------
+# Kolmogorov-Smirnov at a fixed seed; the level of each test is 1e-3 (a correct CDF fails it
+# with probability 1e-3 for a random seed; the seed is fixed, so the outcome is reproducible).
+from scipy import stats  # noqa: E402
+
+from crandall import _core  # noqa: E402
+
+N_SIM = 20_000
+
+
+def _u1(tau, seed):
+    return _core.exact_steps(np.zeros(N_SIM), float(tau), 2.0, math.sqrt(2.0), seed)
+
+
+@pytest.mark.parametrize("tau", [0.05, 1.0, 4.0])
+def test_velocity_cdf_against_exact_steps(tau):
+    x = _u1(tau, 700 + int(100 * tau))
+    assert stats.kstest(x, lambda y: A.velocity_cdf(y, tau)).pvalue > 1e-3
+    # quantiles: the fraction of samples below the 5 % and 95 % quantiles, binomial 4.5 SE
+    for q in (0.05, 0.95):
+        frac = np.mean(x <= A.velocity_quantile(q, tau))
+        assert abs(frac - q) < 4.5 * math.sqrt(q * (1 - q) / N_SIM)
+
+
+@pytest.mark.parametrize("tau0,delta", [(0.3, 0.1), (2.0, 0.25)])
+def test_coast_law_and_stop_time_against_exact_steps(tau0, delta):
+    x = _u1(tau0, 900 + int(10 * tau0))
+    stop = tau0 + np.abs(x) / 2  # eq14
+    assert stats.kstest(stop, lambda t: A.stop_time_cdf(t, tau0)).pvalue > 1e-3
+    u = np.sign(x) * np.maximum(np.abs(x) - 2 * delta, 0.0)  # the coast, eq13a
+    atom = float(A.velocity_atom(tau0 + delta, tau0))
+    frac0 = np.mean(u == 0)
+    assert abs(frac0 - atom) < 4.5 * math.sqrt(atom * (1 - atom) / N_SIM)
+    moving = u[u != 0]
+    # conditional law of the moving part: (CDF - atom jump) / (1 - atom)
+    def cond_cdf(y):
+        c = A.velocity_cdf(y, tau0 + delta, tau0)
+        return np.where(y < 0, c, c - atom) / (1 - atom)
+    assert stats.kstest(moving, cond_cdf).pvalue > 1e-3
