@@ -10,6 +10,7 @@ docs/analytic.md, "After switch-off".
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 from scipy.special import erfc, erfcx
@@ -125,11 +126,18 @@ def _coast_h(c, tau0):
 _MP_BELOW = 0.05
 
 
-def _coast_h_mp(c, t):
+@lru_cache(maxsize=32)
+def _mp_ctx(dps):
     import mpmath
 
     ctx = mpmath.MPContext()
-    ctx.dps = 30 + math.ceil(-math.log10(t))
+    ctx.dps = dps
+    return ctx
+
+
+def _coast_h_mp(c, t):
+    # digits grow with log10(1/t) (the cancellation); rounded up to tens to reuse contexts
+    ctx = _mp_ctx(30 + 10 * math.ceil(-math.log10(t) / 10))
     c = ctx.mpf(c)
     t = ctx.mpf(t)
     rt = ctx.sqrt(t)
