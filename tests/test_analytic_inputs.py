@@ -134,3 +134,16 @@ def test_physical_extreme_scales():
     for param, value in [("mu", 0.0), ("h", -1.0), ("g", math.inf), ("mu", math.nan), ("t0", -1.0)]:
         with _names(param):
             A.physical("velocity_var", 1.0, **{"mu": 0.3, "h": 1.0, param: value})
+
+
+def test_laplace_moment_keeps_digits_near_zero():
+    """s - 1 = p / (s + 1): the transform near p = 0 (which decides the large-tau behaviour)
+    matches the exact sympy transform to rounding, where sqrt(p + 1) - 1 lost ~|log10 p| digits."""
+    sympy = pytest.importorskip("sympy")
+    ps = np.array([1e-12, 1e-8, 1e-4, 1e-2 + 1e-3j, 1e-9 + 1e-6j])
+    for jkl in [(2, 0, 0), (0, 0, 2), (0, 2, 0), (2, 0, 1)]:
+        expr = A.laplace_moment(*jkl, None, exact=True)
+        p = list(expr.free_symbols)[0]
+        ref = np.array([complex(expr.subs(p, sympy.nsimplify(x, rational=True)).evalf(40))
+                        for x in ps])
+        np.testing.assert_allclose(A.laplace_moment(*jkl, ps), ref, rtol=1e-13)
