@@ -338,8 +338,11 @@ def moment(j, k, l, tau):
     Notes
     -----
     Fixed Talbot contour with 32 nodes (Abate & Valko 2004), transform evaluated by the
-    recursion in 30-digit arithmetic (mpmath). Stated accuracy: relative error 1e-8 over
-    1e-8 <= tau <= 1e6 (tested); observed below 1e-12 for the orders tested (j + k + l <= 4).
+    recursion in 30-digit arithmetic (mpmath), 30 + 2 log10(tau) digits for tau > 1 (the small
+    nodes p = delta / tau cost that many digits). Stated accuracy: relative error 1e-8 over
+    1e-8 <= tau <= 1e6 (tested); observed below 1e-12 for the orders tested (j + k + l <= 4),
+    and to rounding against the closed forms at tau = 1e-300 and 1e300. A value beyond the
+    double range raises ValueError naming tau. Orders: j + k + l <= 24, k + l <= 12.
     Cost: 32 evaluations of the recursion per tau, ~15 ms per tau for low orders: this is a
     reference, not a fast path. tau = 0 returns the initial value exactly.
     """
