@@ -258,3 +258,19 @@ def test_coast_whole_range_against_mpmath(t0):
             # relative 1e-10 down to 1e-25 E[U1(tau0)^2]; below (Gaussian far tail) absolute
             assert _close(vv, h, 1e-10) or abs(vv - float(h)) < 1e-17 * e2, (t0, f, vv, float(h))
             assert _close(A.distance_mean(tau, t0), on_u3 + k, 1e-10), (t0, f)
+
+
+def test_coast_small_tau0_random_points():
+    """tau0 < 0.05 (where H is evaluated as a sum of positive terms) at random points of a fixed
+    seed, against the closed form in mpmath with enough digits."""
+    rng = np.random.default_rng(20261121)
+    for _ in range(40):
+        t0 = float(10 ** rng.uniform(-300, math.log10(0.05)))
+        scale = math.sqrt(t0)
+        tau = t0 + scale * float(10 ** rng.uniform(-12, 1.3))
+        h, k = _coast_refs(mp.mpf(tau) - mp.mpf(t0), t0)
+        e2 = float(_ref_at(eq10s, t0))
+        vv = A.velocity_var(tau, t0)
+        assert _close(vv, h, 1e-12) or abs(vv - float(h)) < 1e-17 * e2, (t0, tau)
+        with mp.workdps(40):
+            assert _close(A.distance_mean(tau, t0), _ref_at(eq10r, t0) + k, 1e-12), (t0, tau)

@@ -10,7 +10,6 @@ docs/analytic.md, "After switch-off".
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 
 import numpy as np
 from scipy.special import erfc, erfcx
@@ -84,7 +83,7 @@ def _coast_h(c, tau0):
     * exp(-v^2) underflows for v > 27.3 and with it every i^n erfc(v) term (each is at most
       tau0 / v^3, v >= sqrt(tau0)): only e^(-2c) erfc(w)/4 is left;
     * tau0 < 0.05: the O(1) and O(sqrt tau0) terms cancel twice (H = O(tau0)), relative
-      loss ~ 1/tau0: the same formula in mpmath with log10(1/tau0) + 30 digits.
+      loss ~ 1/tau0: there H is rewritten as a sum of positive terms (:func:`_coast_h_small`).
     """
     c = np.atleast_1d(np.asarray(c, dtype=float))
     t = float(tau0)
@@ -94,9 +93,9 @@ def _coast_h(c, tau0):
         w = (c - 2 * t) / (2 * rt)
         v = (c + 2 * t) / (2 * rt)
         live = ~((w > 0) & (w * w > 745.0 + math.log(4 * t)))
-    if t < _MP_BELOW:
-        for i in np.flatnonzero(live):
-            out.flat[i] = _coast_h_mp(float(c.flat[i]), t)
+    if t < _SMALL_BELOW:
+        if np.any(live):
+            out[live] = _coast_h_small(w[live], v[live], t)
         return np.maximum(out, 0.0)
     vv = live & (v < 27.3)
     if np.any(vv):
@@ -123,31 +122,52 @@ def _coast_h(c, tau0):
     return np.maximum(out, 0.0)
 
 
-_MP_BELOW = 0.05
+_SMALL_BELOW = 0.05
+
+# 3 panels x 16 Gauss-Legendre nodes on [0, s*] (see _coast_h_small)
+_P_X, _P_W = np.polynomial.legendre.leggauss(16)
+_PANELS = ((0.0, 0.125), (0.125, 0.5), (0.5, 1.0))
 
 
-@lru_cache(maxsize=32)
-def _mp_ctx(dps):
-    import mpmath
+def _coast_h_small(w, v, t):
+    """H for tau0 < 0.05 as a sum of positive terms (no cancellation, double precision).
 
-    ctx = mpmath.MPContext()
-    ctx.dps = dps
-    return ctx
+    With y = 2 tau0 + 2 sqrt(tau0) u and eps = 2 sqrt(tau0) = v - w, the part of H from the
+    e^(-2y) erfc(w_y) half of S is 4 tau0 e^(-eps^2) int_w^inf (u - w) e^(-2 eps u) erfc(u) du,
+    so, with s = u - w,
 
+        H = 4 tau0 [ i^2erfc(v) + e^(-eps^2 - 2 eps w) int_0^inf s e^(-2 eps s) erfc(w + s) ds ]
+          = 4 tau0 e^(-v^2) [ J_2(v) + int_0^inf s e^(-2 v s - s^2) erfcx(w + s) ds ]   (w >= 0),
 
-def _coast_h_mp(c, t):
-    # digits grow with log10(1/t) (the cancellation); rounded up to tens to reuse contexts
-    ctx = _mp_ctx(30 + 10 * math.ceil(-math.log10(t) / 10))
-    c = ctx.mpf(c)
-    t = ctx.mpf(t)
-    rt = ctx.sqrt(t)
-    v = (c + 2 * t) / (2 * rt)
-    w = (c - 2 * t) / (2 * rt)
-    i0 = ctx.erfc(v)
-    i1 = ctx.exp(-v * v) / ctx.sqrt(ctx.pi) - v * i0
-    i2 = (i0 - 2 * v * i1) / 4
-    h = 4 * t * i2 - rt * i1 - i0 / 4 + ctx.exp(-2 * c) * ctx.erfc(w) / 4
-    return float(h) if h > ctx.mpf("1e-320") else 0.0
+    using erfc(w + s) = erfcx(w + s) e^(-(w + s)^2) and eps + w = v. Here w >= -sqrt(tau0) >
+    -0.23, so the integrand decays like e^(-2 v s - s^2) (w >= 0) or like erfc(w + s) (w < 0):
+    it is below e^-36 of its scale beyond s* = sqrt(v^2 + 36) - v (w >= 0) or 7 (w < 0);
+    [0, s*] is split into three Gauss-Legendre panels.
+    """
+    eps = 2 * math.sqrt(t)
+    out = np.empty(w.shape)
+    pos = w >= 0
+    if np.any(pos):
+        wp, vp = w[pos], v[pos]
+        smax = np.sqrt(vp * vp + 36.0) - vp
+        integral = np.zeros(wp.shape)
+        for a, b in _PANELS:
+            s_ = smax[:, None] * (a + (b - a) * (1 + _P_X) / 2)
+            f = s_ * np.exp(-2 * vp[:, None] * s_ - s_ * s_) * erfcx(wp[:, None] + s_)
+            integral += smax * (b - a) / 2 * (f @ _P_W)
+        _, _, J2 = _scaled_ierfc(vp)
+        out[pos] = 4 * t * np.exp(-vp * vp) * (J2 + integral)
+    neg = ~pos
+    if np.any(neg):
+        wn, vn = w[neg], v[neg]
+        integral = np.zeros(wn.shape)
+        for a, b in _PANELS:
+            s_ = 7.0 * (a + (b - a) * (1 + _P_X) / 2)
+            f = s_[None, :] * np.exp(-2 * eps * s_[None, :]) * erfc(wn[:, None] + s_[None, :])
+            integral += 7.0 * (b - a) / 2 * (f @ _P_W)
+        _, _, J2 = _scaled_ierfc(vn)
+        out[neg] = 4 * t * (np.exp(-vn * vn) * J2 + np.exp(-eps * eps - 2 * eps * wn) * integral)
+    return out
 
 
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(24)
