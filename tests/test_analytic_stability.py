@@ -3,6 +3,8 @@
 docs/analytic.md: relative error below 1e-10, no NaN, no inf, no negative variance, no warning
 (pytest runs with filterwarnings = error)."""
 
+import math
+
 import mpmath
 import numpy as np
 import pytest
@@ -109,3 +111,166 @@ def test_coast_after_switch_off_against_quadrature():
     assert A.velocity_var(1.0, 1.0) == pytest.approx(float(eq10s(1.0)), rel=1e-13)
     assert A.distance_mean(1e4, 1.0) == pytest.approx(0.5, rel=1e-14)
     assert A.velocity_var(1e4, 1.0) == 0.0
+
+
+# --- the whole domain: 0 and 1e-300 <= tau, tau0 <= 1e300 (tau0 also inf) ------------------------
+# References: the transcribed formulas above in mpmath with enough digits for the cancellations
+# of the closed forms (about 4 |log10 tau| + 40: the O(1) terms cancel down to tau^3 at small
+# tau, tau^2 down to tau at large tau), and, after the switch-off, mpmath quadrature of the
+# survival function of |U1(tau0)| (a route the package does not use).
+WIDE = np.concatenate([[0.0], 10.0 ** np.arange(-300, 301, 15)])
+
+
+def _ref_at(ref, t):
+    dps = 40 + 4 * (abs(int(math.log10(t))) if t > 0 else 0)
+    with mp.workdps(dps):
+        return ref(mp.mpf(float(t)))
+
+
+def _close(got, ref, rtol=1e-10):
+    """rtol where the value is a normal double, absolute 1e-300 where it underflows."""
+    ref = float(ref)
+    if abs(ref) > 1e-290:
+        return abs(got - ref) <= rtol * abs(ref)
+    return abs(got - ref) <= 1e-300
+
+
+# E[U3^2] ~ tau^2/4 leaves the double range at tau ~ 2.7e154: its own test below
+WIDE_CASES = [c for c in CASES if c[0] is not A.distance_second_moment]
+
+
+@pytest.mark.parametrize("func,ref", WIDE_CASES, ids=[c[0].__name__ for c in WIDE_CASES])
+def test_whole_domain_against_mpmath(func, ref):
+    got = func(WIDE)
+    assert np.all(np.isfinite(got)) and np.all(got >= 0)
+    assert got[0] == 0
+    for t, g in zip(WIDE[1:], got[1:]):
+        assert _close(g, _ref_at(ref, t)), (func.__name__, t, g, float(_ref_at(ref, t)))
+
+
+MONOTONE = [A.velocity_var, A.velocity_abs_mean, A.distance_mean, A.distance_second_moment,
+            A.stop_time_mean, A.distance_at_stop_mean]
+
+
+@pytest.mark.parametrize("func", MONOTONE, ids=[f.__name__ for f in MONOTONE])
+def test_whole_domain_monotone(func):
+    """U3 is non-decreasing pathwise; |U1| started at its lower boundary 0 is stochastically
+    increasing in time (coupling); tau_s = tau0 + |U1(tau0)|/2; E U3(tau_s) = tau0/2."""
+    taus = WIDE if func is not A.distance_second_moment else WIDE[WIDE < 1e154]
+    got = func(taus)
+    assert np.all(np.diff(got) >= 0)
+
+
+def test_distance_second_moment_beyond_double_range():
+    assert np.isfinite(A.distance_second_moment(2.6e154))
+    with pytest.raises(ValueError, match="tau"):
+        A.distance_second_moment(1e155)
+    assert A.distance_second_moment(2.6e154) == pytest.approx((2.6e154 / 2) ** 2, rel=1e-14)
+
+
+def test_large_and_small_tau_limits():
+    assert A.velocity_var(1e300) == 0.5 and A.velocity_abs_mean(1e300) == 0.5
+    assert A.distance_mean(1e300) == pytest.approx(0.5e300, rel=1e-15)
+    assert A.distance_var(1e300) == pytest.approx(0.25e300, rel=1e-15)
+    assert A.displacement_var(1e300) == pytest.approx(0.625e300, rel=1e-15)
+    assert A.stop_time_var(1e300) == 1 / 16
+    # Brownian limit at small tau: Var U1 = 2 tau, E|U1| = 2 sqrt(tau/pi)
+    assert A.velocity_var(1e-300) == pytest.approx(2e-300, rel=1e-14)
+    assert A.velocity_abs_mean(1e-300) == pytest.approx(2 * math.sqrt(1e-300 / math.pi), rel=1e-14)
+
+
+# --- after the switch-off, both arguments over the whole domain ----------------------------------
+TAU0S = np.concatenate([[0.0], 10.0 ** np.arange(-300, 301, 20), [np.inf]])
+
+
+def test_coast_grid_sane():
+    """Every (tau, tau0) of the grid: finite; 0 <= Var U1 <= 1/2 (its stationary value, reached
+    from below while the noise is on); 0 <= E U3 <= min(tau, tau0)/2 (E|U1| <= 1/2 while the
+    noise is on, E U3(tau_s) = tau0/2, eq7); Var U1 non-decreasing then non-increasing in tau,
+    E U3 non-decreasing; tau0 = 0 gives 0 (no noise, no motion)."""
+    for t0 in TAU0S:
+        vv = A.velocity_var(WIDE, t0)
+        dm = A.distance_mean(WIDE, t0)
+        assert np.all(np.isfinite(vv)) and np.all(np.isfinite(dm)), t0
+        assert np.all(vv >= 0) and np.all(vv <= 0.5), t0
+        assert np.all(dm >= 0), t0
+        assert np.all(dm <= np.minimum(WIDE, t0) / 2 * (1 + 1e-15)), t0
+        on = WIDE <= t0
+        assert np.all(np.diff(vv[on]) >= 0) and np.all(np.diff(vv[~on]) <= 0), t0
+        assert np.all(np.diff(dm) >= 0), t0
+        if t0 == 0:
+            assert np.all(vv == 0) and np.all(dm == 0)
+
+
+@pytest.mark.parametrize("t0", [1e-300, 1e-100, 1e-8, 0.3, 5.0, 1e8, 1e100, 1e298])
+def test_stop_values_at_large_tau(t0):
+    """tau -> inf at fixed tau0: the body has stopped, Var U1 = 0 and E U3 = tau0/2 (eq7)."""
+    assert A.velocity_var(1e300, t0) == 0.0
+    assert A.distance_mean(1e300, t0) == pytest.approx(t0 / 2, rel=1e-14)
+    assert A.distance_at_stop_mean(t0) == pytest.approx(t0 / 2, rel=1e-14)
+
+
+def test_reported_cases():
+    assert A.velocity_var(1e100, 5.0) == 0.0
+    assert A.distance_mean(1e100, 5.0) == pytest.approx(2.5, rel=1e-15)
+    # just after a tiny switch-off: E U3(tau0) + delta E|U1(tau0)| to first order
+    t0, tau = 1.9e-54, 6.57e-39
+    expected = (4 / 3) * t0**1.5 / math.sqrt(math.pi) + (tau - t0) * 2 * math.sqrt(t0 / math.pi)
+    assert A.distance_mean(tau, t0) == pytest.approx(expected, rel=1e-12)
+
+
+def _coast_refs(delta, t0):
+    """Var U1(tau0 + delta) = H(2 delta) and E U3(tau0 + delta) - E U3(tau0) = (H(0) - H(2 delta))/4,
+    H(c) = E[(|U1(tau0)| - c)_+^2] = int_c^inf 2 (y - c) S(y) dy in closed form (docs/analytic.md):
+    4 t i2erfc(v) - sqrt(t) i1erfc(v) - erfc(v)/4 + e^(-2c) erfc(w)/4, v, w = (c +- 2t)/(2 sqrt t),
+    checked against quadrature of S in test_coast_after_switch_off_against_quadrature. Here it is
+    evaluated with enough digits to absorb every cancellation (the package avoids them instead,
+    by other formulas in double precision)."""
+    t0, delta = mp.mpf(t0), mp.mpf(delta)
+    extra = max(0, -int(mp.log10(t0))) + max(0, int(mp.log10(mp.sqrt(t0) / delta)))
+    with mp.workdps(60 + extra):
+
+        def H(c):
+            rt = mp.sqrt(t0)
+            v, w = (c + 2 * t0) / (2 * rt), (c - 2 * t0) / (2 * rt)
+            i0 = mp.erfc(v)
+            i1 = mp.exp(-v * v) / mp.sqrt(mp.pi) - v * i0
+            i2 = (i0 - 2 * v * i1) / 4
+            return 4 * t0 * i2 - rt * i1 - i0 / 4 + mp.exp(-2 * c) * mp.erfc(w) / 4
+
+        h = H(2 * delta)
+        return h, (eq10s(t0) - h) / 4
+
+
+@pytest.mark.parametrize("t0", [1e-300, 1e-120, 1e-20, 1e-3, 0.04, 0.06, 1.0, 7.0, 80.0, 1e6])
+def test_coast_whole_range_against_mpmath(t0):
+    scale = min(math.sqrt(t0), 0.5)
+    fracs = [1e-200, 1e-30, 1e-6, 0.01, 0.3, 1.0, 3.0, 12.0]
+    e2 = float(_ref_at(eq10s, t0))
+    with mp.workdps(30):
+        on_u3 = _ref_at(eq10r, t0)
+        for f in fracs:
+            tau = t0 + f * scale
+            if tau == t0:
+                continue
+            h, k = _coast_refs(mp.mpf(tau) - mp.mpf(t0), t0)  # the delta the function sees
+            vv = A.velocity_var(tau, t0)
+            # relative 1e-10 down to 1e-25 E[U1(tau0)^2]; below (Gaussian far tail) absolute
+            assert _close(vv, h, 1e-10) or abs(vv - float(h)) < 1e-17 * e2, (t0, f, vv, float(h))
+            assert _close(A.distance_mean(tau, t0), on_u3 + k, 1e-10), (t0, f)
+
+
+def test_coast_small_tau0_random_points():
+    """tau0 < 0.05 (where H is evaluated as a sum of positive terms) at random points of a fixed
+    seed, against the closed form in mpmath with enough digits."""
+    rng = np.random.default_rng(20261121)
+    for _ in range(40):
+        t0 = float(10 ** rng.uniform(-300, math.log10(0.05)))
+        scale = math.sqrt(t0)
+        tau = t0 + scale * float(10 ** rng.uniform(-12, 1.3))
+        h, k = _coast_refs(mp.mpf(tau) - mp.mpf(t0), t0)
+        e2 = float(_ref_at(eq10s, t0))
+        vv = A.velocity_var(tau, t0)
+        assert _close(vv, h, 1e-12) or abs(vv - float(h)) < 1e-17 * e2, (t0, tau)
+        with mp.workdps(40):
+            assert _close(A.distance_mean(tau, t0), _ref_at(eq10r, t0) + k, 1e-12), (t0, tau)

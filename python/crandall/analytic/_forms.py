@@ -257,7 +257,7 @@ def _eval_large(groups, tau):
                 acc = acc * tau + c
             out += acc
             continue
-        live = K * tau < 745.0  # beyond, exp(-K tau) underflows and the group is 0
+        live = tau < 745.0 / K  # beyond, exp(-K tau) underflows and the group is 0
         if not np.any(live):
             continue
         tl, rl, el = tau[live], r[live], ex[live]

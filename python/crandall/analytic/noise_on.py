@@ -12,7 +12,7 @@ import numpy as np
 from scipy.special import erfc, erfcx
 
 from . import _data
-from ._check import as_time, as_tau0, only_before_switch_off, scalar_or_array
+from ._check import as_real, as_time, as_tau0, only_before_switch_off, scalar_or_array
 
 __all__ = [
     "displacement_var",
@@ -87,10 +87,21 @@ def distance_second_moment(tau, tau0=np.inf):
     Laplace transform of eq10pp has it (docs/analytic.md, "Correction to eq10u").
 
     Parameters, returns and accuracy as :func:`displacement_var`; scaled units of U3^2.
+    tau above 2 sqrt(DBL_MAX) ~ 2.7e154, where the value overflows a double, raises ValueError.
     """
     t = as_time(tau)
     only_before_switch_off(t, as_tau0(tau0), "distance_second_moment")
+    if np.any(t > _M002_TAU_MAX):
+        raise ValueError(
+            f"tau must be <= {_M002_TAU_MAX:.4g} for distance_second_moment: E[U3^2] ~ tau^2/4 "
+            f"is beyond the range of a double, got {float(t.max())!r} (distance_var stays finite)"
+        )
     return scalar_or_array(_data.M002(t, SWITCH))
+
+
+# E[U3^2] = tau^2/4 + tau/8 - 11/32 + (exponentially small): the largest tau whose value is a
+# finite double (the Horner sum itself overflows a little earlier than tau^2/4 = DBL_MAX).
+_M002_TAU_MAX = 2.0 * math.sqrt(np.finfo(float).max) * (1 - 1e-12)
 
 
 def distance_var(tau, tau0=np.inf):
@@ -153,41 +164,67 @@ def velocity_abs_mean(tau, tau0=np.inf):
 _LOG_4PI = math.log(4 * math.pi)
 
 
-def _pdf_parts(y, tau):
-    y = np.asarray(y, dtype=float)
+def _pdf_parts(y, tau, tau0=np.inf):
+    y = as_real(y, "y")
     if np.any(np.isnan(y)):
         raise ValueError("y must not be NaN")
     if np.any(np.isinf(y)):
         raise ValueError("y must be finite")
     t = as_time(tau, allow_zero=False)
-    ay, t = np.broadcast_arrays(np.abs(y), t)
+    try:
+        ay, t = np.broadcast_arrays(np.abs(y), t)
+    except ValueError as exc:
+        raise ValueError(f"y and tau must broadcast together, got shapes {y.shape} and {t.shape}") from exc
     ay = ay.astype(float)
+    t0 = as_tau0(tau0)
+    off = t > t0
+    if np.any(off):
+        if t0 == 0:
+            raise ValueError("tau0 = 0: no noise, U1 = 0 (an atom, no density) at every tau")
+        # coast: U1(tau) = sign(X) (|X| - 2 delta)_+, so |U1(tau)| = y > 0 iff |X| = y + 2 delta
+        with np.errstate(over="ignore"):
+            ay = np.where(off, ay + 2 * (t - t0), ay)
+        t = np.where(off, t0, t)
     rt = np.sqrt(t)
-    x = (ay - 2 * t) / (2 * rt)
+    with np.errstate(over="ignore"):  # |y| / sqrt(tau) -> inf: the density is 0 there
+        x = ay / (2 * rt) - rt  # (|y| - 2 tau) / (2 sqrt tau), without forming 2 tau
     return ay, t, x
 
 
-def velocity_logpdf(y, tau):
+def _v_squared(ay, t, x):
+    """(|y| + 2 tau)^2 / (4 tau) = y^2/(4 tau) + |y| + tau, as (x + 2 sqrt tau)^2 (inf where it
+    overflows, the density being 0 there)."""
+    with np.errstate(over="ignore"):
+        return (x + 2 * np.sqrt(t)) ** 2
+
+
+def velocity_logpdf(y, tau, tau0=np.inf):
     """Natural log of :func:`velocity_pdf`, finite wherever the density is positive (all y).
 
     Same parameters as :func:`velocity_pdf`. Use it where the density underflows (far tails
     at small tau). Absolute error below 1e-12 * max(1, |log f|).
     """
-    ay, t, x = _pdf_parts(y, tau)
+    ay, t, x = _pdf_parts(y, tau, tau0)
     out = np.empty(ay.shape)
     g0 = -0.5 * (_LOG_4PI + np.log(t))  # log of (4 pi tau)^-1/2
     pos = x >= 0
-    if np.any(pos):
-        e = ay[pos] ** 2 / (4 * t[pos]) + ay[pos] + t[pos]
-        out[pos] = -e + np.log(np.exp(g0[pos]) + 0.5 * erfcx(x[pos]))
-    neg = ~pos
-    if np.any(neg):
-        xn = x[neg]
-        out[neg] = -2 * ay[neg] + np.log(0.5 * erfc(xn) + np.exp(g0[neg] - xn * xn))
+    with np.errstate(over="ignore"):
+        if np.any(pos):
+            e = _v_squared(ay[pos], t[pos], x[pos])
+            out[pos] = -e + np.log(np.exp(g0[pos]) + 0.5 * erfcx(x[pos]))
+        neg = ~pos
+        if np.any(neg):
+            xn = x[neg]
+            out[neg] = -2 * ay[neg] + np.log(0.5 * erfc(xn) + np.exp(g0[neg] - xn * xn))
+    if not np.all(np.isfinite(out)):
+        raise ValueError(
+            "y, tau: the log-density is below -1.8e308 (beyond a double) where |y| / sqrt(tau) "
+            "or |y| exceed ~1e308"
+        )
     return scalar_or_array(out)
 
 
-def velocity_pdf(y, tau):
+def velocity_pdf(y, tau, tau0=np.inf):
     """Density of the scaled velocity U1(tau) for a body at rest at tau = 0, tau <= tau0.
 
     .. math::
@@ -204,7 +241,13 @@ def velocity_pdf(y, tau):
     y : float or array_like
         Scaled velocity, finite; broadcast against tau.
     tau : float or array_like
-        Scaled time, 0 < tau (<= tau0), finite.
+        Scaled time, 0 < tau < inf.
+    tau0 : float, optional
+        Scaled switch-off time (default never). For tau > tau0 the law of U1(tau) is an atom
+        at 0 of mass :func:`velocity_atom` (the bodies that have stopped) plus the density
+        returned here, f(|y| + 2(tau - tau0), tau0) (the coast eq13a shifts |U1| down by
+        2(tau - tau0)); it integrates to 1 - velocity_atom. tau0 = 0 raises ValueError (no
+        density: U1 = 0).
 
     Returns
     -------
@@ -213,15 +256,16 @@ def velocity_pdf(y, tau):
         normal double (> 1e-300), for |y| <= 1e3 and 1e-8 <= tau <= 1e6; 0 where it underflows
         (use :func:`velocity_logpdf` there). Stationary limit e^-2|y|.
     """
-    ay, t, x = _pdf_parts(y, tau)
+    ay, t, x = _pdf_parts(y, tau, tau0)
     out = np.empty(ay.shape)
-    c = 1.0 / np.sqrt(4 * math.pi * t)
+    c = 0.5 / (math.sqrt(math.pi) * np.sqrt(t))  # (4 pi tau)^-1/2 without forming 4 pi tau
     pos = x >= 0
-    if np.any(pos):
-        e = ay[pos] ** 2 / (4 * t[pos]) + ay[pos] + t[pos]
-        out[pos] = np.exp(-e) * (c[pos] + 0.5 * erfcx(x[pos]))
-    neg = ~pos
-    if np.any(neg):
-        xn = x[neg]
-        out[neg] = np.exp(-2 * ay[neg]) * (0.5 * erfc(xn) + c[neg] * np.exp(-xn * xn))
+    with np.errstate(over="ignore"):
+        if np.any(pos):
+            e = _v_squared(ay[pos], t[pos], x[pos])
+            out[pos] = np.exp(-e) * (c[pos] + 0.5 * erfcx(x[pos]))
+        neg = ~pos
+        if np.any(neg):
+            xn = x[neg]
+            out[neg] = np.exp(-2 * ay[neg]) * (0.5 * erfc(xn) + c[neg] * np.exp(-xn * xn))
     return scalar_or_array(out)

@@ -15,10 +15,11 @@ import numpy as np
 from scipy.special import erfc, erfcx
 
 from . import _data
-from ._check import as_time, as_tau0, scalar_or_array
+from ._check import as_real, as_time, as_tau0, scalar_or_array
 from .noise_on import SWITCH, velocity_pdf
 
 __all__ = [
+    "coast_distance_increment",
     "coast_velocity_second_moment",
     "displacement_at_stop_var",
     "distance_at_stop_mean",
@@ -67,60 +68,149 @@ def _scaled_ierfc(v):
 
 
 def _coast_h(c, tau0):
-    """H(c) = E[(|U1(tau0)| - c)_+^2], c >= 0, tau0 > 0 (arrays, broadcast).
+    """H(c) = E[(|U1(tau0)| - c)_+^2], c >= 0 (array), tau0 > 0 (float).
 
-    With N ~ Normal(-2 tau0, 2 tau0), S(y) = P(|U1(tau0)| > y) = P(N > y)
-    + e^(-2y) erfc((y - 2 tau0)/(2 sqrt tau0)) / 2, and H(c) = int_c^inf 2 (y - c) S(y) dy
-    = E[(N - c)_+^2] - E[(N - c)_+] - P(N > c)/2 + e^(-2c) erfc(w)/4,
-    E[(N - c)_+^n] = (2 sqrt tau0)^n n! i^n erfc(v) / 2,
-    v = (c + 2 tau0)/(2 sqrt tau0), w = (c - 2 tau0)/(2 sqrt tau0).
+    With S(y) = P(|U1(tau0)| > y) = [erfc(v_y) + e^(-2y) erfc(w_y)] / 2,
+    v_y = (y + 2 tau0)/(2 sqrt tau0), w_y = (y - 2 tau0)/(2 sqrt tau0), and H(c) =
+    int_c^inf 2 (y - c) S(y) dy:
+
+        H(c) = 4 tau0 i^2erfc(v) - sqrt(tau0) i^1erfc(v) - erfc(v)/4 + e^(-2c) erfc(w)/4
+
+    at v = v_c, w = w_c. Regimes (docs/analytic.md, "Evaluating the coast"):
+
+    * H <= 4 tau0 exp(-w^2) for w >= 0 (both halves of S are below erfc(w_y)), so where
+      that bound is below the smallest double H is 0;
+    * exp(-v^2) underflows for v > 27.3 and with it every i^n erfc(v) term (each is at most
+      tau0 / v^3, v >= sqrt(tau0)): only e^(-2c) erfc(w)/4 is left;
+    * tau0 < 0.05: the O(1) and O(sqrt tau0) terms cancel twice (H = O(tau0)), relative
+      loss ~ 1/tau0: there H is rewritten as a sum of positive terms (:func:`_coast_h_small`).
     """
-    c, t = np.broadcast_arrays(np.asarray(c, float), np.asarray(tau0, float))
-    c, t = np.atleast_1d(c).astype(float), np.atleast_1d(t).astype(float)
-    rt = np.sqrt(t)
-    v = (c + 2 * t) / (2 * rt)
-    w = (c - 2 * t) / (2 * rt)
-    J0, J1, J2 = _scaled_ierfc(v)
-    bracket = 4 * t * J2 - rt * J1 - J0 / 4
-    out = np.empty(c.shape)
-    pos = w >= 0
-    # 2c + w^2 = v^2: for w >= 0 both pieces share the factor exp(-v^2)
-    out[pos] = np.exp(-v[pos] ** 2) * (bracket[pos] + erfcx(w[pos]) / 4)
-    neg = ~pos
-    out[neg] = np.exp(-v[neg] ** 2) * bracket[neg] + np.exp(-2 * c[neg]) * erfc(w[neg]) / 4
-    # For small tau0 the O(1) and O(sqrt tau0) terms cancel twice (H = O(tau0)): relative loss
-    # ~ 1/tau0 in double. There the same formula is evaluated in 40-digit arithmetic.
-    tiny = t < _MP_BELOW
-    for i in np.flatnonzero(tiny):
-        out.flat[i] = _coast_h_mp(float(c.flat[i]), float(t.flat[i]))
+    c = np.atleast_1d(np.asarray(c, dtype=float))
+    t = float(tau0)
+    rt = math.sqrt(t)
+    out = np.zeros(c.shape)
+    with np.errstate(over="ignore"):  # c / sqrt(tau0) -> inf is cut by `live` below
+        w = (c - 2 * t) / (2 * rt)
+        v = (c + 2 * t) / (2 * rt)
+        live = ~((w > 0) & (w * w > 745.0 + math.log(4 * t)))
+    if t < _SMALL_BELOW:
+        if np.any(live):
+            out[live] = _coast_h_small(w[live], v[live], t)
+        return np.maximum(out, 0.0)
+    vv = live & (v < 27.3)
+    if np.any(vv):
+        J0, J1, J2 = _scaled_ierfc(v[vv])
+        bracket = 4 * t * J2 - rt * J1 - J0 / 4
+        ev = np.exp(-v[vv] ** 2)
+        wv = w[vv]
+        pos = wv >= 0
+        part = np.empty(wv.shape)
+        # 2c + w^2 = v^2: for w >= 0 both pieces share the factor exp(-v^2)
+        part[pos] = ev[pos] * (bracket[pos] + erfcx(wv[pos]) / 4)
+        neg = ~pos
+        part[neg] = ev[neg] * bracket[neg] + np.exp(-2 * c[vv][neg]) * erfc(wv[neg]) / 4
+        out[vv] = part
+    rest = live & ~vv
+    if np.any(rest):
+        wr = w[rest]
+        # exp(-2c) erfc(w) = exp(-v^2) erfcx(w) for w >= 0: both factors stay in range
+        out[rest] = np.where(
+            wr >= 0,
+            np.exp(-np.minimum(v[rest], 1e154) ** 2) * erfcx(np.maximum(wr, 0)) / 4,
+            np.exp(-2 * c[rest]) * erfc(np.minimum(wr, 0)) / 4,
+        )
     return np.maximum(out, 0.0)
 
 
-_MP_BELOW = 0.05
+_SMALL_BELOW = 0.05
+
+# 3 panels x 16 Gauss-Legendre nodes on [0, s*] (see _coast_h_small)
+_P_X, _P_W = np.polynomial.legendre.leggauss(16)
+_PANELS = ((0.0, 0.125), (0.125, 0.5), (0.5, 1.0))
 
 
-def _coast_h_mp(c, t):
-    ctx = _MP
-    c = ctx.mpf(c)
-    t = ctx.mpf(t)
-    rt = ctx.sqrt(t)
-    v = (c + 2 * t) / (2 * rt)
-    w = (c - 2 * t) / (2 * rt)
-    i0 = ctx.erfc(v)
-    i1 = ctx.exp(-v * v) / ctx.sqrt(ctx.pi) - v * i0
-    i2 = (i0 - 2 * v * i1) / 4
-    return float(4 * t * i2 - rt * i1 - i0 / 4 + ctx.exp(-2 * c) * ctx.erfc(w) / 4)
+def _coast_h_small(w, v, t):
+    """H for tau0 < 0.05 as a sum of positive terms (no cancellation, double precision).
+
+    With y = 2 tau0 + 2 sqrt(tau0) u and eps = 2 sqrt(tau0) = v - w, the part of H from the
+    e^(-2y) erfc(w_y) half of S is 4 tau0 e^(-eps^2) int_w^inf (u - w) e^(-2 eps u) erfc(u) du,
+    so, with s = u - w,
+
+        H = 4 tau0 [ i^2erfc(v) + e^(-eps^2 - 2 eps w) int_0^inf s e^(-2 eps s) erfc(w + s) ds ]
+          = 4 tau0 e^(-v^2) [ J_2(v) + int_0^inf s e^(-2 v s - s^2) erfcx(w + s) ds ]   (w >= 0),
+
+    using erfc(w + s) = erfcx(w + s) e^(-(w + s)^2) and eps + w = v. Here w >= -sqrt(tau0) >
+    -0.23, so the integrand decays like e^(-2 v s - s^2) (w >= 0) or like erfc(w + s) (w < 0):
+    it is below e^-36 of its scale beyond s* = sqrt(v^2 + 36) - v (w >= 0) or 7 (w < 0);
+    [0, s*] is split into three Gauss-Legendre panels.
+    """
+    eps = 2 * math.sqrt(t)
+    out = np.empty(w.shape)
+    pos = w >= 0
+    if np.any(pos):
+        wp, vp = w[pos], v[pos]
+        smax = np.sqrt(vp * vp + 36.0) - vp
+        integral = np.zeros(wp.shape)
+        for a, b in _PANELS:
+            s_ = smax[:, None] * (a + (b - a) * (1 + _P_X) / 2)
+            f = s_ * np.exp(-2 * vp[:, None] * s_ - s_ * s_) * erfcx(wp[:, None] + s_)
+            integral += smax * (b - a) / 2 * (f @ _P_W)
+        _, _, J2 = _scaled_ierfc(vp)
+        out[pos] = 4 * t * np.exp(-vp * vp) * (J2 + integral)
+    neg = ~pos
+    if np.any(neg):
+        wn, vn = w[neg], v[neg]
+        integral = np.zeros(wn.shape)
+        for a, b in _PANELS:
+            s_ = 7.0 * (a + (b - a) * (1 + _P_X) / 2)
+            f = s_[None, :] * np.exp(-2 * eps * s_[None, :]) * erfc(wn[:, None] + s_[None, :])
+            integral += 7.0 * (b - a) / 2 * (f @ _P_W)
+        _, _, J2 = _scaled_ierfc(vn)
+        out[neg] = 4 * t * (np.exp(-vn * vn) * J2 + np.exp(-eps * eps - 2 * eps * wn) * integral)
+    return out
 
 
-def _mp_context():
-    import mpmath
-
-    ctx = mpmath.MPContext()
-    ctx.dps = 40
-    return ctx
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(24)
 
 
-_MP = _mp_context()
+def _abs_cdf(y, t):
+    """P(|U1(t)| <= y), y >= 0, t > 0 (absolute error ~1e-16: used where that suffices)."""
+    rt = math.sqrt(t)
+    v = (y + 2 * t) / (2 * rt)
+    w = (y - 2 * t) / (2 * rt)
+    return 1.0 - 0.5 * (erfc(v) + np.exp(-2 * y) * erfc(w))
+
+
+def _coast_k(delta, tau0):
+    """K(delta) = E[U3(tau0 + delta)] - E[U3(tau0)] = E[a delta' - delta'^2],
+    a = |U1(tau0)|, delta' = min(delta, a/2); delta >= 0 (array), tau0 > 0.
+
+    Two exact forms, each used where it does not cancel:
+
+    * K = (E a^2 - H(2 delta)) / 4, for delta > E a / 4 (then K >= E a^2 / 16 roughly, the
+      difference loses at most a digit);
+    * K = delta E a - delta^2 + int_0^(2 delta) P(a <= y) (delta - y/2) dy, for delta <= E a / 4
+      (d^2K/d delta^2 = -2 P(a > 2 delta)): a sum of non-negative terms with the first
+      dominant; the integral, at most 3 % of K, by 24-point Gauss-Legendre.
+    """
+    d = np.atleast_1d(np.asarray(delta, dtype=float))
+    t = float(tau0)
+    ea = float(_data.S100(np.array([t]), SWITCH)[0])
+    ea2 = float(_data.M200(np.array([t]), SWITCH)[0])
+    out = np.empty(d.shape)
+    big = d > ea / 4
+    if np.any(big):
+        out[big] = (ea2 - _coast_h(2 * d[big], t)) / 4
+    small = ~big
+    for i in np.flatnonzero(small):
+        di = float(d.flat[i])
+        if di == 0.0:
+            out.flat[i] = 0.0
+            continue
+        y = di * (1 + _GL_X)  # nodes on [0, 2 delta]
+        r = di * float(np.sum(_GL_W * _abs_cdf(y, t) * (di - y / 2)))
+        out.flat[i] = di * ea - di * di + r
+    return np.maximum(out, 0.0)
 
 
 def coast_velocity_second_moment(tau, tau0):
@@ -132,7 +222,24 @@ def coast_velocity_second_moment(tau, tau0):
     t0 = as_tau0(tau0)
     if t0 == 0:
         return scalar_or_array(np.zeros_like(t))
-    return scalar_or_array(_coast_h(2 * (t - t0), t0))
+    return scalar_or_array(_coast_h(_coast_c(t, t0), t0))
+
+
+def _coast_c(t, t0):
+    """c = 2 (tau - tau0), finite even where tau - tau0 overflows (|tau|, tau0 near 1e308)."""
+    with np.errstate(over="ignore"):
+        c = 2 * (t - t0)
+    return np.where(np.isfinite(c), c, np.finfo(float).max)
+
+
+def coast_distance_increment(tau, tau0):
+    """E[U3(tau)] - E[U3(tau0)] for tau > tau0 (noise off); see
+    :func:`crandall.analytic.distance_mean`."""
+    t = as_time(tau)
+    t0 = as_tau0(tau0)
+    if t0 == 0:
+        return scalar_or_array(np.zeros_like(t))
+    return scalar_or_array(_coast_k(_coast_c(t, t0) / 2, t0))
 
 
 def _tau0_array(tau0, positive=False):
@@ -204,13 +311,22 @@ def stop_time_pdf(t, tau0):
     float or ndarray
         Density in 1 / (scaled time); accuracy as :func:`velocity_pdf`.
     """
-    t = np.asarray(t, dtype=float)
+    t = as_real(t, "t")
     if np.any(np.isnan(t)) or np.any(np.isinf(t)):
         raise ValueError("t must be finite and not NaN")
     t0 = as_time(tau0, "tau0", allow_zero=False)
-    t, t0 = np.broadcast_arrays(t, t0)
-    y = np.where(t >= t0, 2 * (t - t0), 0.0)
-    out = np.where(t >= t0, 4 * velocity_pdf(y, t0), 0.0)
+    try:
+        t, t0 = np.broadcast_arrays(t, t0)
+    except ValueError as exc:
+        raise ValueError(f"t and tau0 must broadcast together, got shapes {t.shape} and {t0.shape}") from exc
+    with np.errstate(over="ignore"):
+        y = np.where(t >= t0, 2 * (t - t0), 0.0)
+    # |U1(tau0)| = y beyond the largest double: the density is 0 to double precision there
+    finite = np.isfinite(y)
+    out = np.zeros(y.shape)
+    on = (t >= t0) & finite
+    if np.any(on):
+        out[on] = 4 * np.asarray(velocity_pdf(y[on], t0[on]))
     return scalar_or_array(out)
 
 

@@ -31,7 +31,7 @@ def laplace_moment_in_s(j, k, l, signed=False):
     the positive symbol ``s`` = sqrt(p + 1). Returns (expr, s)."""
     import sympy
 
-    j, k, l = _check_indices(j, k, l)
+    j, k, l = _check_indices(j, k, l, exact=True)
     s = sympy.Symbol("s", positive=True)
     ctx = _Ctx(sympy.I, sympy.Rational(1, 2))
     Fp, Fm, a, b = _table(k, l, s, ctx)
