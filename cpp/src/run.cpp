@@ -262,6 +262,8 @@ std::vector<double> exact_steps(const std::vector<double>& start, double h, doub
   if (!(std::isfinite(h) && h > 0.0)) throw std::invalid_argument("h must be finite and > 0");
   if (!(std::isfinite(drift) && drift >= 0.0)) throw std::invalid_argument("drift must be finite and >= 0");
   if (!(std::isfinite(noise) && noise >= 0.0)) throw std::invalid_argument("noise must be finite and >= 0");
+  if (!step_in_range(h, drift, noise))
+    throw std::invalid_argument("h is too long for this drift and noise: the step would exceed the range of doubles");
   std::vector<double> out(start.size());
   for (std::size_t i = 0; i < start.size(); ++i) {
     if (!std::isfinite(start[i])) throw std::invalid_argument("start must be finite");

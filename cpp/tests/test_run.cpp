@@ -5,9 +5,12 @@
 #include <cmath>
 #include <limits>
 #include <set>
+#include <utility>
+#include <vector>
 
 #include "crandall/rng.hpp"
 #include "crandall/run.hpp"
+#include "crandall/skeleton.hpp"
 
 namespace {
 
@@ -262,6 +265,69 @@ TEST(Methods, SkeletonMethodsShareTheVelocityAndTheStopTime) {
                 rich.times.central()[s * crandall::kMonomials + k], 1e-9);
   }
   EXPECT_NEAR(exact.stop.means()[0], rich.stop.means()[0], 1e-13);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Kernel, LanesEqualTheScalarExactStep) {
+  // The kernel evaluates the exact step lane by lane in vector form; with one path, the mean of
+  // an output slot is that path's velocity itself, which must be exact_step's bits on the same
+  // draws (step k uses half k of pair 0), in the regular and in the scaled range of steps.
+  for (const auto& [drift, noise] : std::vector<std::pair<double, double>>{
+           {2.0, std::sqrt(2.0)}, {2.943, 1e-9}, {0.0, 1.0}, {2.0, 0.0}}) {
+    for (double h : {1e-300, 1e-200, 1e-12, 0.01, 1.0, 1e3, 1e15, 1e17, 1e100, 1e200, 1e300}) {
+      crandall::Options o;
+      o.drift = drift;
+      o.noise = noise;
+      o.times = {h, 2.0 * h};
+      o.paths = 1;
+      for (std::uint64_t seed = 0; seed < 64; ++seed) {
+        o.seed = seed;
+        const crandall::Plan plan(o);
+        ASSERT_EQ(plan.segments().size(), 2u);
+        const auto r = crandall::run_chunk(plan, 0, 1);
+        crandall::StepNoise z[2];
+        crandall::draw_pair(seed, 0, 0, z);
+        double x = 0.0;
+        for (int k = 0; k < 2; ++k) {
+          x = crandall::exact_step(x, plan.segments()[k].h, drift, noise, z[k].normal,
+                                   z[k].exponential, z[k].coin)
+                  .velocity;
+          EXPECT_EQ(r.times.means()[k * crandall::kVariables], x)
+              << "drift=" << drift << " noise=" << noise << " h=" << h << " seed=" << seed;
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Rng, DrawsStayWithinTheirDocumentedBounds) {
+  // The extreme uniforms (w = 0 and w = 2^32 - 1) give the extreme draws; the kernel's
+  // segment_regular relies on these bounds.
+  const double k2m32 = std::ldexp(1.0, -32);
+  const double u_min = 0.5 * k2m32, u_max = (4294967295.0 + 0.5) * k2m32;
+  EXPECT_GE(-std::log(u_max), crandall::kMinExponential);
+  EXPECT_LE(-std::log(u_min), crandall::kMaxExponential);
+  EXPECT_LE(std::sqrt(-2.0 * std::log(u_min)), crandall::kMaxAbsNormal);
+  double lo = 1.0, hi = 0.0, z = 0.0;
+  for (std::uint64_t pair = 0; pair < 200000; ++pair) {
+    crandall::StepNoise w[2];
+    crandall::draw_pair(9, 3, pair, w);
+    for (const auto& v : w) {
+      lo = std::min(lo, v.exponential);
+      hi = std::max(hi, v.exponential);
+      z = std::max(z, std::abs(v.normal));
+    }
+  }
+  EXPECT_GE(lo, crandall::kMinExponential);
+  EXPECT_LE(hi, crandall::kMaxExponential);
+  EXPECT_LE(z, crandall::kMaxAbsNormal);
 }
 
 }  // namespace
