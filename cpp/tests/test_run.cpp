@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "crandall/coast.hpp"
 #include "crandall/rng.hpp"
 #include "crandall/run.hpp"
 #include "crandall/skeleton.hpp"
@@ -328,6 +329,40 @@ TEST(Rng, DrawsStayWithinTheirDocumentedBounds) {
   EXPECT_GE(lo, crandall::kMinExponential);
   EXPECT_LE(hi, crandall::kMaxExponential);
   EXPECT_LE(z, crandall::kMaxAbsNormal);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Run, StopTimeMomentsExactAtAHugeSwitchOff) {
+  // At t0 = 1e16 the spacing of doubles is 2, while the time to stop, |X(t0)| / 2, is of order
+  // 1/4: the stop slot keeps the time from the switch-off, whose moments must match those of
+  // the paths' own |X(t0)| / 2 to double precision (the velocity jumps to t0 in one exact step,
+  // step 0 of each path).
+  crandall::Options o;
+  o.switch_off = 1e16;
+  o.stop = true;
+  o.seed = 5;
+  o.paths = 3000;
+  const auto r = crandall::run_chunk(crandall::Plan(o), 0, 2);
+  long double sum = 0.0L, sum2 = 0.0L;
+  std::vector<double> t(o.paths);
+  for (std::uint64_t p = 0; p < o.paths; ++p) {
+    crandall::StepNoise z[2];
+    crandall::draw_pair(o.seed, p, 0, z);
+    const double x = crandall::exact_step(0.0, o.switch_off, o.drift, o.noise, z[0].normal,
+                                          z[0].exponential, z[0].coin)
+                         .velocity;
+    t[p] = crandall::time_to_stop(x, o.drift);
+    sum += t[p];
+  }
+  const long double mean = sum / o.paths;
+  for (double v : t) sum2 += (v - mean) * (v - mean);
+  ASSERT_EQ(r.stop.counts()[0], 3000.0);
+  EXPECT_NEAR(r.stop.means()[0], static_cast<double>(mean), 1e-15);
+  const double c2 = r.stop.central()[crandall::monomial_index(2, 0, 0)];
+  EXPECT_NEAR(c2, static_cast<double>(sum2), 1e-12 * static_cast<double>(sum2));
 }
 
 }  // namespace

@@ -92,6 +92,9 @@ class Result:
             var = f * f * np.maximum(m4 - m2 * m2, 0.0) * n / np.maximum(n - 1, 1)
         else:
             mean = f * acc.means[:, v]
+            if name == "stop_time":
+                # The core keeps the time from the switch-off to the stop (exact at any t0).
+                mean = mean + self.scene.t0
             var = f * f * acc.central[:, _e(v, 2)] / np.maximum(n - 1, 1)
         if scalar:
             return float(mean[0]), float(var[0]), float(n[0])

@@ -170,7 +170,10 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
     for (int l = 0; l < lanes; ++l) {
       const double to_stop = time_to_stop(x[l], o.drift);
       const State st = coast({x[l], u[l], s[l]}, o.drift, to_stop);
-      ts[l] = o.switch_off + to_stop;
+      // The time from the switch-off, not the stop instant: at t0 = 1e16 a double cannot
+      // resolve t0 + |X| / c (the spacing there is 2), and the stop time's spread would be
+      // rounding noise. The mean is shifted by t0 where it is reported (ChunkResult).
+      ts[l] = to_stop;
       us[l] = st.displacement;
       ss[l] = st.distance;
     }

@@ -15,7 +15,11 @@ namespace crandall {
 
 struct ChunkResult {
   Moments times;  // slot per output time: (velocity, displacement, distance)
-  Moments stop;   // one slot: (stop time, displacement at stop, distance at stop), or none
+  // One slot, or none: (time from the switch-off to the stop, displacement at the stop,
+  // distance at the stop). The stop instant is switch_off plus the first variable: its mean is
+  // switch_off + means()[0], its central moments are those of the first variable. Kept
+  // relative so that they stay exact to double precision at any switch_off.
+  Moments stop;
 };
 
 // Polled by the calling thread between blocks; returning true abandons the run.
