@@ -2,7 +2,9 @@
 // plans and options reject bad input.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <stdexcept>
 #include <limits>
 #include <set>
 #include <utility>
@@ -363,6 +365,38 @@ TEST(Run, StopTimeMomentsExactAtAHugeSwitchOff) {
   EXPECT_NEAR(r.stop.means()[0], static_cast<double>(mean), 1e-15);
   const double c2 = r.stop.central()[crandall::monomial_index(2, 0, 0)];
   EXPECT_NEAR(c2, static_cast<double>(sum2), 1e-12 * static_cast<double>(sum2));
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Run, ExceptionInTheCheckIsRethrownOnTheCaller) {
+  // An exception thrown inside the threads must come back to the caller, never terminate.
+  const crandall::Plan plan(scene());
+  int calls = 0;
+  auto check = [&calls]() -> bool {
+    if (++calls > 1) throw std::runtime_error("check failed");
+    return false;
+  };
+  EXPECT_THROW(crandall::run_chunk(plan, 0, 3, check), std::runtime_error);
+}
+
+TEST(Run, InterruptNoticedWhileAnotherThreadRunsTheOnlyBlock) {
+  // One block (100 paths) of a long run on 4 threads: the calling thread may hold no block;
+  // it must keep checking, and the block's thread must stop within kPollSteps steps.
+  auto o = scene();
+  o.paths = 100;
+  o.times = {5.0};
+  o.switch_off = 5.0;
+  o.dt = 1e-7;  // 5e7 steps: minutes of work
+  const crandall::Plan plan(o);
+  const auto start = std::chrono::steady_clock::now();
+  auto check = [start]() { return std::chrono::steady_clock::now() - start > std::chrono::milliseconds(200); };
+  EXPECT_THROW(crandall::run_chunk(plan, 0, 4, check), crandall::Interrupted);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_LT(seconds, 5.0);
 }
 
 }  // namespace
