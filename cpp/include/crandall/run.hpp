@@ -22,7 +22,10 @@ struct ChunkResult {
   Moments stop;
 };
 
-// Polled by the calling thread between blocks; returning true abandons the run.
+// Polled by the calling thread only: before the run, between blocks, every kPollSteps steps
+// of its own blocks, and every 10 ms while it waits for the other threads' blocks. Returning
+// true abandons the run (every thread stops within kPollSteps steps) and run_chunk throws
+// Interrupted; an exception it throws abandons the run and is rethrown by run_chunk.
 using InterruptCheck = std::function<bool()>;
 
 class Interrupted : public std::runtime_error {
@@ -31,7 +34,8 @@ class Interrupted : public std::runtime_error {
 };
 
 // Simulate chunk `chunk` of the plan on `threads` threads (0: OpenMP's default). The result
-// is bitwise the same for any thread count.
+// is bitwise the same for any thread count. No exception escapes the threads: the first one
+// (std::bad_alloc included) is rethrown here.
 ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
                       const InterruptCheck& interrupted = {});
 
