@@ -21,9 +21,17 @@ using crandall::Moments;
 // again (during finalization that ends the thread by unwinding its stack, which aborts the
 // process when it meets an OpenMP region or a destructor).
 std::atomic<bool> g_exiting{false};
-unsigned long g_main_thread = 0;
 
-bool on_main_thread() { return PyThread_get_thread_ident() == g_main_thread; }
+// Whether the calling thread is Python's main thread (asked each time: a forked child's main
+// thread is the one that forked). Needs the GIL.
+bool on_main_thread() {
+  try {
+    const auto main = py::module_::import("threading").attr("main_thread")().attr("ident");
+    return PyThread_get_thread_ident() == main.cast<unsigned long>();
+  } catch (const py::error_already_set&) {
+    return false;
+  }
+}
 
 // f() with the GIL released. Exceptions are carried across the GIL's return by hand, not by a
 // scoped guard, so that nothing is destroyed in between. A daemon thread that finishes (or
@@ -31,6 +39,7 @@ bool on_main_thread() { return PyThread_get_thread_ident() == g_main_thread; }
 // as CPython itself does for daemon threads since 3.14; the process exit ends it.
 template <class F>
 auto without_gil(F&& f) -> decltype(f()) {
+  const bool main = on_main_thread();
   std::optional<decltype(f())> out;
   std::exception_ptr error;
   PyThreadState* state = PyEval_SaveThread();
@@ -39,7 +48,7 @@ auto without_gil(F&& f) -> decltype(f()) {
   } catch (...) {
     error = std::current_exception();
   }
-  if (g_exiting.load() && !on_main_thread())
+  if (g_exiting.load() && !main)
     for (;;) std::this_thread::sleep_for(std::chrono::hours(1));
   PyEval_RestoreThread(state);
   if (error) std::rethrow_exception(error);
@@ -74,7 +83,6 @@ Moments moments_from(std::size_t slots, const py::array_t<double, py::array::c_s
 }  // namespace
 
 void register_run(py::module_& m) {
-  g_main_thread = py::module_::import("threading").attr("main_thread")().attr("ident").cast<unsigned long>();
   py::module_::import("atexit").attr("register")(
       py::cpp_function([]() { g_exiting.store(true); }));
   // Memory runs out in the accumulators (they grow with the output times, the observables and
