@@ -8,8 +8,8 @@
 //   |X(h)| = max(|x| + D, D - m)                       (Skorokhod map)
 //   a touch of 0 (|x| + m <= 0) draws a fresh sign; otherwise the sign is kept.
 // Every quantity is evaluated in a form free of cancellation for any D, h and draws; the kernel
-// (kernel.hpp) evaluates the same expressions (step_regular) lane by lane, so the two give the
-// same bits.
+// (kernel.hpp) calls the same functions (step_regular_magnitude, step_regular_minimum) lane by
+// lane and exact_step itself outside their range, so the two give the same bits.
 #pragma once
 
 #include <algorithm>
@@ -139,8 +139,9 @@ inline StepParts step_scaled_parts(double a, double h, double drift, double nois
   return {up < down ? down : up, m};
 }
 
-// Minimum over [0, h] of a Brownian bridge from 0 to d with variance `variance` = sigma^2 h
-// at time h: P(min <= m) = exp(-2 m (m - d) / variance) for m <= min(0, d). Inverting at
+// The textbook bridge minimum, the reference the tests check the law against (exact_step uses
+// step_regular_minimum, the same number without overflow). Minimum over [0, h] of a Brownian
+// bridge from 0 to d with variance `variance` = sigma^2 h at time h: P(min <= m) = exp(-2 m (m - d) / variance) for m <= min(0, d). Inverting at
 // exp(-exponential) gives m = (d - sqrt(d^2 + 2 variance exponential)) / 2.
 inline double bridge_minimum(double d, double variance, double exponential) {
   const double q = 2.0 * variance * exponential;
