@@ -44,3 +44,41 @@ def test_ctrl_c_stops_a_long_run_within_a_second():
     assert proc.returncode == 3, err
     assert "interrupted" in out
     assert elapsed < 1.0, f"took {elapsed:.2f} s to stop"
+
+
+# More threads than cores, and one block of paths: the calling thread may hold no block at all,
+# and used to wait for the others at the end of the parallel region without checking for
+# Ctrl-C (no exit in 38 s).
+SINGLE_BLOCK = textwrap.dedent(
+    """
+    import sys, crandall
+    print("started", flush=True)
+    try:
+        crandall.simulate(crandall.Scene.scaled(tau0=5.0, times=[5.0]), paths=100, seed=1,
+                          dt=1e-9, threads=8)
+    except KeyboardInterrupt:
+        print("interrupted", flush=True)
+        sys.exit(3)
+    """
+)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGINT"), reason="needs POSIX signals")
+def test_ctrl_c_with_more_threads_than_cores_and_a_single_block():
+    proc = subprocess.Popen([sys.executable, "-c", SINGLE_BLOCK], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        assert proc.stdout.readline().strip() == "started"
+        time.sleep(1.5)  # the run would take about a day
+        assert proc.poll() is None
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+        elapsed = time.monotonic() - sent
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 3, err
+    assert "interrupted" in out
+    assert elapsed < 3.0, f"took {elapsed:.2f} s to stop"

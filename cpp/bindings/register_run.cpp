@@ -1,6 +1,11 @@
+#include <atomic>
 #include <chrono>
 #include <cstring>
+#include <exception>
+#include <new>
+#include <optional>
 #include <string>
+#include <thread>
 
 #include "common.hpp"
 #include "crandall/accumulators.hpp"
@@ -10,6 +15,45 @@
 namespace {
 
 using crandall::Moments;
+
+// Set by an atexit hook: the interpreter is shutting down. Non-daemon threads have been joined
+// by then; a daemon thread still in a run must neither call into Python nor take the GIL
+// again (during finalization that ends the thread by unwinding its stack, which aborts the
+// process when it meets an OpenMP region or a destructor).
+std::atomic<bool> g_exiting{false};
+
+// Whether the calling thread is Python's main thread (asked each time: a forked child's main
+// thread is the one that forked). Needs the GIL.
+bool on_main_thread() {
+  try {
+    const auto main = py::module_::import("threading").attr("main_thread")().attr("ident");
+    return PyThread_get_thread_ident() == main.cast<unsigned long>();
+  } catch (const py::error_already_set&) {
+    return false;
+  }
+}
+
+// f() with the GIL released. Exceptions are carried across the GIL's return by hand, not by a
+// scoped guard, so that nothing is destroyed in between. A daemon thread that finishes (or
+// abandons) its work while the interpreter exits parks for good instead of taking the GIL back,
+// as CPython itself does for daemon threads since 3.14; the process exit ends it.
+template <class F>
+auto without_gil(F&& f) -> decltype(f()) {
+  const bool main = on_main_thread();
+  std::optional<decltype(f())> out;
+  std::exception_ptr error;
+  PyThreadState* state = PyEval_SaveThread();
+  try {
+    out.emplace(f());
+  } catch (...) {
+    error = std::current_exception();
+  }
+  if (g_exiting.load() && !main)
+    for (;;) std::this_thread::sleep_for(std::chrono::hours(1));
+  PyEval_RestoreThread(state);
+  if (error) std::rethrow_exception(error);
+  return std::move(*out);
+}
 
 py::array_t<double> to_array(const std::vector<double>& v, std::size_t rows, std::size_t cols) {
   py::array_t<double> out(cols == 0 ? std::vector<py::ssize_t>{static_cast<py::ssize_t>(rows)}
@@ -39,6 +83,20 @@ Moments moments_from(std::size_t slots, const py::array_t<double, py::array::c_s
 }  // namespace
 
 void register_run(py::module_& m) {
+  py::module_::import("atexit").attr("register")(
+      py::cpp_function([]() { g_exiting.store(true); }));
+  // Memory runs out in the accumulators (they grow with the output times, the observables and
+  // the threads); say so rather than pybind11's bare "std::bad_alloc".
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const std::bad_alloc&) {
+      PyErr_SetString(PyExc_MemoryError,
+                      "crandall: out of memory allocating a run's accumulators (their size grows "
+                      "with the number of output times and with the threads); use fewer output "
+                      "times or threads, or more memory");
+    }
+  });
   m.attr("CHUNK_PATHS") = crandall::kChunkPaths;
   m.attr("BLOCK_PATHS") = crandall::kBlockPaths;
   m.attr("LANES") = crandall::kLanes;
@@ -120,9 +178,12 @@ void register_run(py::module_& m) {
       "run_chunk",
       [](const crandall::Plan& plan, std::uint64_t chunk, int threads) {
         using clock = std::chrono::steady_clock;
+        const bool main = on_main_thread();
         auto last = clock::now();
-        // Called on the calling (main) thread only, so Python's signal handlers can run there.
-        auto interrupted = [&last]() {
+        // Called by the run's calling thread only. Python runs signal handlers on the main
+        // thread alone, so elsewhere there is nothing to check but the interpreter's exit.
+        auto interrupted = [&last, main]() {
+          if (!main) return g_exiting.load();
           const auto now = clock::now();
           if (now - last < std::chrono::milliseconds(50)) return false;
           last = now;
@@ -132,10 +193,11 @@ void register_run(py::module_& m) {
         try {
           // Pure C++ on data owned by the plan and the result: safe without the GIL, and other
           // Python threads (a progress bar) keep running.
-          py::gil_scoped_release release;
-          return crandall::run_chunk(plan, chunk, threads, interrupted);
+          return without_gil([&] { return crandall::run_chunk(plan, chunk, threads, interrupted); });
         } catch (const crandall::Interrupted&) {
-          throw py::error_already_set();  // the KeyboardInterrupt set by PyErr_CheckSignals
+          // The KeyboardInterrupt (or a signal handler's exception) set by PyErr_CheckSignals.
+          if (PyErr_Occurred()) throw py::error_already_set();
+          throw std::runtime_error("run abandoned: the interpreter is exiting");
         }
       },
       py::arg("plan"), py::arg("chunk"), py::arg("threads") = 0,
@@ -144,8 +206,8 @@ void register_run(py::module_& m) {
   m.def(
       "random_floor",
       [](std::uint64_t paths, std::uint64_t steps, std::uint64_t seed, int threads) {
-        py::gil_scoped_release release;  // pure C++ on its own locals
-        return crandall::random_floor(paths, steps, seed, threads);
+        // Pure C++ on its own locals.
+        return without_gil([&] { return crandall::random_floor(paths, steps, seed, threads); });
       },
       py::arg("paths"), py::arg("steps"), py::arg("seed"), py::arg("threads") = 0,
       "Generate the kernel's noise for paths x steps with no physics (a throughput floor).");
@@ -167,11 +229,8 @@ void register_run(py::module_& m) {
   m.def(
       "exact_steps",
       [](const std::vector<double>& start, double h, double drift, double noise, std::uint64_t seed) {
-        std::vector<double> out;
-        {
-          py::gil_scoped_release release;
-          out = crandall::exact_steps(start, h, drift, noise, seed);
-        }
+        const std::vector<double> out =
+            without_gil([&] { return crandall::exact_steps(start, h, drift, noise, seed); });
         return to_array(out, out.size(), 0);
       },
       py::arg("start"), py::arg("h"), py::arg("drift"), py::arg("noise"), py::arg("seed"),

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "crandall/skeleton.hpp"
+
 namespace crandall {
 namespace {
 
@@ -127,6 +129,11 @@ Plan::Plan(Options options) : options_(std::move(options)) {
   for (; slot < static_cast<long>(o.times.size()) && o.times[slot] <= end; ++slot)
     add(o.times[slot], slot);
   if (previous < end) add(end, -1);
+  // The step's arithmetic has a range (skeleton.hpp); beyond it a step would overflow.
+  for (const Segment& seg : segments_)
+    require(step_in_range(seg.h, o.drift, o.noise),
+            "times and switch_off are too long for this drift and noise: a step would exceed "
+            "the range of doubles");
   for (; slot < static_cast<long>(o.times.size()); ++slot) {
     coast_slots_.push_back(slot);
     coast_elapsed_.push_back(o.times[slot] - o.switch_off);

@@ -46,8 +46,11 @@ inline VecD vec_cos(VecD v) { return _ZGVcN4v_cos(v); }
 #endif
 
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <exception>
 #include <map>
+#include <memory>
 #include <mutex>
 
 #include "crandall/kernel.hpp"
@@ -161,44 +164,66 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   std::vector<ChunkResult> coarse_result(
       static_cast<std::size_t>(grids - 1), ChunkResult{Moments(o.times.size()), Moments(o.stop ? 1 : 0)});
   std::atomic<bool> stop_flag{false};
+  std::atomic<long> next_claim{0}, finished{0};
   std::exception_ptr error;
-  std::mutex merge_mutex;
+  std::mutex error_mutex, merge_mutex, done_mutex;
+  std::condition_variable done;  // signalled when the last block finishes or the run fails
   std::map<long, BlockOut> pending;
   long next_block = 0;
   const int team = threads > 0 ? threads : omp_get_max_threads();
   if (interrupted && interrupted()) throw Interrupted();  // a request already pending
 
+  // No exception may leave an OpenMP region (that terminates the process): every one is
+  // caught here, the run is abandoned, and the first is rethrown on the calling thread.
+  auto fail = [&](std::exception_ptr e) noexcept {
+    {
+      std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = e;
+    }
+    stop_flag.store(true);
+    std::lock_guard<std::mutex> lock(done_mutex);
+    done.notify_all();
+  };
+  // Only the calling thread runs the check (Python handles signals on its main thread); the
+  // others read the flag it sets. Polled between blocks and every kPollSteps steps in a block.
+  auto poll = [&]() noexcept {
+    if (interrupted && !stop_flag.load()) {
+      try {
+        if (interrupted()) stop_flag.store(true);
+      } catch (...) {
+        fail(std::current_exception());
+      }
+    }
+    return stop_flag.load();
+  };
+
 #pragma omp parallel num_threads(team)
   {
-    Workspace ws(plan);
     const bool caller = omp_get_thread_num() == 0;
-    // Only the calling thread may run the check (Python handles signals on its main thread).
-    ws.abandon = [&, caller]() {
-      if (caller && interrupted && !stop_flag.load()) {
-        try {
-          if (interrupted()) stop_flag.store(true);
-        } catch (...) {
-#pragma omp critical(crandall_error)
-          if (!error) error = std::current_exception();
-          stop_flag.store(true);
-        }
-      }
-      return stop_flag.load();
-    };
-    // Blocks are handed out dynamically; finished ones wait in `pending` until every earlier
-    // block is merged, so the merge order is the block order whatever the threads do, and no
-    // thread ever blocks (the calling thread keeps polling for Ctrl-C).
-#pragma omp for schedule(dynamic, 1)
-    for (long b = 0; b < blocks; ++b) {
-      if (ws.abandon()) continue;
+    std::unique_ptr<Workspace> ws;
+    try {
+      ws = std::make_unique<Workspace>(plan);
+      if (caller)
+        ws->abandon = poll;
+      else
+        ws->abandon = [&stop_flag]() { return stop_flag.load(std::memory_order_relaxed); };
+    } catch (...) {
+      fail(std::current_exception());
+    }
+    // Blocks are claimed in order from a shared counter; finished ones wait in `pending` until
+    // every earlier block is merged, so the merge order is the block order whatever the
+    // threads do.
+    while (ws && !ws->abandon()) {
+      const long b = next_claim.fetch_add(1);
+      if (b >= blocks) break;
       try {
-        ws.reset();
+        ws->reset();
         const std::uint64_t start = first + static_cast<std::uint64_t>(b) * kBlockPaths;
         const std::uint64_t n = std::min<std::uint64_t>(kBlockPaths, first + count - start);
-        block_fn(plan, start, n, ws);
-        if (ws.abandon()) continue;
+        block_fn(plan, start, n, *ws);
+        if (ws->abandon()) break;
         std::lock_guard<std::mutex> lock(merge_mutex);
-        pending.emplace(b, BlockOut{ws.times, ws.stop, ws.coarse_times, ws.coarse_stop});
+        pending.emplace(b, BlockOut{ws->times, ws->stop, ws->coarse_times, ws->coarse_stop});
         for (auto it = pending.begin(); it != pending.end() && it->first == next_block;
              it = pending.erase(it), ++next_block) {
           it->second.times.merge_into(result.times);
@@ -209,9 +234,22 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
           }
         }
       } catch (...) {
-#pragma omp critical(crandall_error)
-        if (!error) error = std::current_exception();
-        stop_flag.store(true);
+        fail(std::current_exception());
+        break;
+      }
+      if (finished.fetch_add(1) + 1 == blocks) {
+        std::lock_guard<std::mutex> lock(done_mutex);
+        done.notify_all();
+      }
+    }
+    if (caller) {
+      // The other threads may still be running blocks (a single long block, or more threads
+      // than cores with this one descheduled): keep checking for an interrupt until they are
+      // done instead of waiting for them at the end of the region.
+      while (!poll()) {
+        std::unique_lock<std::mutex> lock(done_mutex);  // not held while polling: fail() takes it
+        if (finished.load() >= blocks || stop_flag.load()) break;
+        done.wait_for(lock, std::chrono::milliseconds(10));
       }
     }
   }
@@ -262,6 +300,8 @@ std::vector<double> exact_steps(const std::vector<double>& start, double h, doub
   if (!(std::isfinite(h) && h > 0.0)) throw std::invalid_argument("h must be finite and > 0");
   if (!(std::isfinite(drift) && drift >= 0.0)) throw std::invalid_argument("drift must be finite and >= 0");
   if (!(std::isfinite(noise) && noise >= 0.0)) throw std::invalid_argument("noise must be finite and >= 0");
+  if (!step_in_range(h, drift, noise))
+    throw std::invalid_argument("h is too long for this drift and noise: the step would exceed the range of doubles");
   std::vector<double> out(start.size());
   for (std::size_t i = 0; i < start.size(); ++i) {
     if (!std::isfinite(start[i])) throw std::invalid_argument("start must be finite");

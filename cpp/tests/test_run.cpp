@@ -2,12 +2,18 @@
 // plans and options reject bad input.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cmath>
+#include <stdexcept>
 #include <limits>
 #include <set>
+#include <utility>
+#include <vector>
 
+#include "crandall/coast.hpp"
 #include "crandall/rng.hpp"
 #include "crandall/run.hpp"
+#include "crandall/skeleton.hpp"
 
 namespace {
 
@@ -262,6 +268,135 @@ TEST(Methods, SkeletonMethodsShareTheVelocityAndTheStopTime) {
                 rich.times.central()[s * crandall::kMonomials + k], 1e-9);
   }
   EXPECT_NEAR(exact.stop.means()[0], rich.stop.means()[0], 1e-13);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Kernel, LanesEqualTheScalarExactStep) {
+  // The kernel evaluates the exact step lane by lane in vector form; with one path, the mean of
+  // an output slot is that path's velocity itself, which must be exact_step's bits on the same
+  // draws (step k uses half k of pair 0), in the regular and in the scaled range of steps.
+  for (const auto& [drift, noise] : std::vector<std::pair<double, double>>{
+           {2.0, std::sqrt(2.0)}, {2.943, 1e-9}, {0.0, 1.0}, {2.0, 0.0}}) {
+    for (double h : {1e-300, 1e-200, 1e-12, 0.01, 1.0, 1e3, 1e15, 1e17, 1e100, 1e200, 1e300}) {
+      crandall::Options o;
+      o.drift = drift;
+      o.noise = noise;
+      o.times = {h, 2.0 * h};
+      o.paths = 1;
+      for (std::uint64_t seed = 0; seed < 64; ++seed) {
+        o.seed = seed;
+        const crandall::Plan plan(o);
+        ASSERT_EQ(plan.segments().size(), 2u);
+        const auto r = crandall::run_chunk(plan, 0, 1);
+        crandall::StepNoise z[2];
+        crandall::draw_pair(seed, 0, 0, z);
+        double x = 0.0;
+        for (int k = 0; k < 2; ++k) {
+          x = crandall::exact_step(x, plan.segments()[k].h, drift, noise, z[k].normal,
+                                   z[k].exponential, z[k].coin)
+                  .velocity;
+          EXPECT_EQ(r.times.means()[k * crandall::kVariables], x)
+              << "drift=" << drift << " noise=" << noise << " h=" << h << " seed=" << seed;
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Rng, DrawsStayWithinTheirDocumentedBounds) {
+  // The extreme uniforms (w = 0 and w = 2^32 - 1) give the extreme draws; the kernel's
+  // segment_regular relies on these bounds.
+  const double k2m32 = std::ldexp(1.0, -32);
+  const double u_min = 0.5 * k2m32, u_max = (4294967295.0 + 0.5) * k2m32;
+  EXPECT_GE(-std::log(u_max), crandall::kMinExponential);
+  EXPECT_LE(-std::log(u_min), crandall::kMaxExponential);
+  EXPECT_LE(std::sqrt(-2.0 * std::log(u_min)), crandall::kMaxAbsNormal);
+  double lo = 1.0, hi = 0.0, z = 0.0;
+  for (std::uint64_t pair = 0; pair < 200000; ++pair) {
+    crandall::StepNoise w[2];
+    crandall::draw_pair(9, 3, pair, w);
+    for (const auto& v : w) {
+      lo = std::min(lo, v.exponential);
+      hi = std::max(hi, v.exponential);
+      z = std::max(z, std::abs(v.normal));
+    }
+  }
+  EXPECT_GE(lo, crandall::kMinExponential);
+  EXPECT_LE(hi, crandall::kMaxExponential);
+  EXPECT_LE(z, crandall::kMaxAbsNormal);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Run, StopTimeMomentsExactAtAHugeSwitchOff) {
+  // At t0 = 1e16 the spacing of doubles is 2, while the time to stop, |X(t0)| / 2, is of order
+  // 1/4: the stop slot keeps the time from the switch-off, whose moments must match those of
+  // the paths' own |X(t0)| / 2 to double precision (the velocity jumps to t0 in one exact step,
+  // step 0 of each path).
+  crandall::Options o;
+  o.switch_off = 1e16;
+  o.stop = true;
+  o.seed = 5;
+  o.paths = 3000;
+  const auto r = crandall::run_chunk(crandall::Plan(o), 0, 2);
+  long double sum = 0.0L, sum2 = 0.0L;
+  std::vector<double> t(o.paths);
+  for (std::uint64_t p = 0; p < o.paths; ++p) {
+    crandall::StepNoise z[2];
+    crandall::draw_pair(o.seed, p, 0, z);
+    const double x = crandall::exact_step(0.0, o.switch_off, o.drift, o.noise, z[0].normal,
+                                          z[0].exponential, z[0].coin)
+                         .velocity;
+    t[p] = crandall::time_to_stop(x, o.drift);
+    sum += t[p];
+  }
+  const long double mean = sum / o.paths;
+  for (double v : t) sum2 += (v - mean) * (v - mean);
+  ASSERT_EQ(r.stop.counts()[0], 3000.0);
+  EXPECT_NEAR(r.stop.means()[0], static_cast<double>(mean), 1e-15);
+  const double c2 = r.stop.central()[crandall::monomial_index(2, 0, 0)];
+  EXPECT_NEAR(c2, static_cast<double>(sum2), 1e-12 * static_cast<double>(sum2));
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Run, ExceptionInTheCheckIsRethrownOnTheCaller) {
+  // An exception thrown inside the threads must come back to the caller, never terminate.
+  const crandall::Plan plan(scene());
+  int calls = 0;
+  auto check = [&calls]() -> bool {
+    if (++calls > 1) throw std::runtime_error("check failed");
+    return false;
+  };
+  EXPECT_THROW(crandall::run_chunk(plan, 0, 3, check), std::runtime_error);
+}
+
+TEST(Run, InterruptNoticedWhileAnotherThreadRunsTheOnlyBlock) {
+  // One block (100 paths) of a long run on 4 threads: the calling thread may hold no block;
+  // it must keep checking, and the block's thread must stop within kPollSteps steps.
+  auto o = scene();
+  o.paths = 100;
+  o.times = {5.0};
+  o.switch_off = 5.0;
+  o.dt = 1e-7;  // 5e7 steps: minutes of work
+  const crandall::Plan plan(o);
+  const auto start = std::chrono::steady_clock::now();
+  auto check = [start]() { return std::chrono::steady_clock::now() - start > std::chrono::milliseconds(200); };
+  EXPECT_THROW(crandall::run_chunk(plan, 0, 4, check), crandall::Interrupted);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_LT(seconds, 5.0);
 }
 
 }  // namespace

@@ -134,6 +134,9 @@ class Result:
                 spread = (m4 - m2 * m2) * n
             else:
                 mean = f * acc.means[:, v]
+                if name == "stop_time":
+                    # The core keeps the time from the switch-off to the stop (exact at any t0).
+                    mean = mean + self.scene.t0
                 spread = acc.central[:, _e(v, 2)]
             # An extrapolated second moment may be negative with few paths: truncated at 0
             # (see the class docstring). Fewer than 2 paths: undefined (NaN).

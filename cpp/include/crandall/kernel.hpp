@@ -170,7 +170,10 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
     for (int l = 0; l < lanes; ++l) {
       const double to_stop = time_to_stop(x[l], o.drift);
       const State st = coast({x[l], u[l], s[l]}, o.drift, to_stop);
-      ts[l] = o.switch_off + to_stop;
+      // The time from the switch-off, not the stop instant: at t0 = 1e16 a double cannot
+      // resolve t0 + |X| / c (the spacing there is 2), and the stop time's spread would be
+      // rounding noise. The mean is shifted by t0 where it is reported (ChunkResult).
+      ts[l] = to_stop;
       us[l] = st.displacement;
       ss[l] = st.distance;
     }
@@ -198,7 +201,8 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
       const double near = kRefineWithin * noise * std::sqrt(h);
       // The step's constants, rounded exactly as exact_step rounds them.
       const double mean_d = -drift * h, scale_d = noise * std::sqrt(h);
-      const double twice_var = 2.0 * (noise * noise * h);
+      const double twice_var = 2.0 * step_variance(noise, h);
+      const bool all_regular = segment_regular(mean_d, scale_d, twice_var);
       for (std::uint64_t i = 0; i < seg.steps; ++i, ++k) {
         if ((k & (kPollSteps - 1)) == kPollSteps - 1 && ws.abandon && ws.abandon()) return;
         const int half = static_cast<int>(k & 1u);
@@ -246,29 +250,41 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
           alignas(32) double d[kLanes], q[kLanes], root[kLanes], x1[kLanes];
 #pragma omp simd
           for (int l = 0; l < kLanes; ++l) {
-            d[l] = mean_d + scale_d * zn[l];
+            d[l] = mul_add(scale_d, zn[l], mean_d);
             q[l] = twice_var * ze[l];
-            root[l] = d[l] * d[l] + q[l];
+            root[l] = mul_add(d[l], d[l], q[l]);
           }
           sqrt_lanes(root);
+          int irregular = 0;
+          if (!all_regular) {
+#pragma omp simd reduction(| : irregular)
+            for (int l = 0; l < kLanes; ++l) irregular |= !step_regular(root[l]);
+          }
+          if (irregular == 0) {
 #pragma omp simd
-          for (int l = 0; l < kLanes; ++l) {
-            const double x0 = x[l];
-            const double a = std::abs(x0);
-            // bridge_minimum: both forms computed, one selected (no branch; the unselected one
-            // may be 0/0 when d = root = 0, which is harmless).
-            const double low = 0.5 * (d[l] - root[l]);
-            const double high = -0.5 * q[l] / (d[l] + root[l]);
-            const double m = d[l] <= 0.0 ? low : high;
-            const double up = a + d[l], down = d[l] - m;
-            const double magnitude = up < down ? down : up;
-            // A touch of 0 takes the coin's sign, otherwise the sign is kept.
-            const bool touched = a + m <= 0.0;
-            const bool positive = (touched & (zc[l] != 0.0)) | (!touched & (x0 > 0.0));
-            x1[l] = positive ? magnitude : -magnitude;
-            // Trapezoid rule on the exact skeleton (docs/integrals.md).
-            if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1[l]);
-            if constexpr (kDist) s[l] += 0.5 * h * (a + std::abs(x1[l]));
+            for (int l = 0; l < kLanes; ++l) {
+              const double x0 = x[l];
+              // The same functions as exact_step's regular case, so the same bits.
+              const double a = std::abs(x0);
+              const double magnitude = step_regular_magnitude(a, d[l], q[l], root[l]);
+              // A touch of 0 takes the coin's sign, otherwise the sign is kept.
+              const bool touched = step_touched(a, step_regular_minimum(d[l], q[l], root[l]));
+              const bool positive = (touched & (zc[l] != 0.0)) | (!touched & (x0 > 0.0));
+              x1[l] = positive ? magnitude : -magnitude;
+              // Trapezoid rule on the exact skeleton (docs/integrals.md).
+              if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1[l]);
+              if constexpr (kDist) s[l] += 0.5 * h * (a + std::abs(x1[l]));
+            }
+          } else {
+            // A step far outside the usual range in some lane (over- or underflow of d^2 + q):
+            // exact_step, which takes its scaled form there and gives the vector loop's bits
+            // elsewhere; the integrals as above.
+            for (int l = 0; l < kLanes; ++l) {
+              const double x0 = x[l];
+              x1[l] = exact_step(x0, h, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
+              if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1[l]);
+              if constexpr (kDist) s[l] += 0.5 * h * (std::abs(x0) + std::abs(x1[l]));
+            }
           }
           if constexpr (kCoarse) {
             // Segments have step counts that are multiples of 2^(kGrids - 1), so a coarse step

@@ -29,6 +29,14 @@ struct StepNoise {
 void log_n(const double* in, double* out, int n);
 void sincos_n(const double* in, double* sin_out, double* cos_out, int n);
 
+// Bounds of every draw, from the uniforms' range [2^-33, 1 - 2^-33] (draw_pairs): exponentials
+// lie in [-log(1 - 2^-33), 33 log 2] = [1.16e-10, 22.88], normals in
+// [-sqrt(66 log 2), sqrt(66 log 2)] = +-6.77. The kernel relies on them to know a segment's
+// steps need no range check (skeleton.hpp); cpp/tests/test_run.cpp checks them.
+constexpr double kMinExponential = 1.1e-10;
+constexpr double kMaxExponential = 22.9;
+constexpr double kMaxAbsNormal = 6.8;
+
 // Noise of two consecutive steps for N paths (path0, ..., path0 + N - 1), structure of arrays:
 // normal[j][l] is the normal of step 2*pair + j of path path0 + l.
 template <int N>

@@ -15,10 +15,17 @@ namespace crandall {
 
 struct ChunkResult {
   Moments times;  // slot per output time: (velocity, displacement, distance)
-  Moments stop;   // one slot: (stop time, displacement at stop, distance at stop), or none
+  // One slot, or none: (time from the switch-off to the stop, displacement at the stop,
+  // distance at the stop). The stop instant is switch_off plus the first variable: its mean is
+  // switch_off + means()[0], its central moments are those of the first variable. Kept
+  // relative so that they stay exact to double precision at any switch_off.
+  Moments stop;
 };
 
-// Polled by the calling thread between blocks; returning true abandons the run.
+// Polled by the calling thread only: before the run, between blocks, every kPollSteps steps
+// of its own blocks, and every 10 ms while it waits for the other threads' blocks. Returning
+// true abandons the run (every thread stops within kPollSteps steps) and run_chunk throws
+// Interrupted; an exception it throws abandons the run and is rethrown by run_chunk.
 using InterruptCheck = std::function<bool()>;
 
 class Interrupted : public std::runtime_error {
@@ -27,7 +34,8 @@ class Interrupted : public std::runtime_error {
 };
 
 // Simulate chunk `chunk` of the plan on `threads` threads (0: OpenMP's default). The result
-// is bitwise the same for any thread count.
+// is bitwise the same for any thread count. No exception escapes the threads: the first one
+// (std::bad_alloc included) is rethrown here.
 ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
                       const InterruptCheck& interrupted = {});
 

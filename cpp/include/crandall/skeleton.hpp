@@ -1,4 +1,4 @@
-// The exact-in-law step of the velocity. Derivation: docs/exact-step.md.
+// The exact-in-law step of the velocity. Derivation and numerics: docs/exact-step.md.
 //
 // The velocity X obeys dX = -c sign(X) dt + sigma dW (the paper's eq3 has c = 2, sigma = sqrt 2).
 // |X| is the Skorokhod reflection at 0 of Y(s) = |x| + sigma B(s) - c s, and the sign of each
@@ -7,10 +7,16 @@
 //   m = (D - sqrt(D^2 + 2 sigma^2 h E)) / 2, E ~ Exp(1) (exact minimum of the bridge of Y - |x|)
 //   |X(h)| = max(|x| + D, D - m)                       (Skorokhod map)
 //   a touch of 0 (|x| + m <= 0) draws a fresh sign; otherwise the sign is kept.
+// Every quantity is evaluated in a form free of cancellation for any D, h and draws; the kernel
+// (kernel.hpp) calls the same functions (step_regular_magnitude, step_regular_minimum) lane by
+// lane and exact_step itself outside their range, so the two give the same bits.
 #pragma once
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+
+#include "crandall/rng.hpp"
 
 namespace crandall {
 
@@ -19,8 +25,123 @@ struct StepResult {
   bool touched;     // whether X reached 0 during the step
 };
 
-// Minimum over [0, h] of a Brownian bridge from 0 to d with variance `variance` = sigma^2 h
-// at time h: P(min <= m) = exp(-2 m (m - d) / variance) for m <= min(0, d). Inverting at
+// Largest c h and sigma sqrt(h) a step accepts. Every intermediate value of a step then stays
+// below about 32 times it (|Z| < 7 and E < 23 for the project's draws, rng.hpp, and |x| of the
+// same order), far from overflow; in scaled units this allows steps up to 5e300.
+constexpr double kStepScaleLimit = 1e301;
+
+inline bool step_in_range(double h, double drift, double noise) {
+  return h >= 0.0 && drift * h <= kStepScaleLimit && noise * std::sqrt(h) <= kStepScaleLimit;
+}
+
+// sigma^2 h, the variance of D. (noise * noise) * h is kept where noise^2 is a normal number
+// (every realistic intensity; these bits are the kernel's); below that, noise^2 alone would lose
+// precision to underflow while sigma^2 h itself may well be representable.
+inline double step_variance(double noise, double h) {
+  if (noise >= 0x1p-500) return noise * noise * h;
+  const double s = noise * std::sqrt(h);
+  return s * s;
+}
+
+// root = sqrt(D^2 + q) is a normal number far from both ends of the range: then neither D^2
+// nor q overflows, and whichever of them underflows is negligible against the other (below
+// 2^-170 of it), so the regular formulas below hold to a few ulps. Fails for NaN.
+inline bool step_regular(double root) {
+  return (root >= 0x1p-450) & (root <= std::numeric_limits<double>::max());
+}
+
+// a * b + c, fused where the build has FMA (one rounding) and plain where it has not. The
+// compiler is free to contract a * b + c on its own (-ffp-contract=fast, GCC's default), and
+// it may decide differently in the vectorised kernel and in the scalar step; the step's
+// products that feed a sum are therefore written through this function, and every other
+// expression of the step ends in a multiplication or a division, which is never contracted.
+// That is what makes the kernel's lanes and exact_step give the same bits.
+inline double mul_add(double a, double b, double c) {
+#if defined(__FMA__)
+  return std::fma(a, b, c);
+#else
+  return a * b + c;
+#endif
+}
+
+// Whether every step of a segment is regular whatever the draws (rng.hpp bounds them), from the
+// step's constants mean_d = -c h, scale_d = sigma sqrt(h) and twice_var = 2 sigma^2 h: then
+// the kernel skips the per-lane range check.
+inline bool segment_regular(double mean_d, double scale_d, double twice_var) {
+  const double lowest = twice_var > 0.0 ? std::sqrt(twice_var * kMinExponential) : std::abs(mean_d);
+  const double d = std::abs(mean_d) + kMaxAbsNormal * scale_d;
+  const double highest = std::sqrt(d * d + twice_var * kMaxExponential);
+  return lowest >= 0x1p-449 && highest <= 1e300;
+}
+
+// The step's regular case, from a = |x|, the increment d, q = 2 sigma^2 h E and
+// root = sqrt(d^2 + q), for step_regular(root). With r = q / (2 (root + |d|)):
+// - for d > 0, the bridge minimum m = (d - root)/2 cancels; it equals -r (multiply by
+//   d + root). For d <= 0, d - m = (d + root)/2 cancels when d^2 >> q (a long step, where d is
+//   near -c h and sqrt(q) only of order sqrt(h): it lost about log2(4 d^2 / q) bits); it
+//   equals r, since root^2 - d^2 = q. So m = min(d, 0) - r and d - m = max(d, 0) + r, sums of
+//   terms of one sign for either sign of d, and one quotient of positive terms;
+// - |X(h)| = max(|x| + d, d - m): |x| + d is the state plus the increment, rounded once;
+// - the touch |x| + m <= 0 is tested as |x| <= -m, the same predicate (a rounded sum is <= 0
+//   exactly when the exact one is).
+// The forms are branch-free so that the kernel's loop over them vectorises, and they return
+// plain doubles (a struct local in an OpenMP simd loop becomes an array in memory).
+inline double step_regular_quotient(double d, double q, double root) {
+  return 0.5 * q / (root + std::abs(d));
+}
+
+inline double step_regular_minimum(double d, double q, double root) {
+  return std::min(d, 0.0) - step_regular_quotient(d, q, root);
+}
+
+inline double step_regular_magnitude(double a, double d, double q, double root) {
+  return std::max(a + d, std::max(d, 0.0) + step_regular_quotient(d, q, root));
+}
+
+inline bool step_touched(double a, double minimum) { return a <= -minimum; }
+
+struct StepParts {
+  double magnitude;  // |X(h)|
+  double minimum;    // m (<= 0)
+};
+
+// Any step in range (step_in_range), regular or not: used where step_regular fails, i.e. when
+// D^2 + q overflows (steps beyond about 1e150 in scaled units), underflows (steps below about
+// 1e-270), or noise and drift both vanish. Everything is computed in units of
+// s = sigma sqrt(h), the standard deviation of D: delta = D / s = Z - c h / s and, with q / s^2
+// = 2E, rho = sqrt(delta^2 + 2E) by hypot (no overflow), m / s and (D - m) / s in the
+// quotient forms above.
+inline StepParts step_scaled_parts(double a, double h, double drift, double noise,
+                                   double normal, double exponential) {
+  const double s = noise * std::sqrt(h);
+  const double d = mul_add(s, normal, -drift * h);
+  if (!(s > 0.0)) {
+    // No noise (or noise below the smallest double): the deterministic Skorokhod map.
+    const double m = std::min(0.0, d);
+    return {std::max(a + d, d - m), m};
+  }
+  // c h / s may overflow to +inf when s is tiny; delta = -inf then gives m = -inf (a certain
+  // touch) and D - m = 0, both right to the last representable digit.
+  const double delta = normal - drift * h / s;
+  const double rho = std::hypot(delta, std::sqrt(2.0 * exponential));
+  const double e = exponential;
+  double m_s, down_s;
+  if (delta <= 0.0) {
+    m_s = -0.5 * (rho - delta);
+    down_s = e / (rho - delta);
+  } else {
+    const double r = e / (delta + rho);
+    m_s = -r;
+    down_s = delta + r;
+  }
+  const double m = s * m_s, down = s * down_s;
+  const double up = a + d;
+  return {up < down ? down : up, m};
+}
+
+// The textbook bridge minimum, the reference the tests check the law against (exact_step uses
+// step_regular_minimum, the same number without overflow). Minimum over [0, h] of a Brownian
+// bridge from 0 to d with variance `variance` = sigma^2 h at time h: P(min <= m) = exp(-2 m (m - d) / variance) for m <= min(0, d). Inverting at
 // exp(-exponential) gives m = (d - sqrt(d^2 + 2 variance exponential)) / 2.
 inline double bridge_minimum(double d, double variance, double exponential) {
   const double q = 2.0 * variance * exponential;
@@ -33,12 +154,16 @@ inline double bridge_minimum(double d, double variance, double exponential) {
 inline StepResult exact_step(double x, double h, double drift, double noise, double normal,
                              double exponential, bool coin) {
   const double a = std::abs(x);
-  const double d = -drift * h + noise * std::sqrt(h) * normal;
-  const double m = bridge_minimum(d, noise * noise * h, exponential);
-  const double magnitude = std::max(a + d, d - m);
-  const bool touched = a + m <= 0.0;
+  const double d = mul_add(noise * std::sqrt(h), normal, -drift * h);
+  const double q = 2.0 * step_variance(noise, h) * exponential;
+  const double root = std::sqrt(mul_add(d, d, q));
+  const StepParts p = step_regular(root)
+                          ? StepParts{step_regular_magnitude(a, d, q, root),
+                                      step_regular_minimum(d, q, root)}
+                          : step_scaled_parts(a, h, drift, noise, normal, exponential);
+  const bool touched = step_touched(a, p.minimum);
   const bool positive = touched ? coin : x > 0.0;
-  return {positive ? magnitude : -magnitude, touched};
+  return {positive ? p.magnitude : -p.magnitude, touched};
 }
 
 // Euler-Maruyama, the baseline: weak order 1, kept for comparison (sign(0) = 0).
