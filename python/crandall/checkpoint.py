@@ -189,7 +189,7 @@ def load(path, ident: Dict[str, Any], chunks: int):
     scene = ident["scene"]
     slots = {"times_": len(scene.get("times", ())),
              "stop_": 1 if "stop" in scene.get("observe", ()) else 0}
-    where = f"checkpoint: {os.fspath(path)} is not a crandall checkpoint of this run:"
+    where = f"checkpoint: {os.fspath(path)} is not a crandall checkpoint of this run"
     for prefix, n in slots.items():
         check_moments(where, prefix, {k: arrays[prefix + k] for k in ("counts", "means",
                                                                       "central")},
