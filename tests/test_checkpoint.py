@@ -448,7 +448,8 @@ def test_read_only_checkpoint_place_fails_before_the_run(tmp_path, monkeypatch, 
         with pytest.raises(ValueError, match="^checkpoint_dir: cannot write in"):
             crandall.simulate_many(sweep(), paths=PATHS, seed=5, dt=0.05,
                                    checkpoint_dir=os.path.join(folder, "sweep"))
-        with pytest.raises(ValueError, match="^checkpoint_dir: cannot write in"):
+        # An existing folder: each scene's checkpoint is checked.
+        with pytest.raises(ValueError, match="^checkpoint: cannot write in"):
             crandall.simulate_many(sweep(), paths=PATHS, seed=5, dt=0.05,
                                    checkpoint_dir=folder)
     finally:
@@ -520,3 +521,49 @@ def test_checkpoint_write_leaves_no_temporary_file_on_failure(tmp_path, monkeypa
     monkeypatch.setattr(os, "fsync", lambda fd: fsyncs.append(fd) or real(fd))
     _files.write_atomic(path, lambda f: f.write(b"new"))
     assert path.read_bytes() == b"new" and len(fsyncs) == 2  # the file, then its folder
+
+
+@pytest.mark.parametrize("how", [
+    pytest.param("chmod", marks=pytest.mark.skipif(
+        os.geteuid() == 0, reason="root writes into read-only folders")),
+    "refused",  # any user: every attempt to create a file in the folder fails
+])
+def test_complete_checkpoints_in_a_read_only_folder_are_still_read(tmp_path, monkeypatch, how):
+    """A finished run only reads its checkpoint: a read-only place is fine for it."""
+    import tempfile
+
+    folder = tmp_path / "done"
+    folder.mkdir()
+    first = crandall.simulate(scene(), paths=1000, seed=5, dt=0.05,
+                              checkpoint=folder / "run.ckpt")
+    sweep_first = crandall.simulate_many(sweep(), paths=1000, seed=5, dt=0.05,
+                                         checkpoint_dir=folder / "sweep")
+    if how == "chmod":
+        (folder / "sweep").chmod(0o500)
+        folder.chmod(0o500)
+    else:
+        real = tempfile.mkstemp
+
+        def mkstemp(*args, dir=None, **kwargs):
+            if dir is not None and str(dir).startswith(str(folder)):
+                raise PermissionError(13, "Permission denied", str(dir))
+            return real(*args, dir=dir, **kwargs)
+
+        monkeypatch.setattr(tempfile, "mkstemp", mkstemp)
+    calls = counting_run_chunk(monkeypatch)
+    try:
+        again = crandall.simulate(scene(), paths=1000, seed=5, dt=0.05,
+                                  checkpoint=folder / "run.ckpt")
+        sweep_again = crandall.simulate_many(sweep(), paths=1000, seed=5, dt=0.05,
+                                             checkpoint_dir=folder / "sweep")
+        # A run with chunks left in the same place is refused before it starts.
+        with pytest.raises(ValueError, match="^checkpoint: cannot write in"):
+            crandall.simulate(scene(), paths=1000, seed=5, dt=0.05,
+                              checkpoint=folder / "other.ckpt")
+    finally:
+        if how == "chmod":
+            folder.chmod(0o700)
+            (folder / "sweep").chmod(0o700)
+    assert calls == []
+    assert same_result(first, again)
+    assert all(same_result(a, b) for a, b in zip(sweep_first, sweep_again))

@@ -46,6 +46,9 @@ def identity(scene, *, paths: int, seed: int, dt: float, method: str) -> Dict[st
 def check_writable(path) -> str:
     """Check, before a run, that its checkpoint can be written; create nothing.
 
+    Called for a run that still has chunks to do (a complete checkpoint is only read, and
+    may sit in a read-only place).
+
     Parameters
     ----------
     path : str or os.PathLike
@@ -65,13 +68,18 @@ def check_writable(path) -> str:
 
 
 def make_folder(path) -> str:
-    """Create (if missing) the folder of a sweep's checkpoints, checking it is writable.
+    """Create the folder of a sweep's checkpoints if it is missing.
+
+    An existing folder is not probed here: a sweep whose checkpoints are all complete only
+    reads them, and the others are checked one by one (:func:`check_writable`).
 
     Raises
     ------
     ValueError
-        Naming ``checkpoint_dir``, if it is a file, cannot be created or is not writable.
+        Naming ``checkpoint_dir``, if it is a file or cannot be created.
     """
+    if isinstance(path, (str, os.PathLike)) and os.path.isdir(path):
+        return os.fspath(path)
     return check_folder_writable(path, "checkpoint_dir", create=True)
 
 
@@ -101,9 +109,7 @@ def _check_identity(path, ident) -> None:
             raise _refuse(path, f"identity.{key} is missing")
         if not ok(ident[key]):
             raise _refuse(path, f"identity.{key} is {ident[key]!r}")
-    extra = sorted(set(ident) - set(kinds) - {"format"})
-    if extra:
-        raise _refuse(path, f"identity has unknown fields {', '.join(extra)}")
+    # Fields beyond these are compared with the run's identity by load, which names them.
 
 
 def _read_arrays(path, f) -> Dict[str, np.ndarray]:
@@ -129,6 +135,8 @@ def _read_arrays(path, f) -> Dict[str, np.ndarray]:
 
 
 def _read(path) -> Tuple[Dict[str, Any], Dict[str, np.ndarray]]:
+    if os.path.isdir(path):
+        raise ValueError(f"checkpoint: {os.fspath(path)} is a folder; give a file path")
     try:
         with open(path, "rb") as f:
             arrays = _read_arrays(path, f)

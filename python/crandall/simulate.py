@@ -166,10 +166,11 @@ class _Run:
         self.checkpoint = checkpoint
         self.done, self.times_acc, self.stop_acc = 0, None, None
         if checkpoint is not None:
-            _ckpt.check_writable(checkpoint)  # fail now, not after the first chunk
             self.ident = _ckpt.identity(scene, paths=paths, seed=seed, dt=dt, method=method)
             self.done, self.times_acc, self.stop_acc = _ckpt.load(checkpoint, self.ident,
                                                                  self.plan.chunks)
+            if self.done < self.plan.chunks:  # fail now, not after the first chunk
+                _ckpt.check_writable(checkpoint)
 
     def paths_in(self, first, last):
         return sum(self.plan.chunk_paths(c) for c in range(first, last))
@@ -386,7 +387,7 @@ def simulate_many(
             raise ValueError(f"checkpoint_dir must be a path, got {checkpoint_dir!r}")
         if os.path.exists(checkpoint_dir) and not os.path.isdir(checkpoint_dir):
             raise ValueError(f"checkpoint_dir must be a directory: {os.fspath(checkpoint_dir)!r}")
-        _ckpt.make_folder(checkpoint_dir)  # created, and checked writable
+        _ckpt.make_folder(checkpoint_dir)  # a ValueError if it cannot be created
         files = [os.path.join(checkpoint_dir, f"scene-{i:04d}.ckpt") for i in range(len(scenes))]
         if seed is None:
             stored = [_ckpt.stored_seed(f) for f in files]
