@@ -377,9 +377,16 @@ def test_bad_input_exits_2_with_a_message(tmp_path, monkeypatch, capsys, args, w
         assert word in err
 
 
-def test_malformed_scheduler_address_exits_2(tmp_path, capsys):
-    pytest.importorskip("distributed")
+def test_malformed_scheduler_address_exits_2(tmp_path, monkeypatch, capsys):
+    distributed = pytest.importorskip("distributed")
     scene_file = tmp_path / "small.toml"
     scene_file.write_text(SMALL)
+
+    def client(address, **kwargs):
+        # What distributed.Client("nonsense") raises. A real attempt starts Dask's IO loop in
+        # this process, after which the LocalCluster of test_distributed failed to start.
+        raise ValueError(f"missing port number in address {address!r}")
+
+    monkeypatch.setattr(distributed, "Client", client)
     assert cli.main(["run", str(scene_file), "--no-files", "--scheduler", "nonsense"]) == 2
     _one_line_error(capsys, "--scheduler", "nonsense")

@@ -202,7 +202,7 @@ def load(path, ident: Dict[str, Any], chunks: int):
         check_moments(where, prefix, {k: arrays[prefix + k] for k in ("counts", "means",
                                                                       "central")},
                       slots=n, paths=float(done_paths), method=str(ident["method"]),
-                      counted=f" of chunks 0..{done - 1} (next_chunk is {done})")
+                      counted=f" of the {done} finished chunks (next_chunk is {done})")
     if done == 0:
         return 0, None, None
     moments = [_core.Moments(n, arrays[p + "counts"], arrays[p + "means"], arrays[p + "central"])
