@@ -465,6 +465,7 @@ def test_read_only_checkpoint_place_fails_before_the_run(tmp_path, monkeypatch, 
     ("afile/run.ckpt", "checkpoint: .*is not a folder"),
     ("adir", "checkpoint: .*is a folder"),
     ("adir/", "checkpoint: .*is a folder"),
+    ("newdir/", "checkpoint: .*names a folder"),
 ])
 def test_bad_checkpoint_path_fails_before_the_run(tmp_path, monkeypatch, where, message):
     (tmp_path / "afile").write_text("x")

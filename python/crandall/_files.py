@@ -111,8 +111,11 @@ def check_file_writable(path, name: str) -> str:
     text = os.fspath(path)
     if not isinstance(text, str) or not text.strip():
         raise ValueError(f"{name} must be a file path, got {text!r}")
-    if os.path.isdir(text) or text.endswith(os.sep):
+    if os.path.isdir(text):
         raise ValueError(f"{name}: {text} is a folder; give a file path")
+    if text.endswith(os.sep):
+        raise ValueError(f"{name}: {text} names a folder (it ends with {os.sep}); give a file "
+                         "path")
     if os.path.exists(text) and not os.path.isfile(text):
         raise ValueError(f"{name}: {text} is not a regular file")
     folder = os.path.dirname(os.path.abspath(text))
