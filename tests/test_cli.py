@@ -1,11 +1,15 @@
 """The command line: crandall run / analytic, --help, errors, outputs, python -m crandall."""
 
+import errno
 import importlib.metadata
+import json
+import os
 import pathlib
 import re
 import runpy
 import subprocess
 import sys
+import tempfile
 
 import numpy as np
 import pytest
@@ -60,10 +64,11 @@ def test_run_scene_file_prints_and_writes_everything(tmp_path):
                                dt=0.05)
     assert direct.summary() in proc.stdout
     files = sorted(p.name for p in out.iterdir())
-    assert files == sorted(["result.nc", "result.csv", "fig2_distance_mean.png",
-                            "fig3_velocity_var.png", "fig4_displacement_var.png",
-                            "fig5_distance_var.png", "velocity_density.png",
-                            "stop_time_density.png"])
+    outputs = sorted(["result.nc", "result.csv", "fig2_distance_mean.png",
+                      "fig3_velocity_var.png", "fig4_displacement_var.png",
+                      "fig5_distance_var.png", "velocity_density.png", "stop_time_density.png"])
+    assert files == sorted(outputs + [cli.MANIFEST])
+    assert sorted(json.loads((out / cli.MANIFEST).read_text())) == outputs
     assert same_result(crandall.load(out / "result.nc"), direct)
     csv = (out / "result.csv").read_text().splitlines()
     assert csv[0] == "quantity,tau,units,mean,var,std,stderr,var_stderr"
@@ -160,3 +165,228 @@ def test_analytic_command(capsys):
     expected = analytic.physical("distance_mean", 1.0, mu=0.3, h=1.0, t0=2.0)
     assert f"{expected:.8g}" in out and "[m]" in out
     assert cli.main(["analytic", str(SCENES / "crate.toml"), "--tau0", "1"]) == 2
+
+
+# -- output folder, checkpoint and bad input: exit 2 with one line, before simulating -------
+
+VELOCITY_ONLY = SMALL.replace('tau0 = 1.0', 'tau0 = 1.0\nobserve = ["velocity"]')
+
+
+def _no_simulation(monkeypatch):
+    def boom(*args, **kwargs):
+        raise AssertionError("simulated although the command was refused")
+    monkeypatch.setattr(cli, "simulate", boom)
+
+
+def _one_line_error(capsys, *words):
+    err = capsys.readouterr().err
+    assert err.startswith("crandall: error: ") and err.count("\n") == 1, err
+    for word in words:
+        assert word in err, err
+    return err
+
+
+def test_second_run_into_the_same_out_is_refused(tmp_path, monkeypatch, capsys):
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(SMALL)
+    out = tmp_path / "out"
+    args = ["run", str(scene_file), "--out", str(out), "--no-figures"]
+    assert cli.main(args) == 0
+    capsys.readouterr()
+    first = {p.name: p.read_bytes() for p in out.iterdir()}
+    _no_simulation(monkeypatch)
+    assert cli.main(args) == 2
+    _one_line_error(capsys, "--out", str(out), "earlier run", "result.nc", "--overwrite")
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == first  # untouched
+
+
+def test_overwrite_replaces_only_the_earlier_runs_files(tmp_path, capsys):
+    full = tmp_path / "full.toml"
+    full.write_text(SMALL)
+    velocity = tmp_path / "velocity.toml"
+    velocity.write_text(VELOCITY_ONLY)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    assert cli.main(["run", str(full), "--out", str(out)]) == 0
+    assert (out / "fig5_distance_var.png").exists() and (out / "stop_time_density.png").exists()
+    for flag in ("--overwrite", "--force"):
+        assert cli.main(["run", str(velocity), "--out", str(out), flag]) == 0
+        # Nothing of the first scene's is left beside the second one's results.
+        new = ["fig3_velocity_var.png", "result.csv", "result.nc", "velocity_density.png"]
+        assert sorted(p.name for p in out.iterdir()) == sorted(new + [cli.MANIFEST,
+                                                                      "notes.txt"])
+        assert sorted(json.loads((out / cli.MANIFEST).read_text())) == new
+        assert (out / "notes.txt").read_text() == "mine"
+        assert crandall.load(out / "result.nc").scene.observe == ("velocity",)
+    capsys.readouterr()
+
+
+def test_a_manifest_never_reaches_outside_its_folder(tmp_path, capsys):
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(SMALL)
+    out = tmp_path / "out"
+    out.mkdir()
+    (tmp_path / "precious.txt").write_text("keep")
+    (out / cli.MANIFEST).write_text(json.dumps(["../precious.txt", str(tmp_path / "precious.txt"),
+                                                "result.nc"]))
+    assert cli.main(["run", str(scene_file), "--out", str(out), "--no-figures"]) == 2
+    _one_line_error(capsys, cli.MANIFEST)
+    assert cli.main(["run", str(scene_file), "--out", str(out), "--no-figures",
+                     "--overwrite"]) == 0
+    assert (tmp_path / "precious.txt").read_text() == "keep"
+
+
+def test_earlier_outputs_without_a_manifest_are_refused(tmp_path, monkeypatch, capsys):
+    """A run killed while writing leaves crandall's files without a manifest."""
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(SMALL)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "fig2_distance_mean.png").write_bytes(b"png")
+    (out / "other.txt").write_text("x")
+    _no_simulation(monkeypatch)
+    assert cli.main(["run", str(scene_file), "--out", str(out)]) == 2
+    _one_line_error(capsys, "fig2_distance_mean.png")
+
+
+def test_folder_with_only_other_files_is_used(tmp_path, capsys):
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(SMALL)
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "other.txt").write_text("x")
+    assert cli.main(["run", str(scene_file), "--out", str(out), "--no-figures"]) == 0
+    assert (out / "result.nc").exists() and (out / "other.txt").read_text() == "x"
+
+
+@pytest.mark.parametrize("where, words", [
+    ("afile", ["--out must be a directory", "afile is a file"]),
+    ("afile/sub", ["--out: cannot create", "is a file"]),
+    ("", ["--out must be a folder path"]),
+])
+def test_unwritable_out_fails_before_the_run(tmp_path, monkeypatch, capsys, where, words):
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(SMALL)
+    (tmp_path / "afile").write_text("x")
+    monkeypatch.chdir(tmp_path)
+    _no_simulation(monkeypatch)
+    assert cli.main(["run", str(scene_file), "--out", where]) == 2
+    _one_line_error(capsys, *words)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "small.toml"]
+
+
+def _read_only_places():
+    return [pytest.param("chmod", marks=pytest.mark.skipif(
+                os.geteuid() == 0, reason="root writes into read-only folders")),
+            pytest.param("/sys", marks=pytest.mark.skipif(
+                not os.path.isdir("/sys"), reason="needs /sys"))]
+
+
+@pytest.mark.parametrize("kind", _read_only_places())
+def test_read_only_out_fails_before_the_run(tmp_path, monkeypatch, capsys, kind):
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(SMALL)
+    if kind == "chmod":
+        place = tmp_path / "ro"
+        place.mkdir()
+        place.chmod(0o500)
+    else:
+        place = pathlib.Path(kind)
+        try:  # it must really refuse (it does in containers and for non-root users)
+            fd, name = tempfile.mkstemp(dir=place)
+        except OSError:
+            pass
+        else:
+            os.close(fd)
+            os.unlink(name)
+            pytest.skip(f"{place} is writable here")
+    _no_simulation(monkeypatch)
+    try:
+        for out in (place, place / "sub"):
+            assert cli.main(["run", str(scene_file), "--out", str(out)]) == 2
+            _one_line_error(capsys, "--out: cannot write in", str(place))
+    finally:
+        if kind == "chmod":
+            place.chmod(0o700)
+
+
+def test_failed_write_after_the_run_is_one_line_not_a_traceback(tmp_path, monkeypatch,
+                                                                capsys):
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(SMALL)
+
+    def disk_full(result, path):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
+
+    monkeypatch.setattr(crandall.io, "save", disk_full)
+    assert cli.main(["run", str(scene_file), "--out", str(tmp_path / "o"), "--no-figures"]) == 2
+    _one_line_error(capsys, "result.nc", os.strerror(errno.ENOSPC))
+
+
+@pytest.mark.parametrize("where, words", [
+    ("", ["checkpoint must be a file path"]),
+    ("missing/run.ckpt", ["checkpoint:", "does not exist"]),
+    ("afile", ["checkpoint:", "afile is not a crandall checkpoint"]),
+    ("adir", ["checkpoint:", "is a folder"]),
+])
+def test_bad_checkpoint_exits_2_before_the_run(tmp_path, monkeypatch, capsys, where, words):
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(SMALL)
+    (tmp_path / "afile").write_bytes(b"\x00garbage")
+    (tmp_path / "adir").mkdir()
+    monkeypatch.chdir(tmp_path)
+    calls = []
+    monkeypatch.setattr(crandall._core, "run_chunk", lambda *a: calls.append(a))
+    assert cli.main(["run", str(scene_file), "--no-files", "--checkpoint", where]) == 2
+    _one_line_error(capsys, *words)
+    assert calls == []
+
+
+def test_damaged_checkpoint_from_the_shell_is_one_line(tmp_path):
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(SMALL)
+    ckpt = tmp_path / "run.ckpt"
+    ckpt.write_bytes(b"PK\x03\x04 truncated")
+    proc = crandall_cmd("run", str(scene_file), "--no-files", "--checkpoint", str(ckpt))
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1
+    assert proc.stderr.startswith(f"crandall: error: checkpoint: {ckpt} ")
+
+
+@pytest.mark.parametrize("args, words", [
+    (["run", "{binary}"], ["binary.toml: not a text (UTF-8) file"]),
+    (["analytic", "{binary}"], ["binary.toml: not a text (UTF-8) file"]),
+    (["run", "{small}", "--paths", str(2**64)], ["--paths", "2**64"]),
+    (["run", "{small}", "--seed", str(2**64)], ["--seed", "2**64"]),
+])
+def test_bad_input_exits_2_with_a_message(tmp_path, monkeypatch, capsys, args, words):
+    (tmp_path / "binary.toml").write_bytes(b"\x00\xff\xfe not text")
+    (tmp_path / "small.toml").write_text(SMALL)
+    _no_simulation(monkeypatch)
+    args = [a.format(binary=tmp_path / "binary.toml", small=tmp_path / "small.toml")
+            for a in args]
+    try:
+        status = cli.main(args)
+    except SystemExit as exc:  # argparse's way of refusing an option
+        status = exc.code
+    assert status == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    for word in words:
+        assert word in err
+
+
+def test_malformed_scheduler_address_exits_2(tmp_path, monkeypatch, capsys):
+    distributed = pytest.importorskip("distributed")
+    scene_file = tmp_path / "small.toml"
+    scene_file.write_text(SMALL)
+
+    def client(address, **kwargs):
+        # What distributed.Client("nonsense") raises. A real attempt starts Dask's IO loop in
+        # this process, after which the LocalCluster of test_distributed failed to start.
+        raise ValueError(f"missing port number in address {address!r}")
+
+    monkeypatch.setattr(distributed, "Client", client)
+    assert cli.main(["run", str(scene_file), "--no-files", "--scheduler", "nonsense"]) == 2
+    _one_line_error(capsys, "--scheduler", "nonsense")

@@ -106,3 +106,192 @@ def test_load_rejects_other_files(tmp_path):
     junk.write_text("hello")
     with pytest.raises(ValueError, match="path: cannot read"):
         crandall.load(junk)
+
+
+# -- damaged and edited files --------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def saved(tmp_path_factory):
+    """A saved result with output times and the stop (method "exact": plain sums), as bytes."""
+    scene = crandall.Scene.scaled(tau0=1.0, times=[0.5, 1.0, 2.0])
+    r = crandall.simulate(scene, paths=2000, seed=8, dt=0.05, method="exact")
+    path = tmp_path_factory.mktemp("io") / "result.nc"
+    r.save(path)
+    return path.read_bytes()
+
+
+def _attrs(**change):
+    def fn(ds):
+        for k, v in change.items():
+            if v is None:
+                del ds.attrs[k]
+            else:
+                ds.attrs[k] = v
+        return ds
+    return fn
+
+
+def _drop(name):
+    return lambda ds: ds.drop_vars(name)
+
+
+def _values(name, edit):
+    def fn(ds):
+        values = ds[name].values.copy()
+        edit(values)
+        ds[name] = (ds[name].dims, values)
+        return ds
+    return fn
+
+
+def _reshape(name, dims, values):
+    def fn(ds):
+        return ds.drop_vars(name).assign({name: (dims, values)})
+    return fn
+
+
+def _set(index, value):
+    def fn(a):
+        a[index] = value
+    return fn
+
+
+def _scene_attr(**change):
+    def fn(ds):
+        scene = json.loads(ds.attrs["scene"])
+        scene.update(change)
+        ds.attrs["scene"] = json.dumps(scene)
+        return ds
+    return fn
+
+
+def _times(ds):
+    return ds.assign_coords(time=ds["time"].values * 2)
+
+
+class Raw:
+    """A damage done to the file's bytes (the others edit the Dataset)."""
+
+    def __init__(self, fn):
+        self.fn = fn
+
+
+# (id, damage: Raw(bytes -> bytes), or Dataset -> Dataset, what the message must name)
+LOAD_CORRUPTIONS = [
+    ("truncated-20-bytes", Raw(lambda b: b[:20]), "cannot read"),
+    ("truncated-half", Raw(lambda b: b[: len(b) // 2]), "cannot read"),
+    ("empty", Raw(lambda b: b""), "cannot read"),
+    ("random-bytes", Raw(lambda b: np.random.default_rng(2).bytes(3000)), "cannot read"),
+    ("format", _attrs(format="something"), "not a saved crandall result"),
+    ("scene-not-json", _attrs(scene="{units"), "scene"),
+    ("scene-a-list", _attrs(scene="[1, 2]"), "scene"),
+    ("scene-bad-tau0", _scene_attr(tau0=-1.0), "scene"),
+    ("scene-bad-units", _scene_attr(units="furlongs"), "scene"),
+    ("scene-other-times", _scene_attr(times=[0.5, 1.0, 2.0, 3.0]), "slots"),
+    ("scene-without-stop", _scene_attr(observe=["velocity", "distance"]), "stop_counts"),
+    ("paths-text", _attrs(paths="many"), "paths"),
+    ("paths-zero", _attrs(paths=0), "paths"),
+    ("paths-negative", _attrs(paths=-3), "paths"),
+    ("paths-float", _attrs(paths=2000.5), "paths"),
+    ("paths-tampered", _attrs(paths=4000), "counts"),
+    ("seed-text", _attrs(seed="x"), "seed"),
+    ("seed-negative", _attrs(seed="-1"), "seed"),
+    ("seed-too-big", _attrs(seed=str(2**64)), "seed"),
+    ("seed-float", _attrs(seed=8.5), "seed"),
+    ("dt-text", _attrs(dt="0.05"), "dt"),
+    ("dt-nan", _attrs(dt=math.nan), "dt"),
+    ("dt-negative", _attrs(dt=-0.05), "dt"),
+    ("method", _attrs(method="rk4"), "method"),
+    ("steps_per_path-negative", _attrs(steps_per_path=-1), "steps_per_path"),
+    ("steps_per_path-text", _attrs(steps_per_path="lots"), "steps_per_path"),
+    ("slots-wrong", _attrs(slots=2), "slots"),
+    ("time-coordinate", _times, "time"),
+    ("counts-nan", _values("counts", _set(0, math.nan)), "counts"),
+    ("counts-tampered", _values("counts", _set(1, 5.0)), "counts"),
+    ("counts-zero", _values("counts", lambda a: a.fill(0.0)), "counts"),
+    ("means-nan", _values("means", _set((2, 1), math.nan)), "means"),
+    ("central-inf", _values("central", _set((0, 9), math.inf)), "central"),
+    ("central-negative-variance", _values("central", _set((1, 9), -2.0)), "central"),
+    ("central-count-column", _values("central", _set((1, 0), 3.0)), "central"),
+    ("stop_means-nan", _values("stop_means", _set((0, 0), math.nan)), "stop_means"),
+    ("stop_counts-tampered", _values("stop_counts", _set(0, 1.0)), "stop_counts"),
+    ("counts-short", _reshape("counts", ("slot2",), np.full(2, 2000.0)), "counts"),
+    ("means-wide", _reshape("means", ("slot", "var4"), np.zeros((3, 4))), "means"),
+    ("central-narrow", _reshape("central", ("slot", "m34"), np.zeros((3, 34))), "central"),
+    ("stop_central-two-slots", _reshape("stop_central", ("s2", "monomial"),
+                                        np.zeros((2, 35))), "stop_central"),
+    ("means-text", _reshape("means", ("slot", "variable"), np.full((3, 3), "x")), "means"),
+]
+LOAD_CORRUPTIONS += [(f"missing-attribute-{k}", _attrs(**{k: None}), k)
+                     for k in ("format", "scene", "paths", "seed", "dt", "method",
+                               "steps_per_path", "slots")]
+LOAD_CORRUPTIONS += [(f"missing-{k}", _drop(k), k)
+                     for k in ("counts", "means", "central", "stop_counts", "stop_means",
+                               "stop_central")]
+
+
+@pytest.mark.parametrize("damage, field", [c[1:] for c in LOAD_CORRUPTIONS],
+                         ids=[c[0] for c in LOAD_CORRUPTIONS])
+def test_damaged_file_is_a_value_error_naming_file_and_field(tmp_path, saved, damage, field):
+    source = tmp_path / "good.nc"
+    source.write_bytes(saved)
+    path = tmp_path / "damaged.nc"
+    if isinstance(damage, Raw):
+        path.write_bytes(damage.fn(saved))
+    else:
+        with xr.open_dataset(source, engine="scipy") as ds:
+            out = damage(ds.load())
+        out.to_netcdf(path, engine="scipy", format="NETCDF3_64BIT")
+    with pytest.raises(ValueError) as info:
+        crandall.load(path)
+    message = str(info.value)
+    assert message.startswith(f"path: ") and str(path) in message
+    assert field in message
+
+
+def test_the_undamaged_file_loads(tmp_path, saved):
+    """The table's starting point is valid, and survives the rewrite the table uses."""
+    source = tmp_path / "good.nc"
+    source.write_bytes(saved)
+    with xr.open_dataset(source, engine="scipy") as ds:
+        ds.load().to_netcdf(tmp_path / "copy.nc", engine="scipy", format="NETCDF3_64BIT")
+    assert same_result(crandall.load(source), crandall.load(tmp_path / "copy.nc"))
+
+
+def test_counts_beyond_netcdf3_integers_round_trip(tmp_path, scaled_result):
+    """netCDF-3 integers have 32 bits: paths and steps per path beyond them are kept exactly
+    (as text, like the seed) instead of failing after the run."""
+    big = 3_000_000_001
+    slots = scaled_result._moments.slots
+    moments = crandall._core.Moments(slots, np.full(slots, float(big)),
+                                     scaled_result._moments.means,
+                                     scaled_result._moments.central * big / 3000)
+    stop = crandall._core.Moments(1, np.full(1, float(big)), scaled_result._stop.means,
+                                  scaled_result._stop.central * big / 3000)
+    moments.central[:, 0] = big
+    r = crandall.Result(scene=scaled_result.scene, paths=big, seed=scaled_result.seed,
+                        dt=scaled_result.dt, method=scaled_result.method, moments=moments,
+                        stop_moments=stop, steps_per_path=2**33)
+    r.save(tmp_path / "big.nc")
+    back = crandall.load(tmp_path / "big.nc")
+    assert back.paths == big and back.steps_per_path == 2**33
+    assert same_result(r, back)
+
+
+def test_save_is_atomic_and_durable(tmp_path, scaled_result, monkeypatch):
+    """Saved through the shared writer: fsync of the file and of its folder, no temporary
+    file left, a failed write leaves the previous file whole."""
+    import os
+
+    path = tmp_path / "r.nc"
+    fsyncs = []
+    real = os.fsync
+    monkeypatch.setattr(os, "fsync", lambda fd: fsyncs.append(fd) or real(fd))
+    scaled_result.save(path)
+    assert len(fsyncs) == 2
+    assert [p.name for p in tmp_path.iterdir()] == ["r.nc"]
+    before = path.read_bytes()
+    monkeypatch.setattr(crandall.io, "to_xarray", lambda r: 1 / 0)
+    with pytest.raises(ZeroDivisionError):
+        scaled_result.save(path)
+    assert path.read_bytes() == before and [p.name for p in tmp_path.iterdir()] == ["r.nc"]

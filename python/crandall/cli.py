@@ -7,6 +7,7 @@ prints it beside the analytic layer; ``python -m crandall`` does the same.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import os
 import sys
@@ -16,6 +17,7 @@ from typing import List, Optional, Sequence
 import numpy as np
 
 from . import analytic, paper
+from ._files import check_folder_writable, write_atomic
 from .methods import DEFAULT_METHOD, METHODS
 from .scene import Scene
 from .simulate import simulate
@@ -28,6 +30,14 @@ PAPER_SEED = 20261121
 DEFAULT_FILE_PATHS = 100_000
 #: Where ``crandall run`` writes results and figures.
 DEFAULT_OUT = "crandall-out"
+#: The list of files a run wrote into its output folder (JSON), so that a later run with
+#: ``--overwrite`` removes exactly those and nothing of the user's.
+MANIFEST = ".crandall-files.json"
+# Names crandall writes into an output folder: a folder holding any of them (without a
+# manifest, e.g. a run that was killed while writing) holds another run's files.
+_OUTPUT_NAMES = ("result.nc", "result.csv", "fig2_distance_mean.png", "fig3_velocity_var.png",
+                 "fig4_displacement_var.png", "fig5_distance_var.png", "velocity_density.png",
+                 "stop_time_density.png", MANIFEST)
 
 
 def _positive_int(text: str) -> int:
@@ -37,6 +47,8 @@ def _positive_int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
     if value < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0: {text!r}")
+    if value >= 2**64:
+        raise argparse.ArgumentTypeError(f"must be < 2**64: {text!r}")
     return value
 
 
@@ -78,7 +90,11 @@ def _parser() -> argparse.ArgumentParser:
                           "file's, else crandall.default_dt)")
     run.add_argument("--method", choices=METHODS, help=f"simulation method (default: {DEFAULT_METHOD})")
     run.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                     help=f"output folder (default: ./{DEFAULT_OUT})")
+                     help=f"output folder (default: ./{DEFAULT_OUT}); one that holds another "
+                          "run's files is refused unless --overwrite")
+    run.add_argument("--overwrite", "--force", dest="overwrite", action="store_true",
+                     help="replace the files an earlier run wrote in --out (only those: "
+                          "other files are kept)")
     run.add_argument("--checkpoint", metavar="PATH",
                      help="keep finished chunks in PATH; rerunning the same command resumes")
     run.add_argument("--scheduler", metavar="ADDRESS",
@@ -114,36 +130,88 @@ def _version() -> str:
     return __version__
 
 
+def _read_scene(path: str) -> Scene:
+    try:
+        return Scene.from_toml(path)
+    except UnicodeDecodeError as exc:  # says neither which file nor what is wrong with it
+        raise ValueError(f"{path}: not a text (UTF-8) file: {exc.reason} at byte "
+                         f"{exc.start}") from None
+
+
 def _load_scene(path: Optional[str]):
     """The scene and its run settings; the paper's scene when no file is given."""
     if path is None:
         return paper.default_scene(), {"paths": paper.DEFAULT_PATHS, "seed": PAPER_SEED}, True
-    scene = Scene.from_toml(path)
+    scene = _read_scene(path)
     is_paper = scene.to_dict() == paper.default_scene().to_dict()
     return scene, dict(scene.run_settings), is_paper
 
 
-def _write_outputs(result, out: str, figures: bool) -> List[str]:
-    os.makedirs(out, exist_ok=True)
+def _earlier_files(out: str) -> List[str]:
+    """The files an earlier run wrote in ``out``: its manifest's list, and crandall's names."""
+    names = set()
+    manifest = os.path.join(out, MANIFEST)
+    if os.path.isfile(manifest):
+        try:
+            with open(manifest, encoding="utf-8") as f:
+                listed = json.load(f)
+        except (OSError, ValueError):
+            listed = []
+        if isinstance(listed, list):
+            # Bare names only: a manifest cannot point outside its folder.
+            names.update(n for n in listed if isinstance(n, str) and n == os.path.basename(n)
+                         and n not in ("", ".", ".."))
+    names.update(_OUTPUT_NAMES)
+    return sorted(n for n in names if os.path.isfile(os.path.join(out, n)))
+
+
+def _check_out(out: str, overwrite: bool) -> List[str]:
+    """Before the run: ``out`` is (or can become) a writable folder, and holds no other run's
+    files unless ``overwrite``. Returns the earlier run's files (to remove before writing)."""
+    check_folder_writable(out, "--out")
+    if not os.path.isdir(out):
+        return []
+    earlier = _earlier_files(out)
+    if earlier and not overwrite:
+        shown = ", ".join(n for n in earlier if n != MANIFEST) or MANIFEST
+        raise ValueError(f"--out: {out} holds the files of an earlier run ({shown}); give "
+                         "--overwrite to replace them, or another --out")
+    return earlier
+
+
+def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ()) -> List[str]:
+    check_folder_writable(out, "--out", create=True)
+    # The earlier run's files go first, so that none of them is left beside the new ones.
+    for name in earlier:
+        try:
+            os.unlink(os.path.join(out, name))
+        except FileNotFoundError:
+            pass
     written, notes = [], []
     try:
-        path = os.path.join(out, "result.nc")
-        result.save(path)
-        written.append(path)
-        path = os.path.join(out, "result.csv")
-        result.to_pandas().to_csv(path, index=False)
-        written.append(path)
-    except ImportError as exc:
-        notes.append(f"results not written ({exc})")
-    if figures:
         try:
-            from .plots import write_figures
-
-            written += write_figures(result, out)
+            path = os.path.join(out, "result.nc")
+            result.save(path)
+            written.append(path)
+            path = os.path.join(out, "result.csv")
+            result.to_pandas().to_csv(path, index=False)
+            written.append(path)
         except ImportError as exc:
-            notes.append(f"figures not drawn ({exc})")
-        except ValueError as exc:  # a scene without scaled units (mu = 0 or h = 0)
-            notes.append(f"figures not drawn: {exc}")
+            notes.append(f"results not written ({exc})")
+        if figures:
+            try:
+                from .plots import write_figures
+
+                written += write_figures(result, out)
+            except ImportError as exc:
+                notes.append(f"figures not drawn ({exc})")
+            except ValueError as exc:  # a scene without scaled units (mu = 0 or h = 0)
+                notes.append(f"figures not drawn: {exc}")
+    finally:
+        # Even after a failure midway: what was written is listed, so a later --overwrite
+        # removes it.
+        names = json.dumps([os.path.basename(p) for p in written], indent=1).encode()
+        write_atomic(os.path.join(out, MANIFEST), lambda f: f.write(names))
     for note in notes:
         print(f"crandall: note: {note}", file=sys.stderr)
     return written
@@ -151,15 +219,20 @@ def _write_outputs(result, out: str, figures: bool) -> List[str]:
 
 def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None, dt=None,
         method=None, out: str = DEFAULT_OUT, checkpoint=None, scheduler=None,
-        figures: bool = True, files: bool = True, progress=None) -> int:
+        figures: bool = True, files: bool = True, progress=None, overwrite: bool = False) -> int:
     """What ``crandall run`` does (arguments as its options); returns the exit status.
 
     Raises
     ------
     ValueError
-        A bad scene file or option (the message names it).
+        A bad scene file or option, an output folder that cannot be written or holds another
+        run's files (without ``overwrite``), a checkpoint that cannot be written or read (the
+        message names it). All are checked before the simulation starts.
+    OSError
+        Writing the outputs failed after the simulation (e.g. the disk is full).
     """
     scene, settings, is_paper = _load_scene(scene_path)
+    earlier = _check_out(out, overwrite) if files else []
     for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method)):
         if value is not None:
             settings[key] = value
@@ -177,6 +250,9 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
             client = Client(scheduler, timeout="20s")
         except (OSError, TimeoutError) as exc:
             raise ValueError(f"--scheduler: cannot reach {scheduler}: {exc}") from None
+        except (ValueError, TypeError) as exc:  # Dask's word on a malformed address
+            raise ValueError(f"--scheduler: {scheduler!r} is not a scheduler address: "
+                             f"{exc}") from None
     start = time.perf_counter()
     try:
         result = simulate(scene, paths=n, seed=settings.get("seed"), dt=settings.get("dt"),
@@ -193,7 +269,7 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     print(f"\n{result.paths:,} paths x {result.steps_per_path} steps in {elapsed:.1f} s "
           f"(seed {result.seed})")
     if files:
-        written = _write_outputs(result, out, figures)
+        written = _write_outputs(result, out, figures, earlier)
         if written:
             print(f"wrote {len(written)} files to {out}{os.sep}: "
                   + ", ".join(os.path.basename(p) for p in written))
@@ -252,7 +328,7 @@ def analytic_command(scene_path=None, *, tau0=None, times=None) -> int:
     if scene_path is not None and (tau0 is not None or times is not None):
         raise ValueError("--tau0/--times: give either a scene file or --tau0/--times, not both")
     if scene_path is not None:
-        scene = Scene.from_toml(scene_path)
+        scene = _read_scene(scene_path)
     elif tau0 is None and times is None:
         scene = paper.default_scene()
     else:
@@ -272,10 +348,15 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return run(args.scene, paths=args.paths, seed=args.seed, threads=args.threads,
                        dt=args.dt, method=args.method, out=args.out, checkpoint=args.checkpoint,
                        scheduler=args.scheduler, figures=not args.no_figures,
-                       files=not args.no_files, progress=args.progress)
+                       files=not args.no_files, progress=args.progress,
+                       overwrite=args.overwrite)
         return analytic_command(args.scene, tau0=args.tau0, times=args.times)
     except ValueError as exc:
         print(f"crandall: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a place that fails although it was checked (disk full, ...)
+        where = f": {exc.filename}" if getattr(exc, "filename", None) else ""
+        print(f"crandall: error{where}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         hint = ("; rerun the same command to resume from the checkpoint"

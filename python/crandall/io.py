@@ -13,11 +13,13 @@ from __future__ import annotations
 import json
 import math
 import os
-from typing import Union
+from typing import Any, Dict, Optional, Union
 
 import numpy as np
 
 from . import _core
+from ._files import check_moments, write_atomic
+from .methods import METHODS
 from .scene import STOP_QUANTITIES, Scene
 
 __all__ = ["to_xarray", "to_pandas", "save", "load", "STATISTICS"]
@@ -54,6 +56,13 @@ def _long_name(result, name):
              "stop_time": "stop time"}
     base = name.replace("_at_stop", "")
     return names[base] + (" at the stop" if name.endswith("_at_stop") else "")
+
+
+def _count_attr(n: int):
+    # netCDF-3 integers have 32 bits: a larger count is written as its decimal text (exact),
+    # as the seed always is.
+    n = int(n)
+    return n if n < 2**31 else str(n)
 
 
 def to_xarray(result):
@@ -110,11 +119,11 @@ def to_xarray(result):
         "crandall_version": __version__,
         "scene": json.dumps(sc.to_dict()),
         "units_system": sc.units,
-        "paths": int(result.paths),
+        "paths": _count_attr(result.paths),
         "seed": str(result.seed),  # up to 2**64 - 1: more than netCDF-3 integers hold
         "dt": float(result.dt),
         "method": result.method,
-        "steps_per_path": int(result.steps_per_path),
+        "steps_per_path": _count_attr(result.steps_per_path),
         "slots": int(result._moments.slots),
     }
     for k, v in sc.params.items():
@@ -138,18 +147,84 @@ def to_pandas(result):
 
 
 def save(result, path: Union[str, "os.PathLike[str]"]) -> None:
-    """Write a result to a netCDF file; see :meth:`crandall.Result.save`."""
-    ds = to_xarray(result)
-    path = os.fspath(path)
-    folder = os.path.dirname(os.path.abspath(path))
-    tmp = os.path.join(folder, "." + os.path.basename(path) + ".tmp")
+    """Write a result to a netCDF file, replaced atomically; see :meth:`crandall.Result.save`."""
+    data = bytes(to_xarray(result).to_netcdf(engine="scipy", format="NETCDF3_64BIT"))
+    write_atomic(path, lambda f: f.write(data))
+
+
+class _Invalid(ValueError):
+    pass
+
+
+def _integer(value, field: str, minimum: int, maximum: Optional[int] = None) -> int:
+    """An integer attribute: a netCDF integer, or its decimal text (for large values)."""
+    if isinstance(value, str):
+        text = value.strip()
+        if not text.isdigit():
+            raise _Invalid(f"{field} is {value!r}, not a whole number")
+        n = int(text)
+    elif isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)):
+        n = int(value)
+    else:
+        raise _Invalid(f"{field} is {value!r}, not a whole number")
+    if n < minimum or (maximum is not None and n > maximum):
+        bounds = f">= {minimum}" + ("" if maximum is None else f" and <= {maximum}")
+        raise _Invalid(f"{field} is {n}, must be {bounds}")
+    return n
+
+
+def _attr(ds, field: str):
+    if field not in ds.attrs:
+        raise _Invalid(f"attribute {field} is missing")
+    return ds.attrs[field]
+
+
+def _check_fields(ds, where: str) -> Dict[str, Any]:
+    """Every field load needs, checked; raises _Invalid naming the field."""
+    text = _attr(ds, "scene")
+    if not isinstance(text, str):
+        raise _Invalid(f"scene is {text!r}, not JSON text")
     try:
-        ds.to_netcdf(tmp, engine="scipy", format="NETCDF3_64BIT")
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+        scene = Scene.from_dict(json.loads(text))
+    except (ValueError, TypeError, AttributeError) as exc:
+        raise _Invalid(f"scene is not a valid scene ({exc})") from None
+    out: Dict[str, Any] = {"scene": scene}
+    out["paths"] = _integer(_attr(ds, "paths"), "paths", 1)
+    out["seed"] = _integer(_attr(ds, "seed"), "seed", 0, 2**64 - 1)
+    dt = _attr(ds, "dt")
+    if (isinstance(dt, (bool, np.bool_)) or not isinstance(dt, (float, int, np.floating,
+                                                                   np.integer))
+            or not math.isfinite(dt) or dt <= 0):
+        raise _Invalid(f"dt is {dt!r}, must be a finite number > 0")
+    out["dt"] = float(dt)
+    method = _attr(ds, "method")
+    if method not in METHODS:
+        raise _Invalid(f"method is {method!r}, not one of {', '.join(METHODS)}")
+    out["method"] = str(method)
+    out["steps_per_path"] = _integer(_attr(ds, "steps_per_path"), "steps_per_path", 0)
+    slots = _integer(_attr(ds, "slots"), "slots", 0)
+    if slots != scene.times.size:
+        raise _Invalid(f"slots is {slots}, but the scene has {scene.times.size} output times")
+    if "time" in ds.coords:
+        stored = np.asarray(ds["time"].values)
+        if stored.shape != scene.times.shape or not np.array_equal(stored, scene.times):
+            raise _Invalid("time does not match the scene's output times")
+    for prefix, n, needed in (("", slots, slots > 0),
+                              ("stop_", 1, "stop" in scene.observe)):
+        names = [prefix + k for k in ("counts", "means", "central")]
+        if not needed:
+            extra = [k for k in names if k in ds]
+            if extra:
+                raise _Invalid(f"{extra[0]} is present, but the scene has no such slots")
+            out[prefix + "moments"] = _core.Moments(n) if prefix == "" else None
+            continue
+        arrays = {k: ds[prefix + k].values for k in ("counts", "means", "central")
+                  if prefix + k in ds}
+        check_moments(where, prefix, arrays, slots=n, paths=float(out["paths"]),
+                      method=out["method"], counted=" of the attribute paths")
+        out[prefix + "moments"] = _core.Moments(n, arrays["counts"], arrays["means"],
+                                                arrays["central"])
+    return out
 
 
 def load(path: Union[str, "os.PathLike[str]"]):
@@ -168,28 +243,31 @@ def load(path: Union[str, "os.PathLike[str]"]):
     Raises
     ------
     ValueError
-        If the file is not a saved crandall result.
+        If the file cannot be read, is not a saved crandall result, or any field of it is
+        missing, of the wrong type, inconsistent with the others (shapes, the scene's output
+        times, counts against paths) or not finite: the message names the file and the field.
     """
     xr = _require("xarray")
     from .results import Result
 
+    name = os.fspath(path)
     try:
-        with xr.open_dataset(path, engine="scipy") as opened:
+        # The file object is ours, so that a damaged file cannot leave it open.
+        with open(path, "rb") as f, xr.open_dataset(f, engine="scipy") as opened:
             ds = opened.load()
-    except (OSError, ValueError, TypeError) as exc:
-        raise ValueError(f"path: cannot read {os.fspath(path)} as netCDF: {exc}") from None
+    except MemoryError:  # pragma: no cover
+        raise
+    except Exception as exc:  # noqa: BLE001 - whatever a damaged file makes the reader raise
+        raise ValueError(f"path: cannot read {name} as netCDF: {exc}") from None
     if ds.attrs.get("format") != _FORMAT:
-        raise ValueError(f"path: {os.fspath(path)} is not a saved crandall result")
-    scene = Scene.from_dict(json.loads(ds.attrs["scene"]))
-
-    def acc(prefix, slots):
-        if slots == 0 or prefix + "counts" not in ds:
-            return _core.Moments(slots)
-        return _core.Moments(slots, ds[prefix + "counts"].values,
-                             ds[prefix + "means"].values, ds[prefix + "central"].values)
-
-    moments = acc("", int(ds.attrs["slots"]))
-    stop = acc("stop_", 1) if "stop" in scene.observe else None
-    return Result(scene=scene, paths=int(ds.attrs["paths"]), seed=int(ds.attrs["seed"]),
-                  dt=float(ds.attrs["dt"]), method=str(ds.attrs["method"]), moments=moments,
-                  stop_moments=stop, steps_per_path=int(ds.attrs["steps_per_path"]))
+        why = ("attribute format is missing" if "format" not in ds.attrs
+               else f"attribute format is {ds.attrs['format']!r}, not {_FORMAT!r}")
+        raise ValueError(f"path: {name} is not a saved crandall result ({why})")
+    where = f"path: {name} is not a valid saved crandall result"
+    try:
+        f = _check_fields(ds, where)
+    except _Invalid as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    return Result(scene=f["scene"], paths=f["paths"], seed=f["seed"], dt=f["dt"],
+                  method=f["method"], moments=f["moments"], stop_moments=f["stop_moments"],
+                  steps_per_path=f["steps_per_path"])

@@ -283,6 +283,8 @@ class _Run:
                                         min_steps=min_steps)
             self.done, self.times_acc, self.stop_acc = _ckpt.load(checkpoint, self.ident,
                                                                  self.plan.chunks)
+            if self.done < self.plan.chunks:  # fail now, not after the first chunk
+                _ckpt.check_writable(checkpoint)
 
     def paths_in(self, first, last):
         return sum(self.plan.chunk_paths(c) for c in range(first, last))
@@ -537,7 +539,7 @@ def simulate_many(
             raise ValueError(f"checkpoint_dir must be a path, got {checkpoint_dir!r}")
         if os.path.exists(checkpoint_dir) and not os.path.isdir(checkpoint_dir):
             raise ValueError(f"checkpoint_dir must be a directory: {os.fspath(checkpoint_dir)!r}")
-        os.makedirs(checkpoint_dir, exist_ok=True)
+        _ckpt.make_folder(checkpoint_dir)  # a ValueError if it cannot be created
         files = [os.path.join(checkpoint_dir, f"scene-{i:04d}.ckpt") for i in range(len(scenes))]
         if seed is None:
             stored = [_ckpt.stored_seed(f) for f in files]
