@@ -11,11 +11,16 @@ Measures, in one run (scaled units, the exact method unless stated):
 - the cost of each observable set at tau0 = 5, dt = 0.01 (velocity; + stop; + displacement;
   + distance; all), in paths per second and relative to velocity only.
 
+The path-step rates (full kernel, velocity only, random floor) are measured for every kernel
+variant the CPU supports (baseline, avx2, avx512: docs/random-numbers.md), each in a subprocess
+with CRANDALL_ISA set, and recorded under "variants"; the other figures are for the default
+(best) variant. --isa measures one variant only.
+
 Each figure is the best of --repeat runs (the machine is shared: the best run is the least
 disturbed one); the load average before and after is recorded. Writes bench/out/throughput.json
 and bench/out/throughput.png; --publish copies both to bench/results/.
 
-    .venv/bin/python bench/throughput.py [--quick] [--publish] [--module-path DIR]
+    .venv/bin/python bench/throughput.py [--quick] [--publish] [--module-path DIR] [--isa NAME]
 
 --module-path runs the same measurements against another build of crandall (e.g. a previous
 commit installed with pip --target DIR) for before/after comparisons.
@@ -28,6 +33,7 @@ import json
 import os
 import platform
 import shutil
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -56,9 +62,13 @@ def main() -> None:
     ap.add_argument("--publish", action="store_true")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--module-path", default=None)
+    ap.add_argument("--isa", default=None, help="kernel variant to measure (sets CRANDALL_ISA)")
+    ap.add_argument("--rates-only", action="store_true", help=argparse.SUPPRESS)  # child runs
     args = ap.parse_args()
     if args.module_path:
         sys.path.insert(0, args.module_path)
+    if args.isa:
+        os.environ["CRANDALL_ISA"] = args.isa
     import crandall
     from crandall import _core
 
@@ -69,7 +79,8 @@ def main() -> None:
            "command": "python bench/throughput.py" + (" --quick" if args.quick else "")
            + (" --publish" if args.publish else "")
            + (f" --module-path {args.module_path}" if args.module_path else "")
-           + (f" --repeat {args.repeat}" if args.repeat != 3 else ""),
+           + (f" --repeat {args.repeat}" if args.repeat != 3 else "")
+           + (f" --isa {args.isa}" if args.isa else ""),
            "crandall_version": crandall.__version__, "crandall_path": os.path.dirname(crandall.__file__),
            "machine": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
            "build": _core.build_info() if hasattr(_core, "build_info") else None,
@@ -98,6 +109,25 @@ def main() -> None:
             rates[f"random_floor_{threads}_thread"] = paths * STEPS / t
             print(f"random floor, {threads} thread(s): {paths * STEPS / t / 1e6:.1f} M", flush=True)
     out["path_steps_per_second"] = rates
+    if args.rates_only:
+        print(json.dumps({"build": out["build"], "path_steps_per_second": rates}))
+        return
+    build = out["build"] or {}
+    if "isa_available" in build and not args.isa:
+        # The same rates for the other variants, each in a process of its own (the variant is
+        # chosen when crandall._core is imported).
+        out["variants"] = {build["isa"]: rates}
+        for isa in build["isa_available"]:
+            if isa == build["isa"]:
+                continue
+            cmd = [sys.executable, str(Path(__file__).resolve()), "--rates-only", "--isa", isa,
+                   "--repeat", str(args.repeat)]
+            cmd += ["--quick"] if args.quick else []
+            cmd += ["--module-path", args.module_path] if args.module_path else []
+            print(f"variant {isa}:", flush=True)
+            child = subprocess.run(cmd, capture_output=True, text=True, check=True)
+            print(child.stdout.rsplit("\n", 2)[0], flush=True)
+            out["variants"][isa] = json.loads(child.stdout.strip().splitlines()[-1])["path_steps_per_second"]
 
     stop_rates = {}
     n_stop = int(4_000_000 * scale)
@@ -133,6 +163,8 @@ def main() -> None:
     out["load"] = [round(x, 2) for x in load_before]
     out["load_after"] = [round(x, 2) for x in os.getloadavg()]
     print(json.dumps(out["against_targets"], indent=1), "load", out["load"], "->", out["load_after"])
+    for isa, v in out.get("variants", {}).items():
+        print(f"{isa:>9}: " + ", ".join(f"{k} {x / 1e6:.1f} M" for k, x in v.items()))
 
     dest = HERE / "out"
     dest.mkdir(exist_ok=True)
@@ -152,7 +184,10 @@ def plot(out: dict, path: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.5), constrained_layout=True)
-    r = out["path_steps_per_second"]
+    r = dict(out["path_steps_per_second"])
+    for isa, v in out.get("variants", {}).items():
+        if isa != (out.get("build") or {}).get("isa"):
+            r.update({f"{k} [{isa}]": x for k, x in v.items()})
     names = list(r)
     a.barh(names, [r[n] / 1e6 for n in names], color="tab:blue")
     a.axvline(TARGETS["full_1_thread_msteps"], color="tab:red", ls="--", label="target, full kernel 1 thread")
