@@ -111,3 +111,9 @@ def test_sincos_within_one_ulp_of_mpmath():
     ec = ulp_errors(cs, lambda k: mpmath.cos(angle(k)), ks)
     assert es.max() < 1.0, (es.max(), ks[es.argmax()])
     assert ec.max() < 1.0, (ec.max(), ks[ec.argmax()])
+
+
+@pytest.mark.parametrize("count", [0, 2**24 + 1])
+def test_draw_noise_rejects_a_bad_count(count):
+    with pytest.raises(ValueError, match="count"):
+        _core.draw_noise(1, 0, count, 0)

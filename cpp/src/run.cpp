@@ -147,6 +147,8 @@ std::vector<double> simulate_states(const Plan& plan) {
 
 std::vector<double> draw_noise(std::uint64_t seed, std::uint64_t path0, std::uint64_t count,
                                std::uint64_t pair) {
+  if (count < 1 || count > (std::uint64_t{1} << 24))
+    throw std::invalid_argument("count must be between 1 and 2^24");
   std::vector<double> out(6 * count);
   active_kernel().draw(seed, path0, pair, count, out.data());
   return out;
