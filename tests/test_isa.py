@@ -74,6 +74,21 @@ def test_unsupported_variant_is_refused_at_import():
     assert out.returncode != 0 and "not supported by this CPU" in out.stderr
 
 
+@pytest.mark.skipif(shutil.which("objdump") is None or os.uname().machine != "x86_64",
+                    reason="needs binutils' objdump on x86-64")
+def test_module_has_no_fused_multiply_add():
+    # -ffp-contract=off: the AVX2/AVX-512 variants must not fuse a * b + c into one rounding,
+    # which the baseline cannot do. (libm and libstdc++ are linked dynamically, so every
+    # instruction in the module is the project's.)
+    so = next(Path(_core.__file__).parent.glob("_core*.so"))
+    asm = subprocess.run(["objdump", "-d", "--no-show-raw-insn", str(so)], capture_output=True,
+                         text=True, check=True).stdout
+    fused = [line for line in asm.splitlines()
+             if any(op in line for op in ("vfmadd", "vfmsub", "vfnmadd", "vfnmsub"))]
+    assert not fused, fused[:5]
+    assert "zmm" in asm  # the AVX-512 variant is in the module (the check above is not vacuous)
+
+
 # -- a wheel on an emulated CPU without AVX ---------------------------------------------------
 
 QEMU = shutil.which("qemu-x86_64")
