@@ -10,7 +10,7 @@
 // They are written as straight-line code without tables or branches so that GCC vectorises a
 // `#pragma omp simd` loop over them, and they only handle the inputs the generator produces
 // (docs/random-numbers.md), which saves the special cases:
-// - log_unit(u) for u = (w + 1/2) 2^-32, w a 32-bit word: positive, normal, below 1;
+// - log_positive(u) for u = (w + 1/2) 2^-32, w a 32-bit word: positive, normal, below 1;
 // - sincos_turn30(k) = (sin, cos) of 2 pi (k + 1/2) 2^-30 for a 30-bit integer k, reduced
 //   exactly from k by octant, so there is no argument-reduction error at all.
 //
