@@ -47,6 +47,15 @@ TARGETS = {"full_1_thread_msteps": 150.0, "two_thread_speedup": 1.8, "floor_fact
            "velocity_stop_mpaths": 30.0}
 
 
+def where(path: Path) -> str:
+    """A path relative to the repository when inside it (results do not name the machine's
+    directories)."""
+    try:
+        return str(path.resolve().relative_to(HERE.parent))
+    except ValueError:
+        return str(path)
+
+
 CPU_SECONDS = {}  # the last best_of's best CPU time (all threads of this process)
 
 
@@ -87,7 +96,7 @@ def main() -> None:
            + (f" --module-path {args.module_path}" if args.module_path else "")
            + (f" --repeat {args.repeat}" if args.repeat != 3 else "")
            + (f" --isa {args.isa}" if args.isa else ""),
-           "crandall_version": crandall.__version__, "crandall_path": os.path.dirname(crandall.__file__),
+           "crandall_version": crandall.__version__, "crandall_path": where(Path(crandall.__file__).parent),
            "machine": platform.processor() or platform.machine(), "cpus": os.cpu_count(),
            "build": _core.build_info() if hasattr(_core, "build_info") else None,
            "tau0": TAU0, "dt": DT, "steps_per_path": STEPS, "paths": paths, "repeat": args.repeat,
