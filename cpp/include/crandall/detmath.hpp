@@ -20,10 +20,10 @@
 //   Developed at SunSoft, a Sun Microsystems, Inc. business. Permission to use, copy, modify,
 //   and distribute this software is freely granted, provided that this notice is preserved.
 //
-// Accuracy, measured against correctly rounded values (cpp/tests/test_detmath.cpp, every one of
-// the 2^32 log inputs and 2^30 angles with the CRANDALL_EXHAUSTIVE environment variable, a
-// strided subset otherwise; tests/test_reference_rng.py against mpmath): see
-// docs/random-numbers.md for the figures.
+// Accuracy, measured over every input against long double (cpp/tests/test_detmath.cpp with
+// CRANDALL_EXHAUSTIVE=1; a strided subset by default; tests/test_reference_rng.py against
+// mpmath): log within 0.845 ulp over all 2^32 uniforms, sin and cos within 0.797 ulp over all
+// 2^30 angles.
 #pragma once
 
 #include <cstdint>
