@@ -85,9 +85,10 @@ def render() -> str:
         "",
         "![throughput](bench/results/throughput.png)",
         "",
-        *([f"Build: {tp['build']['isa']}, Philox on {tp['build']['philox_paths_per_register']} "
-           f"paths per register, libmvec on {tp['build']['math_values_per_call']} values per call "
-           f"(`crandall._core.build_info()`).", ""] if tp.get("build") else []),
+        *([f"Kernel variant: {tp['build']['isa']} (of {', '.join(tp['build'].get('isa_available', []))} "
+           f"on this CPU), Philox on {tp['build']['philox_paths_per_register']} paths per register, "
+           f"random stream {tp['build'].get('random_stream', 1)} (`crandall._core.build_info()`).", ""]
+          if tp.get("build") and "isa_available" in tp["build"] else []),
         "| kernel | M path-steps / s | target |",
         "|---|---|---|",
     ]
@@ -104,16 +105,24 @@ def render() -> str:
     for k, v in r.items():
         lines.append(f"| {labels.get(k, k)} | {v / 1e6:.1f} | {targets.get(k, '')} |")
     a = tp["against_targets"]
+    if tp.get("variants"):
+        lines += ["", "Every kernel variant (the same numbers, CRANDALL_ISA forces one; M path-steps / s):", "",
+                  "| variant | full, 1 thread | full, 2 threads | velocity only, 1 thread | random floor, 1 thread |",
+                  "|---|---|---|---|---|"]
+        for isa, v in tp["variants"].items():
+            lines.append(f"| {isa} | {v['full_1_thread'] / 1e6:.1f} | {v['full_2_thread'] / 1e6:.1f} | "
+                         f"{v['velocity_only_1_thread'] / 1e6:.1f} | {v['random_floor_1_thread'] / 1e6:.1f} |")
     other = HERE / "results" / "throughput_other_build.json"
     if other.exists():
-        ob = json.loads(other.read_text())["path_steps_per_second"]
+        o = json.loads(other.read_text())
+        ob = o["path_steps_per_second"]
         lines += [
             "",
-            f"For comparison, the kernel before the structure-of-arrays/vectorised rewrite (commit "
-            f"7f7ff0d, installed with `pip install --target /tmp/before_pkg`, measured by "
-            f"`.venv/bin/python bench/throughput.py --module-path /tmp/before_pkg --repeat 2 --publish`): "
+            f"For comparison, another build (isa {(o.get('build') or {}).get('isa', 'unknown')}, "
+            f"measured by `.venv/bin/{o['command']}`): "
             f"{ob['full_1_thread'] / 1e6:.1f} M path-steps/s on 1 thread, "
-            f"{ob['full_2_thread'] / 1e6:.1f} M on 2 "
+            f"{ob['full_2_thread'] / 1e6:.1f} M on 2, random floor "
+            f"{ob.get('random_floor_1_thread', float('nan')) / 1e6:.1f} M "
             "([bench/results/throughput_other_build.json](bench/results/throughput_other_build.json)).",
         ]
     lines += [

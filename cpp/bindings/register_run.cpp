@@ -9,6 +9,8 @@
 
 #include "common.hpp"
 #include "crandall/accumulators.hpp"
+#include "crandall/dispatch.hpp"
+#include "crandall/rng.hpp"
 #include "crandall/plan.hpp"
 #include "crandall/run.hpp"
 
@@ -212,19 +214,60 @@ void register_run(py::module_& m) {
       py::arg("paths"), py::arg("steps"), py::arg("seed"), py::arg("threads") = 0,
       "Generate the kernel's noise for paths x steps with no physics (a throughput floor).");
 
+  // The kernel variant: CRANDALL_ISA or the best the CPU supports, chosen here so that a bad
+  // CRANDALL_ISA fails the import with its message rather than the first simulation.
+  try {
+    crandall::active_kernel();
+  } catch (const std::invalid_argument& e) {
+    throw py::import_error(e.what());
+  }
+  m.attr("RANDOM_STREAM") = crandall::kRandomStream;
+
   m.def(
       "build_info",
       [] {
         const crandall::BuildInfo b = crandall::build_info();
         py::dict d;
-        d["philox_paths_per_register"] = b.philox_paths_per_register;
-        d["math_values_per_call"] = b.math_values_per_call;
         d["isa"] = b.isa;
+        d["isa_compiled"] = b.isa_compiled;
+        d["isa_available"] = b.isa_available;
+        d["philox_paths_per_register"] = b.philox_paths_per_register;
+        d["doubles_per_register"] = b.doubles_per_register;
+        d["random_stream"] = b.random_stream;
         d["compiler"] = b.compiler;
         return d;
       },
-      "What the build targets: Philox paths per register, libmvec values per call, vector "
-      "extensions, compiler (a seed's numbers belong to a build).");
+      "What runs: the kernel variant in use (isa: CRANDALL_ISA or the best the CPU supports), "
+      "the variants compiled in and those supported here, Philox paths and doubles per "
+      "register, the random-stream version, the compiler. Every variant gives the same numbers.");
+
+  m.def(
+      "draw_noise",
+      [](std::uint64_t seed, std::uint64_t path0, std::uint64_t count, std::uint64_t pair) {
+        std::vector<double> out;
+        {
+          py::gil_scoped_release release;
+          out = crandall::draw_noise(seed, path0, count, pair);
+        }
+        return to_array(out, 6, static_cast<std::size_t>(count));
+      },
+      py::arg("seed"), py::arg("path0"), py::arg("count"), py::arg("pair"),
+      "Diagnostics: the kernel's draws of step pair `pair` for paths path0 .. path0 + count - 1, "
+      "shape (6, count): normals of steps 2 pair and 2 pair + 1, their exponentials, their coins.");
+
+  m.def(
+      "simulate_states",
+      [](const crandall::Plan& plan) {
+        std::vector<double> out;
+        {
+          py::gil_scoped_release release;
+          out = crandall::simulate_states(plan);
+        }
+        return to_array(out, out.size(), 0);
+      },
+      py::arg("plan"),
+      "Diagnostics: every path's velocity at the end of the plan's last segment, velocity only, "
+      "exact or Euler method, one thread, through the kernel in use.");
 
   m.def(
       "exact_steps",

@@ -2,49 +2,6 @@
 
 #include <omp.h>
 
-#if defined(__AVX__) && defined(__GLIBC__) && defined(__x86_64__)
-#include <immintrin.h>
-#define CRANDALL_LIBMVEC 1
-// glibc's libmvec (pulled in by libm's linker script): the widest variants of log, sin and cos
-// the build's instruction set allows. The AVX variant (c) runs the SSE code twice; the AVX2
-// (d) and AVX-512 (e) variants are native and 2-3 times faster. The variants round a few
-// values differently, one more reason a seed's numbers belong to a build.
-#if defined(__AVX512F__)
-using VecD = __m512d;
-constexpr int kMathWidth = 8;
-extern "C" __m512d _ZGVeN8v_log(__m512d);
-extern "C" __m512d _ZGVeN8v_sin(__m512d);
-extern "C" __m512d _ZGVeN8v_cos(__m512d);
-inline VecD vec_load(const double* p) { return _mm512_loadu_pd(p); }
-inline void vec_store(double* p, VecD v) { _mm512_storeu_pd(p, v); }
-inline VecD vec_log(VecD v) { return _ZGVeN8v_log(v); }
-inline VecD vec_sin(VecD v) { return _ZGVeN8v_sin(v); }
-inline VecD vec_cos(VecD v) { return _ZGVeN8v_cos(v); }
-#elif defined(__AVX2__)
-using VecD = __m256d;
-constexpr int kMathWidth = 4;
-extern "C" __m256d _ZGVdN4v_log(__m256d);
-extern "C" __m256d _ZGVdN4v_sin(__m256d);
-extern "C" __m256d _ZGVdN4v_cos(__m256d);
-inline VecD vec_load(const double* p) { return _mm256_loadu_pd(p); }
-inline void vec_store(double* p, VecD v) { _mm256_storeu_pd(p, v); }
-inline VecD vec_log(VecD v) { return _ZGVdN4v_log(v); }
-inline VecD vec_sin(VecD v) { return _ZGVdN4v_sin(v); }
-inline VecD vec_cos(VecD v) { return _ZGVdN4v_cos(v); }
-#else
-using VecD = __m256d;
-constexpr int kMathWidth = 4;
-extern "C" __m256d _ZGVcN4v_log(__m256d);
-extern "C" __m256d _ZGVcN4v_sin(__m256d);
-extern "C" __m256d _ZGVcN4v_cos(__m256d);
-inline VecD vec_load(const double* p) { return _mm256_loadu_pd(p); }
-inline void vec_store(double* p, VecD v) { _mm256_storeu_pd(p, v); }
-inline VecD vec_log(VecD v) { return _ZGVcN4v_log(v); }
-inline VecD vec_sin(VecD v) { return _ZGVcN4v_sin(v); }
-inline VecD vec_cos(VecD v) { return _ZGVcN4v_cos(v); }
-#endif
-#endif
-
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -53,31 +10,11 @@ inline VecD vec_cos(VecD v) { return _ZGVcN4v_cos(v); }
 #include <memory>
 #include <mutex>
 
+#include "crandall/dispatch.hpp"
 #include "crandall/kernel.hpp"
 
 namespace crandall {
 namespace {
-
-using BlockFn = void (*)(const Plan&, std::uint64_t, std::uint64_t, Workspace&);
-
-template <Method M>
-BlockFn pick_for(bool disp, bool dist) {
-  if (disp && dist) return &simulate_block<M, true, true>;
-  if (disp) return &simulate_block<M, true, false>;
-  if (dist) return &simulate_block<M, false, true>;
-  return &simulate_block<M, false, false>;
-}
-
-BlockFn pick(Method m, bool disp, bool dist) {
-  switch (m) {
-    case Method::exact: return pick_for<Method::exact>(disp, dist);
-    case Method::euler: return pick_for<Method::euler>(disp, dist);
-    case Method::richardson: return pick_for<Method::richardson>(disp, dist);
-    case Method::richardson2: return pick_for<Method::richardson2>(disp, dist);
-    case Method::refine: return pick_for<Method::refine>(disp, dist);
-  }
-  throw std::logic_error("run_chunk: unknown method");
-}
 
 struct BlockOut {
   BlockSums times, stop;
@@ -86,68 +23,14 @@ struct BlockOut {
 
 }  // namespace
 
-void log_n(const double* in, double* out, int n) {
-  int i = 0;
-#ifdef CRANDALL_LIBMVEC
-  constexpr int W = kMathWidth;
-  for (; i + W <= n; i += W) vec_store(out + i, vec_log(vec_load(in + i)));
-  if (i < n) {
-    // The tail goes through the same vector function (padded), so the value of a draw does
-    // not depend on where it sits in a batch.
-    double a[W], b[W];
-    for (int j = 0; j < W; ++j) a[j] = i + j < n ? in[i + j] : 1.0;
-    vec_store(b, vec_log(vec_load(a)));
-    for (int j = i; j < n; ++j) out[j] = b[j - i];
-    return;
-  }
-#endif
-  for (; i < n; ++i) out[i] = std::log(in[i]);
-}
-
-void sincos_n(const double* in, double* sin_out, double* cos_out, int n) {
-  int i = 0;
-#ifdef CRANDALL_LIBMVEC
-  constexpr int W = kMathWidth;
-  for (; i + W <= n; i += W) {
-    const VecD v = vec_load(in + i);
-    vec_store(sin_out + i, vec_sin(v));
-    vec_store(cos_out + i, vec_cos(v));
-  }
-  if (i < n) {
-    double a[W], b[W], c[W];
-    for (int j = 0; j < W; ++j) a[j] = i + j < n ? in[i + j] : 0.0;
-    const VecD v = vec_load(a);
-    vec_store(b, vec_sin(v));
-    vec_store(c, vec_cos(v));
-    for (int j = i; j < n; ++j) {
-      sin_out[j] = b[j - i];
-      cos_out[j] = c[j - i];
-    }
-    return;
-  }
-#endif
-  for (; i < n; ++i) {
-    sin_out[i] = std::sin(in[i]);
-    cos_out[i] = std::cos(in[i]);
-  }
-}
-
 double random_floor(std::uint64_t paths, std::uint64_t steps, std::uint64_t seed, int threads) {
   if (threads < 0) throw std::invalid_argument("threads must be >= 0");
   const long groups = static_cast<long>((paths + kLanes - 1) / kLanes);
+  const KernelTable& kernel = active_kernel();
   double total = 0.0;
 #pragma omp parallel for schedule(static) reduction(+ : total) num_threads(threads > 0 ? threads : omp_get_max_threads())
-  for (long g = 0; g < groups; ++g) {
-    PairNoise<kLanes> z;
-    double acc = 0.0;
-    for (std::uint64_t pair = 0; 2 * pair < steps; ++pair) {
-      draw_pairs<kLanes>(seed, static_cast<std::uint64_t>(g) * kLanes, pair, kLanes, z);
-      for (int l = 0; l < kLanes; ++l)
-        acc += z.normal[0][l] + z.normal[1][l] + z.exponential[0][l] + z.exponential[1][l] +
-               z.coin[0][l];
-    }
-    total += acc;
-  }
+  for (long g = 0; g < groups; ++g)
+    total += kernel.noise_checksum(seed, static_cast<std::uint64_t>(g) * kLanes, steps);
   return total;
 }
 
@@ -158,7 +41,7 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   const std::uint64_t first = chunk * kChunkPaths;
   const std::uint64_t count = plan.chunk_paths(chunk);
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
-  const BlockFn block_fn = pick(o.method, o.displacement, o.distance);
+  const BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance);
   const int grids = o.integrals() ? richardson_levels(o.method) : 1;
   ChunkResult result{Moments(o.times.size()), Moments(o.stop ? 1 : 0)};
   std::vector<ChunkResult> coarse_result(
@@ -272,27 +155,41 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
 }
 
 BuildInfo build_info() {
+  const KernelTable& k = active_kernel();
   BuildInfo b;
-  b.philox_paths_per_register = detail::kPhiloxWidth;
-#ifdef CRANDALL_LIBMVEC
-  b.math_values_per_call = kMathWidth;
-#else
-  b.math_values_per_call = 1;
-#endif
-#if defined(__AVX512F__)
-  b.isa = "avx512f";
-#elif defined(__AVX2__)
-  b.isa = "avx2";
-#elif defined(__AVX__)
-  b.isa = "avx";
-#else
-  b.isa = "baseline";
-#endif
-#if defined(__FMA__)
-  b.isa += "+fma";
-#endif
+  b.isa = k.name;
+  b.philox_paths_per_register = k.philox_paths_per_register;
+  b.doubles_per_register = k.doubles_per_register;
+  for (const KernelTable* c : compiled_kernels()) b.isa_compiled.emplace_back(c->name);
+  b.isa_available = available_kernels();
+  b.random_stream = kRandomStream;
   b.compiler = __VERSION__;
   return b;
+}
+
+std::vector<double> simulate_states(const Plan& plan) {
+  const Options& o = plan.options();
+  if (o.method != Method::exact && o.method != Method::euler)
+    throw std::invalid_argument("simulate_states: method must be 'exact' or 'euler'");
+  std::vector<double> out(o.paths);
+  const BlockFn block_fn = active_kernel().block_fn(o.method, false, false);
+  Workspace ws(plan);
+  ws.states = out.data();
+  ws.states_first = 0;
+  for (std::uint64_t start = 0; start < o.paths; start += kBlockPaths) {
+    ws.reset();
+    block_fn(plan, start, std::min<std::uint64_t>(kBlockPaths, o.paths - start), ws);
+  }
+  return out;
+}
+
+std::vector<double> draw_noise(std::uint64_t seed, std::uint64_t path0, std::uint64_t count,
+                               std::uint64_t pair) {
+  if (count < 1 || count > (std::uint64_t{1} << 24))
+    throw std::invalid_argument("count must be between 1 and 2^24");
+  std::vector<double> out(6 * count);
+  active_kernel().draw(seed, path0, pair, count, out.data());
+  return out;
 }
 
 std::vector<double> exact_steps(const std::vector<double>& start, double h, double drift,

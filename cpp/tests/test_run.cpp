@@ -5,12 +5,14 @@
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
+#include <cstdlib>
 #include <limits>
 #include <set>
 #include <utility>
 #include <vector>
 
 #include "crandall/coast.hpp"
+#include "crandall/dispatch.hpp"
 #include "crandall/rng.hpp"
 #include "crandall/run.hpp"
 #include "crandall/skeleton.hpp"
@@ -66,40 +68,51 @@ TEST(Rng, StreamsDependOnSeedPathAndStep) {
   EXPECT_EQ(seen.size(), 2u * 2 * 3 * 3);
 }
 
-// The vectorised Philox (AVX-512 / AVX2 builds) against Random123's scalar generator, over
-// counters whose words cross 32-bit boundaries, and a group of paths that is not a multiple of
-// the vector width.
+// The vectorised Philox (the AVX-512 and AVX2 variants) against Random123's scalar generator,
+// over counters whose words cross 32-bit boundaries, and a group of paths that is not a
+// multiple of the vector width; every variant this host supports.
 TEST(Rng, VectorPhiloxMatchesRandom123) {
-  for (std::uint64_t seed : {0ull, 42ull, 0xFFFFFFFFFFFFFFFFull, 0x0123456789ABCDEFull})
-    for (std::uint64_t path0 : {0ull, 1000ull, 0xFFFFFFF8ull, (1ull << 63) - 5})
-      for (std::uint64_t pair : {0ull, 7ull, 0xFFFFFFFFull, 1ull << 40}) {
-        alignas(64) std::uint64_t w[4][16];
-        crandall::philox_paths<16>(seed, path0, pair, 13, w);
-        for (int l = 0; l < 13; ++l) {
-          using Philox = r123::Philox4x32;
-          const Philox::key_type key = {{static_cast<std::uint32_t>(seed),
-                                         static_cast<std::uint32_t>(seed >> 32)}};
-          const std::uint64_t path = path0 + static_cast<std::uint64_t>(l);
-          const Philox::ctr_type ctr = {{static_cast<std::uint32_t>(pair),
-                                         static_cast<std::uint32_t>(pair >> 32),
-                                         static_cast<std::uint32_t>(path),
-                                         static_cast<std::uint32_t>(path >> 32)}};
-          const Philox::ctr_type want = Philox()(ctr, key);
-          for (int j = 0; j < 4; ++j)
-            ASSERT_EQ(static_cast<std::uint32_t>(w[j][l]), want[j])
-                << "seed " << seed << " path " << path << " pair " << pair << " word " << j;
+  for (const crandall::KernelTable* kernel : crandall::compiled_kernels()) {
+    if (!crandall::kernel_supported(*kernel)) continue;
+    for (std::uint64_t seed : {0ull, 42ull, 0xFFFFFFFFFFFFFFFFull, 0x0123456789ABCDEFull})
+      for (std::uint64_t path0 : {0ull, 1000ull, 0xFFFFFFF8ull, (1ull << 63) - 5})
+        for (std::uint64_t pair : {0ull, 7ull, 0xFFFFFFFFull, 1ull << 40}) {
+          std::uint64_t w[4 * crandall::kLanes];
+          kernel->philox_words(seed, path0, pair, 13, w);
+          for (int l = 0; l < 13; ++l) {
+            using Philox = r123::Philox4x32;
+            const Philox::key_type key = {{static_cast<std::uint32_t>(seed),
+                                           static_cast<std::uint32_t>(seed >> 32)}};
+            const std::uint64_t path = path0 + static_cast<std::uint64_t>(l);
+            const Philox::ctr_type ctr = {{static_cast<std::uint32_t>(pair),
+                                           static_cast<std::uint32_t>(pair >> 32),
+                                           static_cast<std::uint32_t>(path),
+                                           static_cast<std::uint32_t>(path >> 32)}};
+            const Philox::ctr_type want = Philox()(ctr, key);
+            for (int j = 0; j < 4; ++j)
+              ASSERT_EQ(static_cast<std::uint32_t>(w[j * crandall::kLanes + l]), want[j])
+                  << kernel->name << " seed " << seed << " path " << path << " pair " << pair
+                  << " word " << j;
+          }
         }
-      }
+  }
 }
 
-// The vector form is what a host with AVX2 builds, so the test above checks the code that runs.
-TEST(Rng, VectorPhiloxIsBuiltWhereTheHostHasIt) {
+// A host with AVX2 or AVX-512 runs (and the test above checks) the vector Philox by default.
+TEST(Rng, VectorPhiloxIsChosenWhereTheHostHasIt) {
+  if (std::getenv("CRANDALL_ISA")) GTEST_SKIP() << "CRANDALL_ISA forces a variant";
+  const auto& k = crandall::active_kernel();
+#if defined(__x86_64__)
   if (__builtin_cpu_supports("avx2")) {
-    EXPECT_GT(crandall::detail::kPhiloxWidth, 1);
+    EXPECT_GT(k.philox_paths_per_register, 1);
   }
   if (__builtin_cpu_supports("avx512f")) {
-    EXPECT_EQ(crandall::detail::kPhiloxWidth, 8);
+    EXPECT_EQ(k.philox_paths_per_register, 8);
+    EXPECT_STREQ(k.name, "avx512");
   }
+#else
+  EXPECT_STREQ(k.name, "baseline");
+#endif
 }
 
 // Random123's published known-answer vectors for Philox4x32-10 (kat_vectors), so the scalar

@@ -91,6 +91,17 @@ def exact_steps(
 def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
     """Generate the kernel's noise for paths x steps with no physics (a throughput floor)."""
 
-def build_info() -> dict[str, Union[int, str]]:
-    """What the build targets: Philox paths per register, libmvec values per call, vector
-    extensions, compiler (a seed's numbers belong to a build)."""
+RANDOM_STREAM: int
+
+def build_info() -> dict[str, Union[int, str, list[str]]]:
+    """What runs: the kernel variant in use (isa: CRANDALL_ISA or the best the CPU supports), the
+    variants compiled in and those supported here, Philox paths and doubles per register, the
+    random-stream version, the compiler. Every variant gives the same numbers."""
+
+def draw_noise(seed: int, path0: int, count: int, pair: int) -> npt.NDArray[np.float64]:
+    """Diagnostics: the kernel's draws of step pair `pair` for paths path0 .. path0 + count - 1,
+    shape (6, count): normals of steps 2 pair and 2 pair + 1, their exponentials, their coins."""
+
+def simulate_states(plan: Plan) -> npt.NDArray[np.float64]:
+    """Diagnostics: every path's velocity at the end of the plan's last segment, velocity only,
+    exact or Euler method, one thread, through the kernel in use."""

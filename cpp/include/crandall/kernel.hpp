@@ -9,15 +9,12 @@
 #include <functional>
 #include <vector>
 
-#if defined(__AVX__)
-#include <immintrin.h>
-#endif
-
 #include "crandall/accumulators.hpp"
 #include "crandall/coast.hpp"
 #include "crandall/plan.hpp"
 #include "crandall/rng.hpp"
 #include "crandall/skeleton.hpp"
+#include "crandall/variant.hpp"
 
 namespace crandall {
 
@@ -125,6 +122,10 @@ struct Workspace {
   // Returns true when the run is to be abandoned; polled every kPollSteps steps so that long
   // paths stay interruptible. May be empty.
   std::function<bool()> abandon;
+  // Diagnostics only (simulate_states): when set, the velocity at the end of the last segment
+  // of path p is stored in states[p - states_first].
+  double* states = nullptr;
+  std::uint64_t states_first = 0;
 };
 
 constexpr std::uint64_t kPollSteps = 1u << 14;
@@ -137,11 +138,17 @@ constexpr int kRefineSubsteps = 8;
 constexpr double kRefineWithin = 2.0;
 constexpr std::uint64_t kRefineStream = 1ull << 63;
 
+}  // namespace crandall
+
+// The path loop is compiled once per instruction-set variant (variant.hpp); the types above are
+// shared.
+CRANDALL_BEGIN_VARIANT
+
 // In-place square root of kLanes non-negative doubles. sqrt is correctly rounded, so the
 // vector and scalar forms give the same bits; the explicit form is needed because std::sqrt
 // (which may set errno) does not vectorise without -fno-math-errno.
 inline void sqrt_lanes(double* v) {
-#if defined(__AVX__)
+#if CRANDALL_VARIANT_LEVEL >= 3
   for (int l = 0; l + 4 <= kLanes; l += 4) _mm256_store_pd(v + l, _mm256_sqrt_pd(_mm256_load_pd(v + l)));
 #else
   for (int l = 0; l < kLanes; ++l) v[l] = std::sqrt(v[l]);
@@ -314,6 +321,8 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
                                        ws.active);
       }
     }
+    if (ws.states)
+      for (int l = 0; l < lanes; ++l) ws.states[path0 + l - ws.states_first] = x[l];
     if (!plan.needs_switch_state()) continue;
     add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop);
     if constexpr (kCoarse)
@@ -323,4 +332,4 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
   }
 }
 
-}  // namespace crandall
+CRANDALL_END_VARIANT

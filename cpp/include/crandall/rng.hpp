@@ -8,11 +8,16 @@
 #include <cmath>
 #include <cstdint>
 
-#if defined(__AVX2__) || defined(__AVX512F__)
-#include <immintrin.h>
-#endif
+#include "crandall/detmath.hpp"
+#include "crandall/variant.hpp"
 
 namespace crandall {
+
+// Version of the random stream: which numbers a (seed, path, step) gives. Changed whenever the
+// layout below, the generator or the math that turns words into numbers changes; recorded with
+// results so that numbers of different streams are never mixed. 1: libmvec/libm math (numbers
+// depended on the build); 2: the deterministic math of detmath.hpp (the same on every CPU).
+constexpr int kRandomStream = 2;
 
 // Noise consumed by one time step of one path: a standard normal, a standard exponential
 // (-log of a uniform) and a fair coin.
@@ -21,13 +26,6 @@ struct StepNoise {
   double exponential;
   bool coin;
 };
-
-// Elementwise natural log and (sin, cos) of n doubles. On x86-64 glibc with AVX, 4 at a time
-// through libmvec (linked with libm); otherwise the scalar library functions. Every draw of the
-// project goes through these two functions, so the scalar and the batched generators below
-// give bitwise the same numbers on a given build.
-void log_n(const double* in, double* out, int n);
-void sincos_n(const double* in, double* sin_out, double* cos_out, int n);
 
 // Bounds of every draw, from the uniforms' range [2^-33, 1 - 2^-33] (draw_pairs): exponentials
 // lie in [-log(1 - 2^-33), 33 log 2] = [1.16e-10, 22.88], normals in
@@ -46,12 +44,17 @@ struct PairNoise {
   alignas(64) double coin[2][N];  // 1.0 or 0.0
 };
 
+}  // namespace crandall
+
+// Everything below is compiled once per instruction-set variant (variant.hpp).
+CRANDALL_BEGIN_VARIANT
+
 // Philox4x32-10 (Random123's rounds and key schedule) for `count` consecutive paths at once:
 // word j of the block of path path0 + l, counter (pair, path0 + l), goes to the low 32 bits of
 // w[j][l] (the high bits are garbage). With AVX-512 or AVX2, 8 or 4 paths per register, one
 // path per 64-bit lane, since the 32x32->64 multiply (vpmuludq) works on 64-bit lanes;
 // otherwise Random123's scalar generator. The three give bitwise the same words (checked in
-// cpp/tests/test_run.cpp against Random123).
+// cpp/tests/test_run.cpp against Random123, and across variants in cpp/tests/test_dispatch.cpp).
 namespace detail {
 constexpr std::uint32_t kPhiloxM0 = 0xD2511F53u, kPhiloxM1 = 0xCD9E8D57u;
 constexpr std::uint32_t kPhiloxW0 = 0x9E3779B9u, kPhiloxW1 = 0xBB67AE85u;
@@ -69,7 +72,7 @@ inline void philox_scalar(std::uint64_t seed, std::uint64_t path, std::uint64_t 
   for (int j = 0; j < 4; ++j) out[j] = r[j];
 }
 
-#if defined(__AVX512F__)
+#if CRANDALL_VARIANT_LEVEL >= 4
 // One path per 64-bit lane. vpmuludq reads the low 32 bits of each lane, so the high garbage
 // that the rounds leave in c0, c2 is harmless. (The zero-masked forms with an all-ones mask are
 // the plain instructions; GCC 12's plain intrinsics trip its own -Wuninitialized through
@@ -85,7 +88,7 @@ struct PhiloxOps {
   static V bitxor(V a, V b) { return _mm512_xor_si512(a, b); }
   static void store(std::uint64_t* p, V a) { _mm512_storeu_si512(p, a); }
 };
-#elif defined(__AVX2__)
+#elif CRANDALL_VARIANT_LEVEL >= 3
 struct PhiloxOps {
   using V = __m256i;
   static constexpr int kWidth = 4;
@@ -99,7 +102,7 @@ struct PhiloxOps {
 };
 #endif
 
-#if defined(__AVX512F__) || defined(__AVX2__)
+#if CRANDALL_VARIANT_LEVEL >= 3
 constexpr int kPhiloxWidth = PhiloxOps::kWidth;
 // Random123's Philox4x32-10 for paths path0 .. path0 + kPhiloxWidth - 1 at once; word j of
 // lane l goes to the low 32 bits of o_j[l].
@@ -142,7 +145,7 @@ inline void philox_paths(std::uint64_t seed, std::uint64_t path0, std::uint64_t 
                          std::uint64_t (&w)[4][N]) {
   count = count < N ? count : N;
   int l = 0;
-#if defined(__AVX512F__) || defined(__AVX2__)
+#if CRANDALL_VARIANT_LEVEL >= 3
   constexpr int V = detail::kPhiloxWidth;
   if constexpr (N >= V)
     for (; l + V <= count; l += V)
@@ -164,37 +167,28 @@ inline void philox_paths(std::uint64_t seed, std::uint64_t path0, std::uint64_t 
 //   words 2, 3   -> the two exponentials
 // Disjoint bits of a uniform word are independent, so the coins are independent of the angle.
 // Box-Muller's cosine and sine outputs are independent normals, one per step.
-// Layout documented in docs/random-numbers.md; changing it changes every result.
+// Uniforms are (w + 1/2) 2^-32, strictly inside (0, 1) (log never sees 0 and never returns 0);
+// the angle is 2 pi (k + 1/2) 2^-30. The log and the sine/cosine are the deterministic ones of
+// detmath.hpp, so every variant and the NumPy reference (tests/reference_rng.py) give the same
+// bits. Layout documented in docs/random-numbers.md; changing it changes every result (and
+// kRandomStream above).
 // Lanes l >= lanes (padding of a partial group) hold the draws of paths that are not simulated;
 // they are never read.
 template <int N>
 inline void draw_pairs(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair, int lanes,
                        PairNoise<N>& out) {
   (void)lanes;
-  constexpr double k2m32 = 2.3283064365386962890625e-10;  // 2^-32
-  constexpr double k2m30 = 9.31322574615478515625e-10;    // 2^-30
-  constexpr double kTwoPi = 6.283185307179586476925286766559;
   alignas(64) std::uint64_t w[4][N];
   philox_paths<N>(seed, path0, pair, N, w);
-  // Uniforms in (0, 1), then one batched log for radius and exponentials, one sincos.
-  alignas(64) double u[3][N], angle[N], lg[3][N];
+  alignas(64) double lg[3][N], sn[N], cs[N];
 #pragma omp simd
   for (int l = 0; l < N; ++l) {
-    const std::uint32_t w0 = static_cast<std::uint32_t>(w[0][l]);
-    const std::uint32_t w1 = static_cast<std::uint32_t>(w[1][l]);
-    const std::uint32_t w2 = static_cast<std::uint32_t>(w[2][l]);
-    const std::uint32_t w3 = static_cast<std::uint32_t>(w[3][l]);
-    // (w + 1/2) 2^-32 lies strictly inside (0, 1): log never sees 0 and never returns 0.
-    u[0][l] = (static_cast<double>(w0) + 0.5) * k2m32;
-    angle[l] = kTwoPi * ((static_cast<double>(w1 >> 2) + 0.5) * k2m30);
-    u[1][l] = (static_cast<double>(w2) + 0.5) * k2m32;
-    u[2][l] = (static_cast<double>(w3) + 0.5) * k2m32;
-    out.coin[0][l] = (w1 & 1u) ? 1.0 : 0.0;
-    out.coin[1][l] = (w1 & 2u) ? 1.0 : 0.0;
+    lg[0][l] = detmath::log_positive(detmath::unit_of_word(w[0][l]));
+    lg[1][l] = detmath::log_positive(detmath::unit_of_word(w[2][l]));
+    lg[2][l] = detmath::log_positive(detmath::unit_of_word(w[3][l]));
   }
-  log_n(&u[0][0], &lg[0][0], 3 * N);
-  alignas(64) double sn[N], cs[N];
-  sincos_n(angle, sn, cs, N);
+#pragma omp simd
+  for (int l = 0; l < N; ++l) detmath::sincos_turn30((w[1][l] & 0xFFFFFFFFull) >> 2, sn[l], cs[l]);
 #pragma omp simd
   for (int l = 0; l < N; ++l) {
     const double radius = std::sqrt(-2.0 * lg[0][l]);
@@ -202,6 +196,9 @@ inline void draw_pairs(std::uint64_t seed, std::uint64_t path0, std::uint64_t pa
     out.normal[1][l] = radius * sn[l];
     out.exponential[0][l] = -lg[1][l];
     out.exponential[1][l] = -lg[2][l];
+    // 1.0 or 0.0 from the bit without a compare (none for 64-bit lanes in SSE2).
+    out.coin[0][l] = detmath::from_bits((0 - (w[1][l] & 1u)) & 0x3FF0000000000000ull);
+    out.coin[1][l] = detmath::from_bits((0 - ((w[1][l] >> 1) & 1u)) & 0x3FF0000000000000ull);
   }
 }
 
@@ -213,4 +210,4 @@ inline void draw_pair(std::uint64_t seed, std::uint64_t path, std::uint64_t pair
   for (int j = 0; j < 2; ++j) out[j] = {z.normal[j][0], z.exponential[j][0], z.coin[j][0] != 0.0};
 }
 
-}  // namespace crandall
+CRANDALL_END_VARIANT

@@ -49,15 +49,28 @@ std::vector<double> exact_steps(const std::vector<double>& start, double h, doub
 // work is not optimised away). For bench/throughput.py.
 double random_floor(std::uint64_t paths, std::uint64_t steps, std::uint64_t seed, int threads);
 
-// What the build targets, for benchmark records: paths per Philox register (1 = scalar
-// Random123), values per libmvec call (1 = scalar libm), the vector extensions compiled in, and
-// the compiler. A seed's numbers belong to a build; this says which.
+// What runs: the kernel variant in use (dispatch.hpp) and its vector widths, the variants
+// compiled in and those this CPU supports, the random-stream version (rng.hpp, kRandomStream)
+// and the compiler. Every variant gives the same numbers; this is for benchmark records.
 struct BuildInfo {
-  int philox_paths_per_register;
-  int math_values_per_call;
   std::string isa;
+  int philox_paths_per_register;
+  int doubles_per_register;
+  std::vector<std::string> isa_compiled;
+  std::vector<std::string> isa_available;
+  int random_stream;
   std::string compiler;
 };
 BuildInfo build_info();
+
+// Diagnostics (tests/test_reference_rng.py): the velocity of every path at the end of the plan's
+// last segment (the switch-off time), velocity only, exact or Euler method, one thread, through
+// the kernel in use.
+std::vector<double> simulate_states(const Plan& plan);
+
+// Diagnostics: the draws of pair `pair` for paths path0 .. path0 + count - 1, as 6 rows of
+// `count` (the two normals, the two exponentials, the two coins), through the kernel in use.
+std::vector<double> draw_noise(std::uint64_t seed, std::uint64_t path0, std::uint64_t count,
+                               std::uint64_t pair);
 
 }  // namespace crandall

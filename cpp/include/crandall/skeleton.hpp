@@ -50,19 +50,11 @@ inline bool step_regular(double root) {
   return (root >= 0x1p-450) & (root <= std::numeric_limits<double>::max());
 }
 
-// a * b + c, fused where the build has FMA (one rounding) and plain where it has not. The
-// compiler is free to contract a * b + c on its own (-ffp-contract=fast, GCC's default), and
-// it may decide differently in the vectorised kernel and in the scalar step; the step's
-// products that feed a sum are therefore written through this function, and every other
-// expression of the step ends in a multiplication or a division, which is never contracted.
-// That is what makes the kernel's lanes and exact_step give the same bits.
-inline double mul_add(double a, double b, double c) {
-#if defined(__FMA__)
-  return std::fma(a, b, c);
-#else
-  return a * b + c;
-#endif
-}
+// a * b + c, rounded twice: the build compiles with -ffp-contract=off (CMakeLists.txt), so the
+// compiler never fuses it, in the vectorised kernel or in the scalar step, in any instruction-set
+// variant; that is what makes the kernel's lanes, exact_step and every variant give the same
+// bits. (A fused form where the CPU has FMA would make the variants differ.)
+inline double mul_add(double a, double b, double c) { return a * b + c; }
 
 // Whether every step of a segment is regular whatever the draws (rng.hpp bounds them), from the
 // step's constants mean_d = -c h, scale_d = sigma sqrt(h) and twice_var = 2 sigma^2 h: then

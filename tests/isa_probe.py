@@ -1,0 +1,38 @@
+"""Run small simulations of every method and observable set and print their statistics as hex
+(with the kernel variant that ran), as JSON: tests/test_isa.py compares these across
+CRANDALL_ISA settings, emulated CPUs and cluster workers. Not a test module itself."""
+
+import json
+import sys
+
+import crandall
+from crandall import _core
+
+METHODS = ["exact", "euler", "richardson", "richardson2", "refine"]
+OBSERVE = [["velocity"], ["velocity", "stop"], ["velocity", "displacement"],
+           ["velocity", "distance"], ["velocity", "stop", "displacement", "distance"]]
+
+
+def hex_statistics(result) -> dict:
+    out = {}
+    for name in result.names:
+        for what, value in (("mean", result.mean(name)), ("var", result.var(name))):
+            values = [value] if isinstance(value, float) else list(value)
+            out[f"{name}.{what}"] = [float(v).hex() for v in values]
+    return out
+
+
+def probe(paths: int) -> dict:
+    stats = {}
+    for method in METHODS:
+        for observe in OBSERVE:
+            scene = crandall.Scene.scaled(tau0=1.0, times=[0.5, 1.0, 1.5], observe=observe)
+            r = crandall.simulate(scene, paths=paths, seed=17, dt=0.05, method=method, threads=1,
+                                  progress=False)
+            stats[f"{method}/{'+'.join(observe)}"] = hex_statistics(r)
+    return {"isa": _core.build_info()["isa"], "available": _core.build_info()["isa_available"],
+            "stats": stats}
+
+
+if __name__ == "__main__":
+    print(json.dumps(probe(int(sys.argv[1]) if len(sys.argv) > 1 else 600)))
