@@ -18,4 +18,4 @@ from .units import Scaling
 
 __all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS",
            "StatisticsWarning"]
-__version__ = "0.1.0"
+__version__ = "0.2.0"

@@ -28,7 +28,8 @@ from ._files import check_file_writable, check_folder_writable, check_moments, w
 __all__ = ["identity", "load", "save", "stored_seed", "check_writable", "make_folder"]
 
 FORMAT = "crandall-checkpoint"
-FORMAT_VERSION = 1
+# 2: the stop slot holds the time after the switch-off; the identity has the random stream.
+FORMAT_VERSION = 2
 
 _ARRAYS = ("identity", "next_chunk", "times_counts", "times_means", "times_central",
            "stop_counts", "stop_means", "stop_central")
@@ -40,6 +41,7 @@ def identity(scene, *, paths: int, seed: int, dt: float, method: str,
     from . import __version__
 
     return {"format": FORMAT, "format_version": FORMAT_VERSION, "crandall": __version__,
+            "random_stream": int(_core.RANDOM_STREAM),
             "scene": scene.to_dict(), "paths": int(paths), "seed": int(seed),
             "dt": float(dt), "method": str(method), "min_steps": int(min_steps)}
 
@@ -179,6 +181,14 @@ def load(path, ident: Dict[str, Any], chunks: int):
     stored, arrays = _read(path)
     # Round-trip through JSON so that both sides compare as stored (inf, floats, lists).
     expected = json.loads(json.dumps(ident))
+    for key, what in (("format_version", "checkpoint format"), ("random_stream", "random stream")):
+        if stored.get(key) != expected.get(key):
+            # Numbers of two streams (or two layouts) must never be merged into one result.
+            raise ValueError(
+                f"checkpoint: {os.fspath(path)} was written by crandall "
+                f"{stored.get('crandall', '?')} with {what} {stored.get(key, 'unknown')!r}; "
+                f"this crandall uses {what} {expected.get(key)!r}, so its chunks cannot be "
+                "continued here; remove it to start again, or resume with that version")
     if stored != expected:
         diff = sorted(k for k in set(stored) | set(expected) if stored.get(k) != expected.get(k))
         details = "; ".join(f"{k}: checkpoint has {stored.get(k)!r}, this run {expected.get(k)!r}"

@@ -124,6 +124,8 @@ def to_xarray(result):
         "dt": float(result.dt),
         "method": result.method,
         "steps_per_path": _count_attr(result.steps_per_path),
+        "min_steps": _count_attr(result.min_steps),
+        "random_stream": int(result.random_stream),
         "slots": int(result._moments.slots),
     }
     for k, v in sc.params.items():
@@ -202,6 +204,7 @@ def _check_fields(ds, where: str) -> Dict[str, Any]:
         raise _Invalid(f"method is {method!r}, not one of {', '.join(METHODS)}")
     out["method"] = str(method)
     out["steps_per_path"] = _integer(_attr(ds, "steps_per_path"), "steps_per_path", 0)
+    out["min_steps"] = _integer(_attr(ds, "min_steps"), "min_steps", 0)
     slots = _integer(_attr(ds, "slots"), "slots", 0)
     if slots != scene.times.size:
         raise _Invalid(f"slots is {slots}, but the scene has {scene.times.size} output times")
@@ -263,6 +266,14 @@ def load(path: Union[str, "os.PathLike[str]"]):
         why = ("attribute format is missing" if "format" not in ds.attrs
                else f"attribute format is {ds.attrs['format']!r}, not {_FORMAT!r}")
         raise ValueError(f"path: {name} is not a saved crandall result ({why})")
+    stream = ds.attrs.get("random_stream")
+    if stream != _core.RANDOM_STREAM:
+        # Another stream's numbers (or a file from before streams were recorded, whose stop
+        # statistics are laid out differently) are never read as this version's.
+        raise ValueError(
+            f"path: {name} was written by crandall {ds.attrs.get('crandall_version', '?')} with "
+            f"random stream {stream if stream is not None else 'unknown (before version 2)'}; "
+            f"this crandall reads stream {_core.RANDOM_STREAM} only: load it with that version")
     where = f"path: {name} is not a valid saved crandall result"
     try:
         f = _check_fields(ds, where)
@@ -270,4 +281,5 @@ def load(path: Union[str, "os.PathLike[str]"]):
         raise ValueError(f"{where}: {exc}") from None
     return Result(scene=f["scene"], paths=f["paths"], seed=f["seed"], dt=f["dt"],
                   method=f["method"], moments=f["moments"], stop_moments=f["stop_moments"],
-                  steps_per_path=f["steps_per_path"])
+                  steps_per_path=f["steps_per_path"], min_steps=f["min_steps"],
+                  random_stream=_core.RANDOM_STREAM)

@@ -76,13 +76,17 @@ class Result:
     """
 
     def __init__(self, *, scene: Scene, paths: int, seed: int, dt: float, method: str,
-                 moments, stop_moments, steps_per_path: int, min_steps: int = 0) -> None:
+                 moments, stop_moments, steps_per_path: int, min_steps: int = 0,
+                 random_stream: Optional[int] = None) -> None:
         self.scene = scene
         self.paths = int(paths)
         self.seed = int(seed)
         self.dt = float(dt)
         self.method = method
         self.min_steps = int(min_steps)
+        #: Version of the random stream that drew the paths (docs/random-numbers.md): the same
+        #: seed gives the same numbers only within one stream version.
+        self.random_stream = int(_core.RANDOM_STREAM if random_stream is None else random_stream)
         self.steps_per_path = int(steps_per_path)
         self._moments = moments
         self._stop = stop_moments
@@ -257,7 +261,8 @@ class Result:
         lines = [
             f"crandall result: {sc!r}",
             f"  paths={self.paths}  seed={self.seed}  method={self.method}  dt={self.dt:.6g}  "
-            f"min_steps={self.min_steps}  steps/path={self.steps_per_path}",
+            f"min_steps={self.min_steps}  steps/path={self.steps_per_path}  "
+            f"random_stream={self.random_stream}",
         ]
         if self.paths < 2:
             lines.append("  (n/a: a variance needs at least 2 paths)")

@@ -228,12 +228,20 @@ def _plan_from_fields(scene_dict, paths, seed, dt, method, min_steps=0):
                      min_steps=min_steps)
 
 
-def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads, min_steps=0):
+def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads, min_steps=0,
+               random_stream=None):
     """Chunks ``first..last-1`` of a run, as a list of ``(times, stop)`` accumulators.
 
     The task a Dask worker runs: plain data in, picklable accumulators out. The caller merges
     the lists of all tasks in chunk order, which makes the result bitwise that of a local run.
+    ``random_stream``: the caller's random-stream version; a worker whose crandall draws
+    another stream refuses the task, so that a cluster never mixes two streams' numbers.
     """
+    if random_stream is not None and random_stream != _core.RANDOM_STREAM:
+        raise ValueError(
+            f"random_stream: this worker's crandall draws random stream {_core.RANDOM_STREAM}, "
+            f"the client's draws stream {random_stream}; install the same crandall version on "
+            "every worker")
     plan = _plan_from_fields(scene_dict, paths, seed, dt, method, min_steps)
     out = []
     for chunk in range(first, last):
@@ -315,7 +323,8 @@ class _Run:
         return Result(scene=self.scene, paths=self.paths, seed=self.seed, dt=self.dt,
                       method=self.method, moments=self.times_acc,
                       stop_moments=self.stop_acc if "stop" in self.scene.observe else None,
-                      steps_per_path=self.plan.steps_per_path, min_steps=self.min_steps)
+                      steps_per_path=self.plan.steps_per_path, min_steps=self.min_steps,
+                      random_stream=_core.RANDOM_STREAM)
 
     def _check_finite(self):
         # Means and variances must be numbers; only fourth moments may overflow (var_stderr
@@ -362,7 +371,7 @@ def _run_distributed(runs, client, threads, bar):
     for i, run in enumerate(runs):
         for first, last in run.ranges(tasks):
             fut = client.submit(run_chunks, *run.task_args(), first, last, per_task,
-                                run.min_steps, pure=False)
+                                run.min_steps, _core.RANDOM_STREAM, pure=False)
             pending.append((i, first, last, fut))
     by_future = {fut: (i, first, last) for i, first, last, fut in pending}
     waiting = [dict() for _ in runs]  # per run: first chunk -> (last, parts)
