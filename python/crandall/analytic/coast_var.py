@@ -45,6 +45,9 @@ _T_CUT = 70.0
 
 _GX, _GW = np.polynomial.legendre.leggauss(20)
 _GX1, _GW1 = np.polynomial.legendre.leggauss(40)
+_X_FRACTIONS = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0)
+_T_FRACTIONS = (0, 1 / 8, 1 / 4, 1 / 2, 1.0)
+_S_FRACTIONS = (0, 1 / 4, 1 / 2, 1.0)
 
 
 def _panels(edges, x=_GX, w=_GW):
@@ -114,63 +117,117 @@ def _abs_density(x, s):
 
 
 def _mixed(c, t0):
-    """A[g_c] and A[g_c'] for each c (1-D array), tau0 = t0 > 0, in units scaled by L.
+    """A[g_c] / (tau0 L^3) and A[g_c'] / (tau0 L^2) for each c (1-D array), tau0 = t0 > 0,
+    L = min(sqrt(tau0), 1), g_c(y) = (y^2 - (y - c)_+^2) / 4, g_c'(y) = (y - (y - c)_+) / 2.
 
-    g_c(y) = (y^2 - (y - c)_+^2) / 4, g_c'(y) = (y - (y - c)_+) / 2. Returns the pair of arrays.
+    Every factor is formed in units of its own scale (rho dx, x / L, the moments / L^n,
+    dt / tau0), so nothing underflows unless the result itself does.
     """
-    L = min(math.sqrt(t0), 1.0)  # scale of |U1(tau0)|: sqrt(tau0) when small, O(1) after
-    # the time t = tau0 - s since the noise was last seen: u = sqrt(t) near t = 0 (the
-    # integrand has half-integer powers of t there), v = sqrt(s) near s = 0 (those of rho)
-    T = min(t0, _T_CUT)
+    L = min(math.sqrt(t0), 1.0)  # scale of |U1|: sqrt(tau0) when small, O(1) after
+    # t = tau0 - s, the time since the velocity was last looked at: u = sqrt(t) near t = 0
+    # (the integrand has half-integer powers of t there), v = sqrt(s) near s = 0 (those of rho)
     if t0 <= 2 * _T_CUT:
-        half = t0 / 2
-        uh = math.sqrt(half)
-        u, wu = _panels(uh * np.array([0, 0.125, 0.25, 0.5, 1.0]))
-        v, wv = _panels(uh * np.array([0, 0.25, 0.5, 1.0]))
+        uh = math.sqrt(t0 / 2)
+        u, wu = _panels(uh * np.array(_T_FRACTIONS))
+        v, wv = _panels(uh * np.array(_S_FRACTIONS))
         t = np.concatenate([u * u, t0 - v * v])
-        wt = np.concatenate([2 * u * wu, 2 * v * wv])
+        wt = np.concatenate([2 * u * wu, 2 * v * wv]) / t0
     else:
-        uh = math.sqrt(T)
-        u, wu = _panels(uh * np.array([0, 0.125, 0.25, 0.5, 1.0]))
-        t, wt = u * u, 2 * u * wu
+        u, wu = _panels(math.sqrt(_T_CUT) * np.array(_T_FRACTIONS))
+        t, wt = u * u, 2 * u * wu / t0
     s = t0 - t
-    # x range: rho(x, s) <= e^-2x and <= (Gaussian of width sqrt(2 s) about -2 s) * O(1)
+    rt = np.sqrt(t)
+    # x range: rho(x, s) is below e^-2x, and below a Gaussian of width sqrt(2 s) about -2 s
     xmax = np.minimum(16 * np.sqrt(s), 24.0)
-    out_g = np.zeros(c.shape)
-    out_d = np.zeros(c.shape)
+    fixed = [np.zeros_like(t), np.minimum(4 * rt, xmax)] + [xmax * f for f in _X_FRACTIONS]
+    out_g = np.empty(c.shape)
+    out_d = np.empty(c.shape)
     for i, ci in enumerate(c):
-        rt = np.sqrt(t)
-        # x panels per t: boundary layer of the killing (width ~ sqrt t) and the kink at c
-        pts = np.stack([np.zeros_like(t), np.minimum(4 * rt, xmax),
-                        np.clip(ci - 4 * rt, 0, xmax), np.clip(ci + 4 * rt, 0, xmax), xmax],
-                       axis=1)
-        pts = np.sort(pts, axis=1)
+        # x panels per t: the killing's boundary layer (width ~ sqrt t), the kink at x = c
+        # (smoothed over ~ sqrt t), and geometric panels for the decay of rho
+        pts = np.sort(np.stack(fixed + [np.clip(ci - 4 * rt, 0, xmax),
+                                        np.clip(ci + 4 * rt, 0, xmax)], axis=1), axis=1)
         a, b = pts[:, :-1, None], pts[:, 1:, None]
         x = (a + (b - a) * (1 + _GX) / 2).reshape(len(t), -1)
         wx = ((b - a) / 2 * _GW).reshape(len(t), -1)
-        tt = t[:, None]
-        xx = np.maximum(x, 0.0)
-        m1_0, m2_0 = _killed_moments(xx, np.broadcast_to(tt, xx.shape), 0.0)
-        m1_c, m2_c = _killed_moments(xx, np.broadcast_to(tt, xx.shape), ci)
-        vg = (m2_0 - m2_c) / 4
-        vd = (m1_0 - m1_c) / 2
-        rho = _abs_density(xx, s[:, None])
-        base = rho * xx * wx
-        out_g[i] = np.sum(wt * np.sum(base * vg, axis=1))
-        out_d[i] = np.sum(wt * np.sum(base * vd, axis=1))
+        tt = np.broadcast_to(t[:, None], x.shape)
+        m1_0, m2_0 = _killed_moments(x, tt, 0.0)
+        m1_c, m2_c = _killed_moments(x, tt, ci)
+        base = (_abs_density(x, s[:, None]) * wx) * (x / L)
+        out_g[i] = np.sum(wt * np.sum(base * ((m2_0 - m2_c) / (4 * L * L)), axis=1))
+        out_d[i] = np.sum(wt * np.sum(base * ((m1_0 - m1_c) / (2 * L)), axis=1))
     return out_g, out_d
 
 
 def _law_moments(c, t0):
-    """E g_c(a), E g_c(a)^2, E[a^2 g_c(a)] over the law of a = |U1(tau0)| (1-D quadrature)."""
+    """E g_c(a) / L^2, E g_c(a)^2 / L^4, E[a^2 g_c(a)] / L^4 over the law of a = |U1(tau0)|."""
+    L = min(math.sqrt(t0), 1.0)
     ymax = min(16 * math.sqrt(t0), 24.0)
-    out = np.zeros((3, c.size))
+    out = np.empty((3, c.size))
     for i, ci in enumerate(c):
-        edges = np.unique(np.clip([0, ymax / 8, ymax / 4, ymax / 2, ci, ymax], 0, ymax))
-        y, w = _panels(edges, _GX1, _GW1)
+        edges = np.unique(np.clip([0, ymax / 16, ymax / 8, ymax / 4, ymax / 2, ci, ymax],
+                                  0, ymax))
+        y, w = _panels(edges)
         rho = _abs_density(y, np.float64(t0)) * w
-        g = (y * y - np.maximum(y - ci, 0) ** 2) / 4
+        g = (y * y - np.maximum(y - ci, 0) ** 2) / (4 * L * L)
         out[0, i] = np.sum(rho * g)
         out[1, i] = np.sum(rho * g * g)
-        out[2, i] = np.sum(rho * y * y * g)
+        out[2, i] = np.sum(rho * (y / L) ** 2 * g)
     return out
+
+
+def _coast_c(tau, t0):
+    """c = 2 (tau - tau0) >= 0 (finite: beyond every a that has weight, c is capped)."""
+    with np.errstate(over="ignore"):
+        c = 2 * (tau - t0)
+    return np.where(np.isfinite(c), c, np.finfo(float).max)
+
+
+def _reach(t0):
+    """a = |U1(tau0)| beyond which its density times a^4 is below 1e-30 of the scale."""
+    return min(16 * math.sqrt(t0), 24.0)
+
+
+def _evaluate(tau, t0, which):
+    c = _coast_c(tau, t0)
+    out = np.empty(c.shape)
+    stopped = c >= _reach(t0)  # g_c(a) = a^2 / 4 for every a that has weight: at the stop
+    t0a = np.array([t0])
+    if which == "displacement":
+        out[stopped] = _data.VAR_U2_AT_STOP(t0a, SWITCH)[0]
+    else:
+        out[stopped] = _data.HALF_INT_M200(t0a, SWITCH)[0]
+    live = ~stopped
+    if np.any(live):
+        cu, inv = np.unique(c[live], return_inverse=True)
+        L2 = min(t0, 1.0)
+        a_g, a_d = _mixed(cu, t0)
+        eg, eg2, ea2g = _law_moments(cu, t0)
+        if which == "displacement":
+            # m020 + 2 A[g] + E g^2; A[g] = tau0 L^3 a_g, E g^2 = L^4 eg2
+            var = (_data.M020(t0a, SWITCH)[0] + 2 * t0 * L2 * math.sqrt(L2) * a_g
+                   + L2 * L2 * eg2)
+        else:
+            m200 = _data.M200(t0a, SWITCH)[0]
+            cov = -L2 * (L2 * ea2g - m200 * eg) / 4 + t0 * L2 * a_d
+            var = _data.VAR_U3(t0a, SWITCH)[0] + 2 * cov + L2 * L2 * (eg2 - eg * eg)
+        out[live] = var[inv]
+    return np.maximum(out, 0.0)
+
+
+def coast_displacement_var(tau, tau0):
+    """Var U2(tau) for tau > tau0 (noise off); see :func:`crandall.analytic.displacement_var`."""
+    t = as_time(tau)
+    t0 = as_tau0(tau0)
+    if t0 == 0 or np.isinf(t0):
+        return scalar_or_array(np.zeros_like(t))
+    return scalar_or_array(_evaluate(t, t0, "displacement"))
+
+
+def coast_distance_var(tau, tau0):
+    """Var U3(tau) for tau > tau0 (noise off); see :func:`crandall.analytic.distance_var`."""
+    t = as_time(tau)
+    t0 = as_tau0(tau0)
+    if t0 == 0 or np.isinf(t0):
+        return scalar_or_array(np.zeros_like(t))
+    return scalar_or_array(_evaluate(t, t0, "distance"))
