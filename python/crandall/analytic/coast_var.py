@@ -43,7 +43,8 @@ _SQPI_INV = 1 / _SQPI
 # integrand of A is below 1e-30 of its scale there (docs/analytic.md).
 _T_CUT = 70.0
 
-_GX, _GW = np.polynomial.legendre.leggauss(20)
+# 16 nodes per panel of the (t, x) product rule, 40 per panel of the 1-D law integrals
+_GX, _GW = np.polynomial.legendre.leggauss(16)
 _GX1, _GW1 = np.polynomial.legendre.leggauss(40)
 _X_FRACTIONS = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0)
 _T_FRACTIONS = (0, 1 / 8, 1 / 4, 1 / 2, 1.0)
@@ -141,12 +142,61 @@ def _abs_density(x, s):
     return out
 
 
-def _mixed(c, t0):
-    """A[g_c] / (tau0 L^3) and A[g_c'] / (tau0 L^2) for each c (1-D array), tau0 = t0 > 0,
-    L = min(sqrt(tau0), 1), g_c(y) = (y^2 - (y - c)_+^2) / 4, g_c'(y) = (y - (y - c)_+) / 2.
+_SMALL_S = 0.05  # below, E(R_s - xi)_+ is formed without its O(1) terms (see _excess)
+_GD_X, _GD_W = np.polynomial.legendre.leggauss(8)
 
-    Every factor is formed in units of its own scale (rho dx, x / L, the moments / L^n,
-    dt / tau0), so nothing underflows unless the result itself does.
+
+def _excess(xi, s, m):
+    """G(xi, s) = E[(R_s - m) 1{R_s > xi}], R_s = |U1(s)|, m = E R_s (given); xi >= 0, s > 0.
+
+    G = E(R_s - xi)_+ - (m - xi) S(xi), S(xi) = P(R_s > xi) = [erfc(v) + e^(-2 xi) erfc(w)] / 2,
+    v, w = (xi +- 2 s) / (2 sqrt s). Integrating S from xi to infinity (by parts for its second
+    half, with e^(-2y - w_y^2) = e^(-v_y^2)):
+
+        E(R_s - xi)_+ = sqrt(s) i^1erfc(v) + D / 4,   D = e^(-2 xi) erfc(w) - erfc(v) >= 0.
+
+    For s >= 0.05, D is formed as written (it loses at most |log10 sqrt s| < 1 digit). Below,
+    D = O(sqrt s) would come out of O(1) terms, so it is rewritten as a positive integral:
+    2 xi + w^2 = v^2 gives D = e^(-v^2) (erfcx(w) - erfcx(v)) and erfcx' = -2 J_1, so
+
+        D = 2 e^(-v^2) int_w^v J_1(u) du,   v - w = 2 sqrt s < 0.45,
+
+    by 8-point Gauss-Legendre (J_1 is smooth: error far below 1e-16). G >= 0: it is
+    int_xi^inf (x - m) rho(x) dx, also equal to int_0^xi (m - x) rho(x) dx.
+    """
+    rs = np.sqrt(s)
+    v = xi / (2 * rs) + rs
+    w = xi / (2 * rs) - rs
+    ev = np.exp(-v * v)
+    J0v, J1v, _ = _scaled_ierfc_fast(v.ravel())
+    J0v, J1v = J0v.reshape(v.shape), J1v.reshape(v.shape)
+    # e^(-2 xi) erfc(w) = e^(-v^2) erfcx(w) for w >= 0 (both factors in range)
+    with np.errstate(under="ignore"):
+        tail_w = np.where(w >= 0, ev * erfcx(np.maximum(w, 0)),
+                          np.exp(-2 * xi) * erfc(np.minimum(w, 0)))
+    S = (ev * J0v + tail_w) / 2
+    small = np.broadcast_to(s < _SMALL_S, v.shape)
+    D = np.empty(v.shape)
+    big = ~small
+    D[big] = tail_w[big] - (ev * J0v)[big]
+    if np.any(small):
+        ws = w[small]
+        eps = 2 * np.broadcast_to(rs, v.shape)[small]  # v - w, exact (v - w in floats is not)
+        u = ws[:, None] + eps[:, None] * (1 + _GD_X) / 2
+        _, J1u, _ = _scaled_ierfc_fast(u.ravel())
+        integral = eps / 2 * (J1u.reshape(u.shape) @ _GD_W)
+        D[small] = 2 * ev[small] * integral
+    return rs * ev * J1v + D / 4 - (m - xi) * S
+
+
+def _mixed(c, t0):
+    """A[g_c] / (tau0 L^3) and Cov(U3(tau0), g_c(a)) / (tau0 L^3) for each c (1-D array),
+    tau0 = t0 > 0, L = min(sqrt(tau0), 1), g_c(y) = (y^2 - (y - c)_+^2) / 4.
+
+    A[g] = int dt int dx rho(x, s) x V_g(x, t) and Cov = int dt int dx G(x, s) V_g'(x, t),
+    s = tau0 - t, V_phi(x, t) = E_x[phi(R_t); not killed by t] (docs/analytic.md): both sums
+    of non-negative terms. Every factor is formed in units of its own scale (rho dx, x / L,
+    G / L, V / L^n, dt / tau0), so nothing underflows unless the result itself does.
     """
     L = min(math.sqrt(t0), 1.0)  # scale of |U1|: sqrt(tau0) when small, O(1) after
     # t = tau0 - s, the time since the velocity was last looked at: u = sqrt(t) near t = 0
@@ -156,12 +206,13 @@ def _mixed(c, t0):
         u, wu = _panels(uh * np.array(_T_FRACTIONS))
         v, wv = _panels(uh * np.array(_S_FRACTIONS))
         t = np.concatenate([u * u, t0 - v * v])
+        s = np.concatenate([t0 - u * u, v * v])
         wt = np.concatenate([2 * u * wu, 2 * v * wv]) / t0
     else:
         u, wu = _panels(math.sqrt(_T_CUT) * np.array(_T_FRACTIONS))
-        t, wt = u * u, 2 * u * wu / t0
-    s = t0 - t
+        t, s, wt = u * u, t0 - u * u, 2 * u * wu / t0
     rt = np.sqrt(t)
+    m_s = _data.S100(s, SWITCH)  # E|U1(s)|
     # x range: rho(x, s) is below e^-2x, and below a Gaussian of width sqrt(2 s) about -2 s
     xmax = np.minimum(16 * np.sqrt(s), 24.0)
     fixed = [np.zeros_like(t), np.minimum(4 * rt, xmax)] + [xmax * f for f in _X_FRACTIONS]
@@ -174,13 +225,17 @@ def _mixed(c, t0):
                                         np.clip(ci + 4 * rt, 0, xmax)], axis=1), axis=1)
         a, b = pts[:, :-1, None], pts[:, 1:, None]
         x = (a + (b - a) * (1 + _GX) / 2).reshape(len(t), -1)
-        wx = ((b - a) / 2 * _GW).reshape(len(t), -1)
+        wx = ((b - a) / 2 * _GW).reshape(len(t), -1) / L
         tt = np.broadcast_to(t[:, None], x.shape)
+        ss = np.broadcast_to(s[:, None], x.shape)
+        ms = np.broadcast_to(m_s[:, None], x.shape)
         m1_0, m2_0 = _killed_moments(x, tt, 0.0)
         m1_c, m2_c = _killed_moments(x, tt, ci)
-        base = (_abs_density(x, s[:, None]) * wx) * (x / L)
-        out_g[i] = np.sum(wt * np.sum(base * ((m2_0 - m2_c) / (4 * L * L)), axis=1))
-        out_d[i] = np.sum(wt * np.sum(base * ((m1_0 - m1_c) / (2 * L)), axis=1))
+        vg = (m2_0 - m2_c) / (4 * L * L)
+        vd = (m1_0 - m1_c) / (2 * L)
+        rho = _abs_density(x, ss) * L
+        out_g[i] = np.sum(wt * np.sum(wx * rho * (x / L) * vg, axis=1))
+        out_d[i] = np.sum(wt * np.sum(wx * (_excess(x, ss, ms) / L) * vd, axis=1))
     return out_g, out_d
 
 
@@ -192,7 +247,7 @@ def _law_moments(c, t0):
     for i, ci in enumerate(c):
         edges = np.unique(np.clip([0, ymax / 16, ymax / 8, ymax / 4, ymax / 2, ci, ymax],
                                   0, ymax))
-        y, w = _panels(edges)
+        y, w = _panels(edges, _GX1, _GW1)
         rho = _abs_density(y, np.float64(t0)) * w
         g = (y * y - np.maximum(y - ci, 0) ** 2) / (4 * L * L)
         out[0, i] = np.sum(rho * g)
@@ -233,8 +288,7 @@ def _evaluate(tau, t0, which):
             var = (_data.M020(t0a, SWITCH)[0] + 2 * t0 * L2 * math.sqrt(L2) * a_g
                    + L2 * L2 * eg2)
         else:
-            m200 = _data.M200(t0a, SWITCH)[0]
-            cov = -L2 * (L2 * ea2g - m200 * eg) / 4 + t0 * L2 * a_d
+            cov = t0 * L2 * math.sqrt(L2) * a_d
             var = _data.VAR_U3(t0a, SWITCH)[0] + 2 * cov + L2 * L2 * (eg2 - eg * eg)
         out[live] = var[inv]
     return np.maximum(out, 0.0)
