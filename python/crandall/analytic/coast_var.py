@@ -127,6 +127,48 @@ def _killed_moments(x, t, K):
     return m1, m2
 
 
+def _alive_above(x, t, y):
+    """Q(y) = P_x(R_t > y, not killed by t) = [erfc(z1) - e^(2x) erfc(z2)] / 2, z1, z2 =
+    (y -+ x + 2t) / (2 sqrt t); e^(2x) erfc(z2) = e^(-z1^2 - x y / t) erfcx(z2), z2 >= 0."""
+    rt = np.sqrt(t)
+    z1 = (y - x + 2 * t) / (2 * rt)
+    z2 = (y + x + 2 * t) / (2 * rt)
+    image = np.exp(-(z1 * z1) - x * y / t) * erfcx(z2)
+    with np.errstate(under="ignore"):
+        return np.where(z1 >= 0, np.exp(-(z1 * z1)) * erfcx(np.maximum(z1, 0)),
+                        erfc(np.minimum(z1, 0))) / 2 - image / 2
+
+
+def _killed_g(x, t, c):
+    """V_g(x, t) = E_x[g_c(R_t); alive] and V_g'(x, t) = E_x[g_c'(R_t); alive] (x, t arrays).
+
+    From the closed moments, V_g = (m2(0) - m2(c)) / 4 and V_g' = (m1(0) - m1(c)) / 2; for c
+    small against the spread of R_t (x + sqrt t) these differences would lose digits, so there
+    g_c(R) = int_0^inf min(y, c)/2 1{R > y} dy is used instead:
+
+        V_g' = (1/2) int_0^c Q(y) dy,   V_g = (1/2) int_0^c y Q(y) dy + (c/2) m1(c),
+
+    Q(y) = P_x(R_t > y, alive), smooth on [0, c] there (8-point Gauss-Legendre).
+    """
+    m1_c, m2_c = _killed_moments(x, t, c)
+    near = c <= (x + np.sqrt(t)) / 2
+    vg = np.empty(x.shape)
+    vd = np.empty(x.shape)
+    far = ~near
+    if np.any(far):
+        m1_0, m2_0 = _killed_moments(x[far], t[far], 0.0)
+        vg[far] = (m2_0 - m2_c[far]) / 4
+        vd[far] = (m1_0 - m1_c[far]) / 2
+    if np.any(near):
+        xn, tn = x[near][:, None], t[near][:, None]
+        y = c * (1 + _GD_X) / 2
+        Q = _alive_above(xn, tn, y[None, :])
+        w = c / 2 * _GD_W
+        vd[near] = (Q @ w) / 2
+        vg[near] = (Q @ (w * y)) / 2 + c / 2 * m1_c[near]
+    return vg, vd
+
+
 def _abs_density(x, s):
     """rho(x, s) = 2 f(x, s), the density of |U1(s)|, x >= 0, s > 0 (as velocity_pdf)."""
     rt = np.sqrt(s)
@@ -229,10 +271,8 @@ def _mixed(c, t0):
         tt = np.broadcast_to(t[:, None], x.shape)
         ss = np.broadcast_to(s[:, None], x.shape)
         ms = np.broadcast_to(m_s[:, None], x.shape)
-        m1_0, m2_0 = _killed_moments(x, tt, 0.0)
-        m1_c, m2_c = _killed_moments(x, tt, ci)
-        vg = (m2_0 - m2_c) / (4 * L * L)
-        vd = (m1_0 - m1_c) / (2 * L)
+        vg, vd = _killed_g(x, tt, ci)
+        vg, vd = vg / (L * L), vd / L
         rho = _abs_density(x, ss) * L
         out_g[i] = np.sum(wt * np.sum(wx * rho * (x / L) * vg, axis=1))
         out_d[i] = np.sum(wt * np.sum(wx * (_excess(x, ss, ms) / L) * vd, axis=1))
@@ -249,7 +289,8 @@ def _law_moments(c, t0):
                                   0, ymax))
         y, w = _panels(edges, _GX1, _GW1)
         rho = _abs_density(y, np.float64(t0)) * w
-        g = (y * y - np.maximum(y - ci, 0) ** 2) / (4 * L * L)
+        # g_c(y) = y^2/4 below c, c (2y - c)/4 above: no difference of near-equal squares
+        g = np.where(y <= ci, y * y, ci * (2 * y - ci)) / (4 * L * L)
         out[0, i] = np.sum(rho * g)
         out[1, i] = np.sum(rho * g * g)
         out[2, i] = np.sum(rho * (y / L) ** 2 * g)
