@@ -231,7 +231,7 @@ def _excess(xi, s, m):
     return rs * ev * J1v + D / 4 - (m - xi) * S
 
 
-def _mixed(c, t0):
+def _mixed(c, t0, want=("displacement", "distance")):
     """A[g_c] / (tau0 L^3) and Cov(U3(tau0), g_c(a)) / (tau0 L^3) for each c (1-D array),
     tau0 = t0 > 0, L = min(sqrt(tau0), 1), g_c(y) = (y^2 - (y - c)_+^2) / 4.
 
@@ -258,8 +258,8 @@ def _mixed(c, t0):
     # x range: rho(x, s) is below e^-2x, and below a Gaussian of width sqrt(2 s) about -2 s
     xmax = np.minimum(16 * np.sqrt(s), 24.0)
     fixed = [np.zeros_like(t), np.minimum(4 * rt, xmax)] + [xmax * f for f in _X_FRACTIONS]
-    out_g = np.empty(c.shape)
-    out_d = np.empty(c.shape)
+    out_g = np.full(c.shape, np.nan)
+    out_d = np.full(c.shape, np.nan)
     for i, ci in enumerate(c):
         # x panels per t: the killing's boundary layer (width ~ sqrt t), the kink at x = c
         # (smoothed over ~ sqrt t), and geometric panels for the decay of rho
@@ -273,9 +273,11 @@ def _mixed(c, t0):
         ms = np.broadcast_to(m_s[:, None], x.shape)
         vg, vd = _killed_g(x, tt, ci)
         vg, vd = vg / (L * L), vd / L
-        rho = _abs_density(x, ss) * L
-        out_g[i] = np.sum(wt * np.sum(wx * rho * (x / L) * vg, axis=1))
-        out_d[i] = np.sum(wt * np.sum(wx * (_excess(x, ss, ms) / L) * vd, axis=1))
+        if "displacement" in want:
+            rho = _abs_density(x, ss) * L
+            out_g[i] = np.sum(wt * np.sum(wx * rho * (x / L) * vg, axis=1))
+        if "distance" in want:
+            out_d[i] = np.sum(wt * np.sum(wx * (_excess(x, ss, ms) / L) * vd, axis=1))
     return out_g, out_d
 
 
@@ -322,7 +324,7 @@ def _evaluate(tau, t0, which):
     if np.any(live):
         cu, inv = np.unique(c[live], return_inverse=True)
         L2 = min(t0, 1.0)
-        a_g, a_d = _mixed(cu, t0)
+        a_g, a_d = _mixed(cu, t0, (which,))
         eg, eg2, ea2g = _law_moments(cu, t0)
         if which == "displacement":
             # m020 + 2 A[g] + E g^2; A[g] = tau0 L^3 a_g, E g^2 = L^4 eg2

@@ -54,8 +54,8 @@ def displacement_var(tau, tau0=np.inf):
     tau : float or array_like
         Scaled time (eq8), 0 <= tau <= tau0, finite.
     tau0 : float, optional
-        Scaled switch-off time; default never. tau > tau0 raises ValueError (after switch-off
-        only the value at the stop is known in closed form: :func:`displacement_at_stop_var`).
+        Scaled switch-off time; default never. tau > tau0 raises ValueError here: the public
+        :func:`crandall.analytic.displacement_var` continues past tau0 (coast_var.py).
 
     Returns
     -------
@@ -117,7 +117,8 @@ def distance_var(tau, tau0=np.inf):
     tau : float or array_like
         Scaled time, 0 <= tau <= tau0, finite.
     tau0 : float, optional
-        Scaled switch-off time (default never); tau > tau0 raises ValueError.
+        Scaled switch-off time (default never); tau > tau0 raises ValueError here: the public
+        :func:`crandall.analytic.distance_var` continues past tau0 (coast_var.py).
 
     Returns
     -------
