@@ -11,16 +11,16 @@ so, E U2 being 0,
     Var U2(tau) = E[U2(tau0)^2] + 2 E[U2(tau0) sigma g(a)] + E[g(a)^2],
     Var U3(tau) = Var U3(tau0) + 2 Cov(U3(tau0), g(a)) + Var g(a).
 
-The two mixed terms come from one functional of the killed process (docs/analytic.md):
+The mixed terms come from the Markov property at tau0 (docs/analytic.md): with R = |U1|,
+rho(x, s) its density at s, V_phi(x, t) = E_x[phi(R_t); R not killed at 0 by t] (paths that
+reach 0 forget their sign, so the signed expectation is the killed one), and s = tau0 - t,
 
-    A[phi] = int_0^tau0 dt int_0^inf dx rho(x, tau0 - t) x int_0^inf k(x, y, t) phi(y) dy,
-    E[U2(tau0) sigma phi(a)] = A[phi],
-    Cov(U3(tau0), phi(a)) = -Cov(a^2, phi(a)) / 4 + A[phi'],
+    E[U2(tau0) sigma phi(a)] = int_0^tau0 dt int_0^inf dx rho(x, s) x V_phi(x, t),
+    Cov(U3(tau0), phi(a))    = int_0^tau0 dt int_0^inf dx G(x, s) V_phi'(x, t),
 
-rho the density of |U1| and k(x, y, t) = n(y; x - 2t, 2t) - e^(2x) n(y; -x - 2t, 2t) the
-transition density of |U1| killed at 0 (n a normal density, mean and variance). The y-integral
-is closed (repeated integrals of erfc, g being piecewise quadratic); the (t, x) integral is a
-Gauss-Legendre product rule on panels fitted to the scales of the integrand.
+G(x, s) = E[(R_s - E R_s) 1{R_s > x}] >= 0. Both integrands are non-negative for phi = g. The
+y-integral inside V is closed (repeated integrals of erfc, g being piecewise quadratic); the
+(t, x) integral is a Gauss-Legendre product rule on panels fitted to the integrand's scales.
 """
 
 from __future__ import annotations
@@ -282,10 +282,11 @@ def _mixed(c, t0, want=("displacement", "distance")):
 
 
 def _law_moments(c, t0):
-    """E g_c(a) / L^2, E g_c(a)^2 / L^4, E[a^2 g_c(a)] / L^4 over the law of a = |U1(tau0)|."""
+    """E g_c(a) / L^2 and E g_c(a)^2 / L^4 over the law of a = |U1(tau0)| (panels of 40
+    Gauss-Legendre points, split at c where g_c has its kink)."""
     L = min(math.sqrt(t0), 1.0)
     ymax = min(16 * math.sqrt(t0), 24.0)
-    out = np.empty((3, c.size))
+    out = np.empty((2, c.size))
     for i, ci in enumerate(c):
         edges = np.unique(np.clip([0, ymax / 16, ymax / 8, ymax / 4, ymax / 2, ci, ymax],
                                   0, ymax))
@@ -295,7 +296,6 @@ def _law_moments(c, t0):
         g = np.where(y <= ci, y * y, ci * (2 * y - ci)) / (4 * L * L)
         out[0, i] = np.sum(rho * g)
         out[1, i] = np.sum(rho * g * g)
-        out[2, i] = np.sum(rho * (y / L) ** 2 * g)
     return out
 
 
@@ -307,7 +307,10 @@ def _coast_c(tau, t0):
 
 
 def _reach(t0):
-    """a = |U1(tau0)| beyond which its density times a^4 is below 1e-30 of the scale."""
+    """a = |U1(tau0)| beyond which the law of a has no weight that matters: P(a > reach) and
+    E(a - reach)_+^4 are below e^-48 of their scales (a Gaussian tail 11 standard deviations
+    out for small tau0, the stationary tail e^(-2a) for large), so for c >= reach the variances
+    equal their values at the stop to 1e-13 (test_limit_at_the_stop)."""
     return min(16 * math.sqrt(t0), 24.0)
 
 
@@ -325,7 +328,7 @@ def _evaluate(tau, t0, which):
         cu, inv = np.unique(c[live], return_inverse=True)
         L2 = min(t0, 1.0)
         a_g, a_d = _mixed(cu, t0, (which,))
-        eg, eg2, ea2g = _law_moments(cu, t0)
+        eg, eg2 = _law_moments(cu, t0)
         if which == "displacement":
             # m020 + 2 A[g] + E g^2; A[g] = tau0 L^3 a_g, E g^2 = L^4 eg2
             var = (_data.M020(t0a, SWITCH)[0] + 2 * t0 * L2 * math.sqrt(L2) * a_g
