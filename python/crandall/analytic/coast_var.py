@@ -60,30 +60,39 @@ def _panels(edges, x=_GX, w=_GW):
     return nodes, weights
 
 
+# Miller's starting index by band of z: the backward recurrence converges faster for larger z
+# (start 60 at z = 2 and 20 at z = 6 both give 2e-15 against a start at 120)
+_MILLER_BANDS = ((2.0, 60), (3.0, 40), (4.0, 30), (6.0, 20))
+
+
 def _scaled_ierfc_fast(z):
     """J_n(z) = e^(z^2) i^n erfc(z), n = 0, 1, 2, z >= 0: as switch_off._scaled_ierfc (forward
-    recurrence below z = 2, Miller's backward recurrence from n = 60 above), without its
-    per-step rescaling: started at 1e-300, the backward sweep grows by at most
-    (120 + 2z)^59 < 1e490 for z <= 1e8, inside the range of a double; beyond, the leading
-    asymptotic terms J_1 = J_0 / (2z), J_2 = J_0 / (4 z^2) are exact to (1/z^2) < 1e-16.
+    recurrence below z = 2, Miller's backward recurrence above), without its per-step
+    rescaling and with a start that shrinks as z grows (_MILLER_BANDS): started at 1e-300, the
+    backward sweep grows by at most (120 + 2z)^59 < 1e490 for z <= 1e8, inside the range of a
+    double; beyond, the leading asymptotic terms J_1 = J_0 / (2z), J_2 = J_0 / (4 z^2) are
+    exact to (1/z^2) < 1e-16.
     """
     J0 = erfcx(z)
     J1 = _SQPI_INV - z * J0
     J2 = (J0 - 2 * z * J1) / 4
-    big = z >= 2
-    if np.any(big):
-        zb = z[big]
+    uppers = [b[0] for b in _MILLER_BANDS[1:]] + [np.inf]
+    for (lo, start), hi in zip(_MILLER_BANDS, uppers):
+        band = (z >= lo) & (z < hi)
+        if not np.any(band):
+            continue
+        zb = z[band]
         huge = zb > 1e8
         zm = np.where(huge, 2.0, zb)
         a = np.zeros_like(zm)
         b = np.full_like(zm, 1e-300)
-        for n in range(60, 2, -1):
+        for n in range(start, 2, -1):
             a, b = b, 2 * n * a + 2 * zm * b  # (y_(n-1), y_(n-2))
         y2 = a
         a, b = b, 4 * a + 2 * zm * b  # n = 2: (y_1, y_0)
-        norm = J0[big] / b
-        J1[big] = np.where(huge, J0[big] / (2 * zb), a * norm)
-        J2[big] = np.where(huge, J0[big] / (2 * zb) / (2 * zb), y2 * norm)
+        norm = J0[band] / b
+        J1[band] = np.where(huge, J0[band] / (2 * zb), a * norm)
+        J2[band] = np.where(huge, J0[band] / (2 * zb) / (2 * zb), y2 * norm)
     return J0, J1, J2
 
 
