@@ -72,6 +72,21 @@ def test_mixed_terms_reproduce_closed_moments(t0):
     np.testing.assert_allclose(t0 * L**3 * ad[0], cov, rtol=1e-13)
 
 
+@pytest.mark.parametrize("t0", [1e-99, 1e-60, 1e-40])
+def test_tiny_tau0_scaling(t0):
+    """Below tau0 = 1e-100 the variances are evaluated at 1e-100 and rescaled as
+    tau0^2 F(c / sqrt tau0) (the drift's relative effect, O(sqrt tau0), is below 1e-50 there).
+    Above, the direct evaluation must obey the same scaling to double precision."""
+    c = np.array([1e-3, 0.3, 1.0, 3.0, 10.0]) * math.sqrt(t0)
+    cs = c * math.sqrt(1e-100 / t0)
+    for which in ("displacement", "distance"):
+        direct = coast_var._evaluate(c, t0, which)
+        scaled = (t0 / 1e-100) ** 2 * coast_var._evaluate(cs, 1e-100, which)
+        np.testing.assert_allclose(scaled, direct, rtol=1e-14)
+    # and a denormal tau0 goes through the scaled path without a warning
+    assert 0 <= A.displacement_var(1e-160, 1e-320) <= A.displacement_at_stop_var(1e-320) + 1e-323
+
+
 # --- the pieces against mpmath ------------------------------------------------------------------
 
 

@@ -277,7 +277,7 @@ def test_coast_small_tau0_random_points():
 
 
 # --- Var U2 and Var U3 during the coast, both arguments over the whole domain --------------------
-COAST_TAU0S = [0.0, 1e-300, 1e-200, 1e-100, 1e-20, 1e-8, 1e-3, 0.049, 0.051, 1.0, 5.0, 139.9,
+COAST_TAU0S = [0.0, 5e-324, 1e-310, 1e-300, 1e-200, 1e-100, 1e-20, 1e-8, 1e-3, 0.049, 0.051, 1.0, 5.0, 139.9,
                140.1, 1e4, 1e100, 1e300]
 COAST_FRACS = np.array([0, 1e-300, 1e-30, 1e-8, 1e-3, 0.1, 0.3, 0.6, 1, 2, 4, 12, 50])
 

@@ -234,7 +234,7 @@ def test_stop_time_law(func, x, tau0):
                          ids=["displacement_var", "distance_var"])
 @SETTINGS
 @given(tau0=st.one_of(st.floats(min_value=0, max_value=1e300),
-                      st.sampled_from([1e-300, 1e-100, 0.049, 0.051, 139.9, 140.1, 1e300])),
+                      st.sampled_from([5e-324, 1e-310, 1e-300, 1e-100, 0.049, 0.051, 139.9, 140.1, 1e300])),
        ratio=st.one_of(st.floats(min_value=0, max_value=1e3),
                        st.sampled_from([5e-324, 1e-300, 1e-16, 1e300])))
 def test_coast_variances(func, at_stop, tau0, ratio):

@@ -219,8 +219,10 @@ def displacement_var(tau, tau0=np.inf):
     sqrt(tau) below tau = 1, erfcx form above). For tau > tau0: relative error below 1e-10 for
     every tau0 in [1e-100, 1e300] (Gauss-Legendre product rule in double precision, checked
     against an independent quadrature of the Markov formula and against the limits at tau0
-    and at the stop); about 10 ms per distinct tau; the value at the stop (closed form) once
-    2 (tau - tau0) exceeds every |U1(tau0)| with weight.
+    and at the stop); smaller tau0 by the exact small-tau0 scaling tau0^2 F((tau - tau0) /
+    sqrt(tau0)) from tau0 = 1e-100 (the values leave the normal doubles below tau0 ~ 1e-154).
+    About 10 ms per distinct tau; the value at the stop (closed form) once 2 (tau - tau0)
+    exceeds every |U1(tau0)| with weight.
     """
     return _on_then_coast(tau, tau0, lambda t, t0: _data.M020(t, _SWITCH),
                           _cv.coast_displacement_var)
@@ -258,7 +260,8 @@ def distance_var(tau, tau0=np.inf):
     Notes
     -----
     Accuracy: relative error below 1e-12 for 1e-8 <= tau <= 1e6 (tau <= tau0); after the
-    switch-off, below 1e-10 for every tau0 in [1e-100, 1e300] (as :func:`displacement_var`).
+    switch-off, below 1e-10 for every tau0 in [1e-100, 1e300], scaled from 1e-100 below (as
+    :func:`displacement_var`).
     """
     return _on_then_coast(tau, tau0, lambda t, t0: _data.VAR_U3(t, _SWITCH),
                           _cv.coast_distance_var)

@@ -323,8 +323,7 @@ def _reach(t0):
     return min(16 * math.sqrt(t0), 24.0)
 
 
-def _evaluate(tau, t0, which):
-    c = _coast_c(tau, t0)
+def _evaluate(c, t0, which):
     out = np.empty(c.shape)
     stopped = c >= _reach(t0)  # g_c(a) = a^2 / 4 for every a that has weight: at the stop
     t0a = np.array([t0])
@@ -349,13 +348,30 @@ def _evaluate(tau, t0, which):
     return np.maximum(out, 0.0)
 
 
+# Below this tau0 the drift is invisible (relative O(sqrt tau0) < 1e-50) and the variances
+# scale exactly, to double precision, as tau0^2 F(c / sqrt tau0): they are evaluated at
+# _TINY and rescaled, which keeps denormal tau0 away from the quadrature.
+_TINY = 1e-100
+
+
+def _coast(t, t0, which):
+    c = _coast_c(t, t0)
+    if t0 >= _TINY:
+        return _evaluate(c, t0, which)
+    # Var(c; tau0) = (tau0 / T)^2 Var(c sqrt(T / tau0); T) at leading order in sqrt(tau0)
+    with np.errstate(over="ignore"):
+        cs = c * math.sqrt(_TINY / t0)
+    cs = np.where(np.isfinite(cs), cs, np.finfo(float).max)
+    return (t0 / _TINY) ** 2 * _evaluate(cs, _TINY, which)
+
+
 def coast_displacement_var(tau, tau0):
     """Var U2(tau) for tau > tau0 (noise off); see :func:`crandall.analytic.displacement_var`."""
     t = as_time(tau)
     t0 = as_tau0(tau0)
     if t0 == 0 or np.isinf(t0):
         return scalar_or_array(np.zeros_like(t))
-    return scalar_or_array(_evaluate(t, t0, "displacement"))
+    return scalar_or_array(_coast(t, t0, "displacement"))
 
 
 def coast_distance_var(tau, tau0):
@@ -364,4 +380,4 @@ def coast_distance_var(tau, tau0):
     t0 = as_tau0(tau0)
     if t0 == 0 or np.isinf(t0):
         return scalar_or_array(np.zeros_like(t))
-    return scalar_or_array(_evaluate(t, t0, "distance"))
+    return scalar_or_array(_coast(t, t0, "distance"))
