@@ -65,7 +65,8 @@ def test_mixed_terms_reproduce_closed_moments(t0):
     A[y^2/4] = E[U1 |U1| U2]/4 (S210) and Cov(U3, U1^2/4) = (m201 - m001 m200)/4, moments
     known in closed form from the Laplace transform (docs/analytic.md, section 2)."""
     L = min(math.sqrt(t0), 1.0)
-    ag, ad = coast_var._mixed(np.array([1e3]), t0)
+    out = coast_var._mixed(np.array([1e3]), t0, ("displacement", "distance"))
+    ag, ad = out["displacement"], out["distance"]
     t = np.array([t0])
     np.testing.assert_allclose(t0 * L**3 * ag[0], _data.S210(t)[0] / 4, rtol=1e-13)
     cov = (_data.M201(t) - _data.M001(t) * _data.M200(t))[0] / 4
@@ -158,16 +159,20 @@ def _f0(x, s):
             + 0.5 * np.exp(-2 * np.abs(x)) * erfc((np.abs(x) - 2 * s) / (2 * np.sqrt(s))))
 
 
-def _propagate(x, t, c, odd):
-    """E_x[psi(U1(t))] with the full transition density on the line, psi(y) = sign(y) g(|y|)
-    (odd) or g(|y|), by quadrature: the Gaussian part in z = (y - x) / (2 sqrt t), the erfc
+def _excess_over(y, c):
+    return np.maximum(np.abs(y) - c, 0.0)
+
+
+def _propagate(x, t, c, odd, phi=_g):
+    """E_x[psi(U1(t))] with the full transition density on the line, psi(y) = sign(y) phi(|y|)
+    (odd) or phi(|y|), by quadrature: the Gaussian part in z = (y - x) / (2 sqrt t), the erfc
     part (even in y, so absent for odd psi) in y."""
     rt = math.sqrt(t)
     fixed = [np.full(x.shape, z0) for z0 in (-12.0, -6.0, -3.0, -1.5, 0.0, 1.5, 3.0, 6.0, 12.0)]
     kinks = [-x / (2 * rt), (c - x) / (2 * rt), (-c - x) / (2 * rt)]
     z, wz = _nodes(np.sort(np.clip(np.stack(fixed + kinks, -1), -12, 12), -1))
     y = x[:, None] + 2 * rt * z
-    psi = _g(y, c) * (np.sign(y) if odd else 1.0)
+    psi = phi(y, c) * (np.sign(y) if odd else 1.0)
     out = np.sum(wz * np.exp(-z * z - (np.abs(y) - np.abs(x)[:, None]) - t) / math.sqrt(math.pi) * psi, -1)
     if not odd:
         lo = np.clip(2 * t - np.abs(x) - 8 * rt, 0, 30)
@@ -176,12 +181,12 @@ def _propagate(x, t, c, odd):
                                np.full(x.shape, 30.0)], -1), -1)
         yy, wy = _nodes(yk)
         e = 0.5 * np.exp(-2 * yy) * erfc((np.abs(x)[:, None] + yy - 2 * t) / (2 * rt))
-        out = out + 2 * np.sum(wy * e * _g(yy, c), -1)
+        out = out + 2 * np.sum(wy * e * phi(yy, c), -1)
     return out
 
 
-def _markov(t0, c, odd):
-    """E[U2(tau0) sign(X) g(|X|)] (odd) or E[U3(tau0) g(|X|)]: by the Markov property
+def _markov(t0, c, odd, phi=_g):
+    """E[U2(tau0) sign(X) phi(|X|)] (odd) or E[U3(tau0) phi(|X|)]: by the Markov property
     int_0^tau0 ds int dx f(x, s) h(x) E_x[psi(U1(tau0 - s))], h(x) = x or |x|."""
     th, wth = _nodes(np.linspace(0, 1, 9))
     s = t0 * np.sin(np.pi * th / 2) ** 2  # sqrt behaviour at both ends
@@ -195,7 +200,7 @@ def _markov(t0, c, odd):
               c - 4 * rt, c, c + 4 * rt, -c + 4 * rt, -c, -c - 4 * rt, 4 * rt, -4 * rt]
         x, wx = _nodes(np.unique(np.clip(xk, -X, X)))
         h = x if odd else np.abs(x)
-        total += wsi * np.sum(wx * _f0(x, si) * h * _propagate(x, ti, c, odd))
+        total += wsi * np.sum(wx * _f0(x, si) * h * _propagate(x, ti, c, odd, phi))
     return total
 
 
@@ -212,6 +217,23 @@ def _markov_variances(t0, tau):
     return var2, var3
 
 
+def _markov_covariances(t0, tau):
+    """E[U1 U2](tau) = E[U2(tau0) sigma (a - c)_+] + E[g(a) (a - c)_+] and
+    Cov(|U1|, U3)(tau) = Cov(U3(tau0), (a - c)_+) + Cov(g(a), (a - c)_+)."""
+    c = 2 * (tau - t0)
+    rho = lambda y: 2 * float(A.velocity_pdf(y, t0))
+    g = lambda y: float(_g(np.array(y), c))
+    ex = lambda y: max(y - c, 0.0)
+    kw = dict(points=[c], epsabs=0, epsrel=1e-13, limit=200)
+    eg = quad(lambda y: rho(y) * g(y), 0, 40, **kw)[0]
+    eex = quad(lambda y: rho(y) * ex(y), 0, 40, **kw)[0]
+    egex = quad(lambda y: rho(y) * g(y) * ex(y), 0, 40, **kw)[0]
+    m001 = _data.M001(np.array([t0]))[0]
+    cov2 = _markov(t0, c, True, _excess_over) + egex
+    cov3 = _markov(t0, c, False, _excess_over) - m001 * eex + egex - eg * eex
+    return cov2, cov3
+
+
 def _check_markov(t0, tau, points):
     """Brute force: no killed process, no covariance rewriting, no repeated erfc integrals;
     Gauss-Legendre panels in (s, x, y). Its own error (from 24 to 32 to 40 points per panel):
@@ -225,6 +247,13 @@ def _check_markov(t0, tau, points):
         _RULE["n"] = 24
     np.testing.assert_allclose(A.displacement_var(tau, t0), var2, rtol=1e-10)
     np.testing.assert_allclose(A.distance_var(tau, t0), var3, rtol=1e-10)
+    _RULE["n"] = points
+    try:
+        cov2, cov3 = _markov_covariances(t0, tau)
+    finally:
+        _RULE["n"] = 24
+    np.testing.assert_allclose(A.velocity_displacement_cov(tau, t0), cov2, rtol=1e-10)
+    np.testing.assert_allclose(A.velocity_abs_distance_cov(tau, t0), cov3, rtol=1e-10)
 
 
 def test_against_markov_formula():
@@ -267,3 +296,52 @@ def test_against_simulation():
         ref = func(np.array(times), 5.0)
         tol = 5 * np.hypot(se, bias_se) + abs(bias)
         assert np.all(np.abs(sim - ref) <= tol), (name, sim, ref, tol)
+
+
+# --- the two covariances the derivation gives with the variances -------------------------------
+
+
+def test_shipped_covariance_tables_equal_generator_output():
+    pytest.importorskip("sympy")
+    from crandall.analytic.symbolic import moment_closed_form
+
+    assert _data.M110 == moment_closed_form(1, 1, 0)
+    assert _data.S101 == moment_closed_form(1, 0, 1, signed=True)
+
+
+def test_covariances_noise_on_against_inversion():
+    ts = np.array([1e-6, 0.05, 0.8, 4.0, 60.0])
+    np.testing.assert_allclose(A.velocity_displacement_cov(ts), A.moment(1, 1, 0, ts), rtol=1e-11)
+    cov = A.signed_moment(1, 0, 1, ts) - A.velocity_abs_mean(ts) * A.distance_mean(ts)
+    np.testing.assert_allclose(A.velocity_abs_distance_cov(ts), cov, rtol=1e-10)
+    # Brownian limits at small tau (U1 = sqrt(2) W): E[U1 U2] = tau^2; Var U3 = (3/4 - 16/(9 pi))
+    # tau^3, so Cov(|U1|, U3) = (1/2) d Var U3 / d tau = (9/8 - 8/(3 pi)) tau^2
+    t = 1e-12
+    assert A.velocity_displacement_cov(t) == pytest.approx(t**2, rel=1e-5)
+    assert A.distance_var(t) == pytest.approx((0.75 - 16 / (9 * math.pi)) * t**3, rel=1e-5)
+    assert A.velocity_abs_distance_cov(t) == pytest.approx((9 / 8 - 8 / (3 * math.pi)) * t**2, rel=1e-5)
+
+
+@pytest.mark.parametrize("t0", [1e-3, 0.05, 1.0, 5.0, 50.0, 1e3])
+def test_covariances_are_half_the_derivatives_of_the_variances(t0):
+    """dU2 = U1 dtau and dU3 = |U1| dtau: d Var U2 / d tau = 2 E[U1 U2] and d Var U3 / d tau =
+    2 Cov(|U1|, U3), on both sides of tau0. Central differences with step h = 1e-4 of the
+    time scale (tau while the noise is on, that of |U1(tau0)| during the coast): truncation
+    ~ (h / scale)^2 (observed 1e-8 relative), so rtol 1e-6."""
+    scale = min(math.sqrt(t0), 1.0)
+    for tau in [t0 / 2, t0 + 0.3 * scale, t0 + 1.5 * scale]:
+        h = 1e-4 * min(scale, tau)
+        d2 = (A.displacement_var(tau + h, t0) - A.displacement_var(tau - h, t0)) / (2 * h)
+        d3 = (A.distance_var(tau + h, t0) - A.distance_var(tau - h, t0)) / (2 * h)
+        np.testing.assert_allclose(A.velocity_displacement_cov(tau, t0), d2 / 2, rtol=1e-6)
+        np.testing.assert_allclose(A.velocity_abs_distance_cov(tau, t0), d3 / 2, rtol=1e-6)
+
+
+@pytest.mark.parametrize("t0", [1e-100, 1e-8, 1e-3, 1.0, 5.0, 141.0, 1e6])
+def test_covariances_at_switch_off_and_stop(t0):
+    """Continuous at tau0: over delta the covariances change by about delta E[U1(tau0)^2],
+    relative 2 delta / tau0 at small tau0 and O(delta) at large, so delta = 1e-13 min(tau0, 1)
+    moves them by less than 1e-12; 0 once the body has stopped."""
+    for func in (A.velocity_displacement_cov, A.velocity_abs_distance_cov):
+        np.testing.assert_allclose(func(t0 + 1e-13 * min(t0, 1.0), t0), func(t0), rtol=1e-11)
+        assert func(t0 + 1e3 * max(1.0, math.sqrt(t0)), t0) == 0.0

@@ -303,6 +303,22 @@ def test_coast_variances_sane(t0):
             assert np.all(got == 0)
 
 
+@pytest.mark.parametrize("t0", COAST_TAU0S)
+def test_coast_covariances_sane(t0):
+    """E[U1 U2] and Cov(|U1|, U3) for tau >= tau0: finite, >= 0 (sums of non-negative terms,
+    docs/analytic.md), within Cauchy-Schwarz of the variances, 0 at the stop."""
+    scale = min(math.sqrt(t0), 1.0)
+    taus = np.unique(np.concatenate([t0 + scale * COAST_FRACS, [1e300]]))
+    for func, var in [(A.velocity_displacement_cov, A.displacement_var),
+                      (A.velocity_abs_distance_cov, A.distance_var)]:
+        got = func(taus, t0)
+        assert np.all(np.isfinite(got)) and np.all(got >= 0), (func.__name__, t0)
+        bound = np.sqrt(A.velocity_var(taus, t0)) * np.sqrt(var(taus, t0))  # no underflow
+        assert np.all(got <= bound * (1 + 1e-9) + 1e-300), (func.__name__, t0)
+        if taus[-1] > t0:
+            assert got[-1] == 0
+
+
 def test_coast_variances_never_switched_off():
     taus = np.array([0.0, 1e-8, 1.0, 1e6])
     assert np.array_equal(A.displacement_var(taus, np.inf), A.displacement_var(taus))

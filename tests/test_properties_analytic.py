@@ -61,7 +61,8 @@ def _finite(r):
 
 
 TAU_TAU0 = [A.velocity_var, A.distance_mean, A.displacement_var, A.distance_second_moment,
-            A.distance_var, A.velocity_abs_mean]
+            A.distance_var, A.velocity_abs_mean, A.velocity_displacement_cov,
+            A.velocity_abs_distance_cov]
 
 
 @pytest.mark.parametrize("func", TAU_TAU0, ids=[f.__name__ for f in TAU_TAU0])
@@ -87,6 +88,11 @@ def test_functions_of_tau(func, tau, tau0):
         assert np.all(a <= np.minimum(t, np.asarray(tau0, dtype=float)) / 2 * (1 + 1e-14) + 1e-300)
     if func is A.distance_second_moment:  # Jensen
         assert np.all(a >= A.distance_mean(tau) ** 2 * (1 - 1e-12))
+    if func in (A.velocity_displacement_cov, A.velocity_abs_distance_cov):
+        # Cauchy-Schwarz: |Cov(X, Y)| <= sqrt(Var X Var Y), Var |U1| <= E U1^2
+        other = A.displacement_var if func is A.velocity_displacement_cov else A.distance_var
+        bound = np.sqrt(A.velocity_var(tau, tau0)) * np.sqrt(other(tau, tau0))
+        assert np.all(a <= bound * (1 + 1e-9) + 1e-300)
     if func in (A.displacement_var, A.distance_var):
         # during the coast the variances rise from their value at tau0 to that at the stop
         # (docs/analytic.md); while the noise is on, the closed forms are checked elsewhere

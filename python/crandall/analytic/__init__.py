@@ -74,6 +74,8 @@ __all__ = [
     "velocity_pdf",
     "velocity_quantile",
     "velocity_sf",
+    "velocity_abs_distance_cov",
+    "velocity_displacement_cov",
     "velocity_var",
 ]
 
@@ -234,7 +236,7 @@ def distance_var(tau, tau0=np.inf):
     For tau <= tau0: Var U3 = E[U3^2] - E[U3]^2 with E[U3^2] from :func:`distance_second_moment`
     (eq10u with the missing -(5/16) sqrt(tau/pi) e^-tau restored) and E[U3] from eq10r, the
     difference formed in exact arithmetic (large tau, tau/4 - 23/64; small tau,
-    (4/3 - 2/pi) tau^3, the Brownian limit).
+    (3/4 - 16/(9 pi)) tau^3, the Brownian limit).
 
     For tau > tau0 the coast (eq13c) adds g(a) = a delta' - delta'^2 to U3, a = |U1(tau0)|,
     delta' = min(tau - tau0, a/2):
@@ -265,3 +267,79 @@ def distance_var(tau, tau0=np.inf):
     """
     return _on_then_coast(tau, tau0, lambda t, t0: _data.VAR_U3(t, _SWITCH),
                           _cv.coast_distance_var)
+
+
+def velocity_displacement_cov(tau, tau0=np.inf):
+    """E[U1(tau) U2(tau)], the covariance of the scaled velocity and displacement (both have
+    mean 0), equal to (1/2) d Var U2 / d tau.
+
+    For tau <= tau0 the inverse of the Laplace recursion's transform (docs/analytic.md,
+    section 2):
+
+    .. math:: E[U_1U_2] = \\tfrac5{16} - \\tfrac12 e^{-\\tau}
+              + \\sqrt{\\tau/\\pi}\\,e^{-\\tau}\\big(\\tfrac38 - \\tfrac34\\tau - \\tau^2\\big)
+              + \\mathrm{erfc}\\sqrt\\tau\\,\\big(\\tfrac3{16} - \\tfrac12\\tau
+              + \\tfrac54\\tau^2 + \\tau^3\\big)
+
+    For tau > tau0, with a = |U1(tau0)|, sigma its sign, c = 2 (tau - tau0):
+    U1(tau) U2(tau) = (a - c)_+ (sigma U2(tau0) + g(a)), so
+    E[U1 U2](tau) = E[U2(tau0) sigma (a - c)_+] + E[g(a) (a - c)_+], both terms >= 0, by the
+    same integrals as :func:`displacement_var`; 0 once the body has stopped.
+
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time, 0 <= tau < inf.
+    tau0 : float, optional
+        Scaled switch-off time, >= 0; default never.
+
+    Returns
+    -------
+    float or ndarray
+        Scaled units of U1 U2. Limits (noise on): tau^2 at small tau (the Brownian limit),
+        5/16 at large tau.
+
+    Notes
+    -----
+    Accuracy as :func:`displacement_var`: 1e-12 relative (closed form) for tau <= tau0,
+    1e-10 after the switch-off.
+    """
+    return _on_then_coast(tau, tau0, lambda t, t0: _data.M110(t, _SWITCH),
+                          _cv.coast_velocity_displacement_cov)
+
+
+def velocity_abs_distance_cov(tau, tau0=np.inf):
+    """Cov(|U1(tau)|, U3(tau)), the covariance of the scaled speed and distance, equal to
+    (1/2) d Var U3 / d tau.
+
+    For tau <= tau0: E[|U1| U3] - E|U1| E U3, with E[|U1| U3] the inverse of the signed
+    transform (docs/analytic.md, section 2),
+
+    .. math:: E[|U_1|U_3] = \\tfrac1{16} + \\tfrac14\\tau - \\tfrac14 e^{-\\tau}
+              + \\sqrt{\\tau/\\pi}\\,e^{-\\tau}\\big(\\tfrac38 - \\tfrac34\\tau - \\tau^2\\big)
+              + \\mathrm{erfc}\\sqrt\\tau\\,\\big(\\tfrac3{16} - \\tfrac12\\tau
+              + \\tfrac54\\tau^2 + \\tau^3\\big),
+
+    the difference formed in exact arithmetic. For tau > tau0, with |U1(tau)| = (a - c)_+:
+    Cov(U3(tau0), (a - c)_+) + Cov(g(a), (a - c)_+), both >= 0, by the same integrals as
+    :func:`distance_var`; 0 once the body has stopped.
+
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time, 0 <= tau < inf.
+    tau0 : float, optional
+        Scaled switch-off time, >= 0; default never.
+
+    Returns
+    -------
+    float or ndarray
+        Scaled units of U1 U3. Limits (noise on): (9/8 - 8/(3 pi)) tau^2 at small tau, 1/8 at
+        large tau.
+
+    Notes
+    -----
+    Accuracy as :func:`distance_var`.
+    """
+    return _on_then_coast(tau, tau0, lambda t, t0: _data.COV_SPEED_U3(t, _SWITCH),
+                          _cv.coast_velocity_abs_distance_cov)

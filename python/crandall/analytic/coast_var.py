@@ -34,7 +34,8 @@ from . import _data
 from ._check import as_tau0, as_time, scalar_or_array
 from .noise_on import SWITCH
 
-__all__ = ["coast_displacement_var", "coast_distance_var"]
+__all__ = ["coast_displacement_var", "coast_distance_var", "coast_velocity_abs_distance_cov",
+           "coast_velocity_displacement_cov"]
 
 _SQPI = math.sqrt(math.pi)
 _SQPI_INV = 1 / _SQPI
@@ -47,6 +48,9 @@ _T_CUT = 70.0
 _GX, _GW = np.polynomial.legendre.leggauss(16)
 _GX1, _GW1 = np.polynomial.legendre.leggauss(40)
 _X_FRACTIONS = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0)
+# panel edges at these multiples of sqrt(t) from x = 0 and from x = c: the layers there are
+# erfc-shaped, of width ~ sqrt(t), and erfc(12 / 2) = 2e-17
+_LAYER = (4.0, 12.0)
 _T_FRACTIONS = (0, 1 / 8, 1 / 4, 1 / 2, 1.0)
 _S_FRACTIONS = (0, 1 / 4, 1 / 2, 1.0)
 
@@ -157,7 +161,8 @@ def _killed_g(x, t, c):
 
         V_g' = (1/2) int_0^c Q(y) dy,   V_g = (1/2) int_0^c y Q(y) dy + (c/2) m1(c),
 
-    Q(y) = P_x(R_t > y, alive), smooth on [0, c] there (8-point Gauss-Legendre).
+    Q(y) = P_x(R_t > y, alive), smooth on [0, c] there (8-point Gauss-Legendre). Also
+    returns m1(c) = V_phi for phi = (y - c)_+.
     """
     m1_c, m2_c = _killed_moments(x, t, c)
     near = c <= (x + np.sqrt(t)) / 2
@@ -175,7 +180,7 @@ def _killed_g(x, t, c):
         w = c / 2 * _GD_W
         vd[near] = (Q @ w) / 2
         vg[near] = (Q @ (w * y)) / 2 + c / 2 * m1_c[near]
-    return vg, vd
+    return vg, vd, m1_c
 
 
 def _abs_density(x, s):
@@ -240,13 +245,17 @@ def _excess(xi, s, m):
     return rs * ev * J1v + D / 4 - (m - xi) * S
 
 
-def _mixed(c, t0, want=("displacement", "distance")):
-    """A[g_c] / (tau0 L^3) and Cov(U3(tau0), g_c(a)) / (tau0 L^3) for each c (1-D array),
-    tau0 = t0 > 0, L = min(sqrt(tau0), 1), g_c(y) = (y^2 - (y - c)_+^2) / 4.
+def _mixed(c, t0, want):
+    """The mixed terms at tau0 for each c (1-D array), tau0 = t0 > 0, L = min(sqrt(tau0), 1),
+    g_c(y) = (y^2 - (y - c)_+^2) / 4, as a dict over ``want``:
 
-    A[g] = int dt int dx rho(x, s) x V_g(x, t) and Cov = int dt int dx G(x, s) V_g'(x, t),
-    s = tau0 - t, V_phi(x, t) = E_x[phi(R_t); not killed by t] (docs/analytic.md): both sums
-    of non-negative terms. Every factor is formed in units of its own scale (rho dx, x / L,
+    * "displacement": E[U2 sigma g_c(a)] / (tau0 L^3) = int dt int dx rho x V_g / (tau0 L^3);
+    * "distance": Cov(U3, g_c(a)) / (tau0 L^3) = int dt int dx G V_g' / (tau0 L^3);
+    * "displacement_cov": E[U2 sigma (a - c)_+] / (tau0 L^2), phi = (y - c)_+ in the first;
+    * "distance_cov": Cov(U3, (a - c)_+) / (tau0 L^2), phi' = 1{y > c} in the second,
+
+    s = tau0 - t, V_phi(x, t) = E_x[phi(R_t); not killed by t] (docs/analytic.md): sums of
+    non-negative terms. Every factor is formed in units of its own scale (rho dx, x / L,
     G / L, V / L^n, dt / tau0), so nothing underflows unless the result itself does.
     """
     L = min(math.sqrt(t0), 1.0)  # scale of |U1|: sqrt(tau0) when small, O(1) after
@@ -266,36 +275,44 @@ def _mixed(c, t0, want=("displacement", "distance")):
     m_s = _data.S100(s, SWITCH)  # E|U1(s)|
     # x range: rho(x, s) is below e^-2x, and below a Gaussian of width sqrt(2 s) about -2 s
     xmax = np.minimum(16 * np.sqrt(s), 24.0)
-    fixed = [np.zeros_like(t), np.minimum(4 * rt, xmax)] + [xmax * f for f in _X_FRACTIONS]
-    out_g = np.full(c.shape, np.nan)
-    out_d = np.full(c.shape, np.nan)
+    fixed = ([np.zeros_like(t)] + [np.minimum(k * rt, xmax) for k in _LAYER]
+             + [xmax * f for f in _X_FRACTIONS])
+    out = {k: np.full(c.shape, np.nan) for k in want}
     for i, ci in enumerate(c):
-        # x panels per t: the killing's boundary layer (width ~ sqrt t), the kink at x = c
-        # (smoothed over ~ sqrt t), and geometric panels for the decay of rho
-        pts = np.sort(np.stack(fixed + [np.clip(ci - 4 * rt, 0, xmax),
-                                        np.clip(ci + 4 * rt, 0, xmax)], axis=1), axis=1)
+        # x panels per t: the killing's boundary layer (width ~ sqrt t), the kink of g (the
+        # step of g'') at x = c, smoothed over ~ sqrt t, and geometric panels for rho's decay
+        kink = [np.clip(ci + sign * k * rt, 0, xmax) for k in _LAYER for sign in (-1, 1)]
+        pts = np.sort(np.stack(fixed + kink, axis=1), axis=1)
         a, b = pts[:, :-1, None], pts[:, 1:, None]
         x = (a + (b - a) * (1 + _GX) / 2).reshape(len(t), -1)
         wx = ((b - a) / 2 * _GW).reshape(len(t), -1) / L
         tt = np.broadcast_to(t[:, None], x.shape)
         ss = np.broadcast_to(s[:, None], x.shape)
         ms = np.broadcast_to(m_s[:, None], x.shape)
-        vg, vd = _killed_g(x, tt, ci)
-        vg, vd = vg / (L * L), vd / L
-        if "displacement" in want:
-            rho = _abs_density(x, ss) * L
-            out_g[i] = np.sum(wt * np.sum(wx * rho * (x / L) * vg, axis=1))
-        if "distance" in want:
-            out_d[i] = np.sum(wt * np.sum(wx * (_excess(x, ss, ms) / L) * vd, axis=1))
-    return out_g, out_d
+        vg, vd, m1 = _killed_g(x, tt, ci)
+        vg, vd, m1 = vg / (L * L), vd / L, m1 / L
+        if "displacement" in want or "displacement_cov" in want:
+            base = wx * _abs_density(x, ss) * L * (x / L)
+            for key, v in (("displacement", vg), ("displacement_cov", m1)):
+                if key in want:
+                    out[key][i] = np.sum(wt * np.sum(base * v, axis=1))
+        if "distance" in want or "distance_cov" in want:
+            base = wx * _excess(x, ss, ms) / L
+            if "distance" in want:
+                out["distance"][i] = np.sum(wt * np.sum(base * vd, axis=1))
+            if "distance_cov" in want:
+                q = _alive_above(x, tt, np.float64(ci))
+                out["distance_cov"][i] = np.sum(wt * np.sum(base * q, axis=1))
+    return out
 
 
 def _law_moments(c, t0):
-    """E g_c(a) / L^2 and E g_c(a)^2 / L^4 over the law of a = |U1(tau0)| (panels of 40
-    Gauss-Legendre points, split at c where g_c has its kink)."""
+    """E g_c(a) / L^2, E g_c(a)^2 / L^4, E[g_c(a) (a - c)_+] / L^3 and E(a - c)_+ / L over the
+    law of a = |U1(tau0)| (panels of 40 Gauss-Legendre points, split at c where g_c and
+    (a - c)_+ have their kinks)."""
     L = min(math.sqrt(t0), 1.0)
     ymax = min(16 * math.sqrt(t0), 24.0)
-    out = np.empty((2, c.size))
+    out = np.empty((4, c.size))
     for i, ci in enumerate(c):
         edges = np.unique(np.clip([0, ymax / 16, ymax / 8, ymax / 4, ymax / 2, ci, ymax],
                                   0, ymax))
@@ -305,6 +322,9 @@ def _law_moments(c, t0):
         g = np.where(y <= ci, y * y, ci * (2 * y - ci)) / (4 * L * L)
         out[0, i] = np.sum(rho * g)
         out[1, i] = np.sum(rho * g * g)
+        excess = np.maximum(y - ci, 0) / L
+        out[2, i] = np.sum(rho * g * excess)
+        out[3, i] = np.sum(rho * excess)
     return out
 
 
@@ -324,27 +344,36 @@ def _reach(t0):
 
 
 def _evaluate(c, t0, which):
+    """The quantity ``which`` at c = 2 (tau - tau0) >= 0 (array), tau0 = t0 >= 1e-100:
+    "displacement" Var U2, "distance" Var U3, "displacement_cov" E[U1 U2],
+    "distance_cov" Cov(|U1|, U3)."""
     out = np.empty(c.shape)
-    stopped = c >= _reach(t0)  # g_c(a) = a^2 / 4 for every a that has weight: at the stop
+    stopped = c >= _reach(t0)  # no |U1(tau0)| with weight still moves: at the stop
     t0a = np.array([t0])
-    if which == "displacement":
-        out[stopped] = _data.VAR_U2_AT_STOP(t0a, SWITCH)[0]
-    else:
-        out[stopped] = _data.HALF_INT_M200(t0a, SWITCH)[0]
+    at_stop = {"displacement": _data.VAR_U2_AT_STOP(t0a, SWITCH)[0],
+               "distance": _data.HALF_INT_M200(t0a, SWITCH)[0],
+               "displacement_cov": 0.0, "distance_cov": 0.0}
+    out[stopped] = at_stop[which]
     live = ~stopped
     if np.any(live):
         cu, inv = np.unique(c[live], return_inverse=True)
         L2 = min(t0, 1.0)
-        a_g, a_d = _mixed(cu, t0, (which,))
-        eg, eg2 = _law_moments(cu, t0)
+        L = math.sqrt(L2)
+        mixed = _mixed(cu, t0, (which,))[which]
+        eg, eg2, eg_ex, e_ex = _law_moments(cu, t0)
         if which == "displacement":
-            # m020 + 2 A[g] + E g^2; A[g] = tau0 L^3 a_g, E g^2 = L^4 eg2
-            var = (_data.M020(t0a, SWITCH)[0] + 2 * t0 * L2 * math.sqrt(L2) * a_g
-                   + L2 * L2 * eg2)
+            # m020 + 2 E[U2 sigma g] + E g^2
+            val = _data.M020(t0a, SWITCH)[0] + 2 * t0 * L2 * L * mixed + L2 * L2 * eg2
+        elif which == "distance":
+            # Var U3 + 2 Cov(U3, g) + Var g
+            val = _data.VAR_U3(t0a, SWITCH)[0] + 2 * t0 * L2 * L * mixed + L2 * L2 * (eg2 - eg * eg)
+        elif which == "displacement_cov":
+            # U1(tau) U2(tau) = sigma (a - c)_+ (U2(tau0) + sigma g): both parts >= 0
+            val = t0 * L2 * mixed + L2 * L * eg_ex
         else:
-            cov = t0 * L2 * math.sqrt(L2) * a_d
-            var = _data.VAR_U3(t0a, SWITCH)[0] + 2 * cov + L2 * L2 * (eg2 - eg * eg)
-        out[live] = var[inv]
+            # Cov(U3(tau0) + g, (a - c)_+): both parts >= 0
+            val = t0 * L2 * mixed + L2 * L * (eg_ex - eg * e_ex)
+        out[live] = val[inv]
     return np.maximum(out, 0.0)
 
 
@@ -354,15 +383,19 @@ def _evaluate(c, t0, which):
 _TINY = 1e-100
 
 
+_POWER = {"displacement": 2.0, "distance": 2.0, "displacement_cov": 1.5, "distance_cov": 1.5}
+
+
 def _coast(t, t0, which):
     c = _coast_c(t, t0)
     if t0 >= _TINY:
         return _evaluate(c, t0, which)
-    # Var(c; tau0) = (tau0 / T)^2 Var(c sqrt(T / tau0); T) at leading order in sqrt(tau0)
+    # Var(c; tau0) = (tau0 / T)^2 Var(c sqrt(T / tau0); T) at leading order in sqrt(tau0), the
+    # covariances (of U1 ~ sqrt(tau0) with g ~ tau0) likewise with the power 3/2
     with np.errstate(over="ignore"):
         cs = c * math.sqrt(_TINY / t0)
     cs = np.where(np.isfinite(cs), cs, np.finfo(float).max)
-    return (t0 / _TINY) ** 2 * _evaluate(cs, _TINY, which)
+    return (t0 / _TINY) ** _POWER[which] * _evaluate(cs, _TINY, which)
 
 
 def coast_displacement_var(tau, tau0):
@@ -381,3 +414,23 @@ def coast_distance_var(tau, tau0):
     if t0 == 0 or np.isinf(t0):
         return scalar_or_array(np.zeros_like(t))
     return scalar_or_array(_coast(t, t0, "distance"))
+
+
+def coast_velocity_displacement_cov(tau, tau0):
+    """E[U1(tau) U2(tau)] for tau > tau0 (noise off); see
+    :func:`crandall.analytic.velocity_displacement_cov`."""
+    t = as_time(tau)
+    t0 = as_tau0(tau0)
+    if t0 == 0 or np.isinf(t0):
+        return scalar_or_array(np.zeros_like(t))
+    return scalar_or_array(_coast(t, t0, "displacement_cov"))
+
+
+def coast_velocity_abs_distance_cov(tau, tau0):
+    """Cov(|U1(tau)|, U3(tau)) for tau > tau0 (noise off); see
+    :func:`crandall.analytic.velocity_abs_distance_cov`."""
+    t = as_time(tau)
+    t0 = as_tau0(tau0)
+    if t0 == 0 or np.isinf(t0):
+        return scalar_or_array(np.zeros_like(t))
+    return scalar_or_array(_coast(t, t0, "distance_cov"))

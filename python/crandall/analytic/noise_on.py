@@ -110,7 +110,7 @@ def distance_var(tau, tau0=np.inf):
     Var U3 = E[U3^2] - E[U3]^2 with E[U3^2] from :func:`distance_second_moment` (eq10u with the
     missing -(5/16) sqrt(tau/pi) e^-tau restored) and E[U3] from eq10r. The difference is formed
     in exact arithmetic, so the tau^2 terms cancel symbolically: large tau, tau/4 - 23/64;
-    small tau, (4/3 - 2/pi) tau^3 ... (the Brownian limit).
+    small tau, (3/4 - 16/(9 pi)) tau^3 ... (the Brownian limit).
 
     Parameters
     ----------
