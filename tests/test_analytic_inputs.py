@@ -129,8 +129,15 @@ def test_physical_extreme_scales():
         A.physical("stop_time_var", mu=1e-300, h=1.0, t0=1.0)  # ~1e598 s^2
     with _names("t"):
         A.physical("velocity_var", 3.0, mu=1e-300, h=1.0, t0=1.0)
-    with _names("t"):
-        A.physical("distance_var", 3.0, mu=0.3, h=1.0, t0=1.0)
+    with _names("t"):  # E|U1| after the switch-off is not provided
+        A.physical("velocity_abs_mean", 3.0, mu=0.3, h=1.0, t0=1.0)
+    # the variances of displacement and distance continue past t0 (the coast), in SI units
+    ts = 2 * (1.0 / (0.3 * g)) ** 2  # time scale 2 h^2 / (mu g)^2
+    ls = 2 / (0.3 * g) ** 3  # length scale 2 h^4 / (mu g)^3
+    assert A.physical("distance_var", 3.0, mu=0.3, h=1.0, t0=1.0) == pytest.approx(
+        ls**2 * A.distance_var(3.0 / ts, 1.0 / ts), rel=1e-12)
+    assert A.physical("displacement_var", 3.0, mu=0.3, h=1.0, t0=1.0) == pytest.approx(
+        ls**2 * A.displacement_var(3.0 / ts, 1.0 / ts), rel=1e-12)
     for param, value in [("mu", 0.0), ("h", -1.0), ("g", math.inf), ("mu", math.nan), ("t0", -1.0)]:
         with _names(param):
             A.physical("velocity_var", 1.0, **{"mu": 0.3, "h": 1.0, param: value})

@@ -274,3 +274,52 @@ def test_coast_small_tau0_random_points():
         assert _close(vv, h, 1e-12) or abs(vv - float(h)) < 1e-17 * e2, (t0, tau)
         with mp.workdps(40):
             assert _close(A.distance_mean(tau, t0), _ref_at(eq10r, t0) + k, 1e-12), (t0, tau)
+
+
+# --- Var U2 and Var U3 during the coast, both arguments over the whole domain --------------------
+COAST_TAU0S = [0.0, 5e-324, 1e-310, 1e-300, 1e-200, 1e-100, 1e-20, 1e-8, 1e-3, 0.049, 0.051, 1.0, 5.0, 139.9,
+               140.1, 1e4, 1e100, 1e300]
+COAST_FRACS = np.array([0, 1e-300, 1e-30, 1e-8, 1e-3, 0.1, 0.3, 0.6, 1, 2, 4, 12, 50])
+
+
+@pytest.mark.parametrize("t0", COAST_TAU0S)
+def test_coast_variances_sane(t0):
+    """Var U2(tau), Var U3(tau) for tau >= tau0: finite; equal to the noise-on value at tau0;
+    non-decreasing in tau (proved in docs/analytic.md: d/d delta Var = 2 E[U2(tau) sigma
+    (a - 2 delta)_+] >= 0, resp. 2 Cov(U3(tau), (a - 2 delta)_+) >= 0); hence between the
+    value at tau0 and the value at the stop, which they reach. Slack: 1e-12 of the stop value
+    (the quadrature is accurate to ~1e-13 there, the closed forms to ~1e-15)."""
+    scale = min(math.sqrt(t0), 1.0)
+    taus = np.unique(np.concatenate([t0 + scale * COAST_FRACS, [1e300]]))
+    for func, on, stop in [(A.displacement_var, A.displacement_var(t0), A.displacement_at_stop_var(t0)),
+                           (A.distance_var, A.distance_var(t0), A.distance_at_stop_var(t0))]:
+        got = func(taus, t0)
+        assert np.all(np.isfinite(got)) and np.all(got >= 0), (func.__name__, t0)
+        slack = 1e-12 * stop
+        assert got[0] == on and got[-1] == stop, (func.__name__, t0)
+        assert np.all(np.diff(got) >= -slack), (func.__name__, t0, got)
+        assert np.all((got >= on - slack) & (got <= stop + slack)), (func.__name__, t0)
+        if t0 == 0:
+            assert np.all(got == 0)
+
+
+@pytest.mark.parametrize("t0", COAST_TAU0S)
+def test_coast_covariances_sane(t0):
+    """E[U1 U2] and Cov(|U1|, U3) for tau >= tau0: finite, >= 0 (sums of non-negative terms,
+    docs/analytic.md), within Cauchy-Schwarz of the variances, 0 at the stop."""
+    scale = min(math.sqrt(t0), 1.0)
+    taus = np.unique(np.concatenate([t0 + scale * COAST_FRACS, [1e300]]))
+    for func, var in [(A.velocity_displacement_cov, A.displacement_var),
+                      (A.velocity_abs_distance_cov, A.distance_var)]:
+        got = func(taus, t0)
+        assert np.all(np.isfinite(got)) and np.all(got >= 0), (func.__name__, t0)
+        bound = np.sqrt(A.velocity_var(taus, t0)) * np.sqrt(var(taus, t0))  # no underflow
+        assert np.all(got <= bound * (1 + 1e-9) + 1e-300), (func.__name__, t0)
+        if taus[-1] > t0:
+            assert got[-1] == 0
+
+
+def test_coast_variances_never_switched_off():
+    taus = np.array([0.0, 1e-8, 1.0, 1e6])
+    assert np.array_equal(A.displacement_var(taus, np.inf), A.displacement_var(taus))
+    assert np.array_equal(A.distance_var(taus, np.inf), A.distance_var(taus))

@@ -61,7 +61,8 @@ def _finite(r):
 
 
 TAU_TAU0 = [A.velocity_var, A.distance_mean, A.displacement_var, A.distance_second_moment,
-            A.distance_var, A.velocity_abs_mean]
+            A.distance_var, A.velocity_abs_mean, A.velocity_displacement_cov,
+            A.velocity_abs_distance_cov]
 
 
 @pytest.mark.parametrize("func", TAU_TAU0, ids=[f.__name__ for f in TAU_TAU0])
@@ -70,6 +71,8 @@ TAU_TAU0 = [A.velocity_var, A.distance_mean, A.displacement_var, A.distance_seco
 @example(tau=1e100, tau0=5.0)  # NaN once (0 * inf in the coast)
 @example(tau=6.57e-39, tau0=1.9e-54)  # negative once (cancellation after a tiny switch-off)
 @example(tau=0.0, tau0=[0.0])
+@example(tau=[5.5, 7.0, 1e300], tau0=5.0)  # the coast, then the stop
+@example(tau=1e-30, tau0=1e-40)
 def test_functions_of_tau(func, tau, tau0):
     r = _call(func, tau, tau0)
     if r is None:
@@ -85,6 +88,21 @@ def test_functions_of_tau(func, tau, tau0):
         assert np.all(a <= np.minimum(t, np.asarray(tau0, dtype=float)) / 2 * (1 + 1e-14) + 1e-300)
     if func is A.distance_second_moment:  # Jensen
         assert np.all(a >= A.distance_mean(tau) ** 2 * (1 - 1e-12))
+    if func in (A.velocity_displacement_cov, A.velocity_abs_distance_cov):
+        # Cauchy-Schwarz: |Cov(X, Y)| <= sqrt(Var X Var Y), Var |U1| <= E U1^2
+        other = A.displacement_var if func is A.velocity_displacement_cov else A.distance_var
+        bound = np.sqrt(A.velocity_var(tau, tau0)) * np.sqrt(other(tau, tau0))
+        assert np.all(a <= bound * (1 + 1e-9) + 1e-300)
+    if func in (A.displacement_var, A.distance_var):
+        # during the coast the variances rise from their value at tau0 to that at the stop
+        # (docs/analytic.md); while the noise is on, the closed forms are checked elsewhere
+        t0 = float(np.asarray(tau0, dtype=float).reshape(()))
+        coast = t > t0
+        if np.any(coast):
+            at_stop = A.displacement_at_stop_var if func is A.displacement_var else A.distance_at_stop_var
+            lo, hi = func(t0, t0), at_stop(t0)
+            slack = 1e-12 * hi
+            assert np.all(a[coast] >= lo - slack) and np.all(a[coast] <= hi + slack)
 
 
 TAU0_ONLY = [A.stop_time_mean, A.stop_time_var, A.distance_at_stop_mean, A.distance_at_stop_var,
@@ -215,3 +233,25 @@ def test_stop_time_law(func, x, tau0):
         assert np.all(a >= np.asarray(tau0, dtype=float))
     else:
         assert np.all((a >= 0) & (a <= 1))
+
+
+@pytest.mark.parametrize("func,at_stop", [(A.displacement_var, A.displacement_at_stop_var),
+                                          (A.distance_var, A.distance_at_stop_var)],
+                         ids=["displacement_var", "distance_var"])
+@SETTINGS
+@given(tau0=st.one_of(st.floats(min_value=0, max_value=1e300),
+                      st.sampled_from([5e-324, 1e-310, 1e-300, 1e-100, 0.049, 0.051, 139.9, 140.1, 1e300])),
+       ratio=st.one_of(st.floats(min_value=0, max_value=1e3),
+                       st.sampled_from([5e-324, 1e-300, 1e-16, 1e300])))
+def test_coast_variances(func, at_stop, tau0, ratio):
+    """tau = tau0 + ratio * (scale of |U1(tau0)|), anywhere after the switch-off: finite,
+    between the value at tau0 and the value at the stop (the variances rise during the coast,
+    docs/analytic.md)."""
+    with np.errstate(over="ignore"):
+        tau = float(np.float64(tau0) + np.float64(ratio) * min(np.sqrt(tau0), 1.0))
+    if not np.isfinite(tau):
+        tau = 1.7e308
+    a = _finite(func(tau, tau0))
+    lo, hi = func(tau0, tau0), at_stop(tau0)
+    slack = 1e-12 * hi
+    assert lo - slack <= a <= hi + slack, (tau0, tau, a, lo, hi)

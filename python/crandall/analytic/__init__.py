@@ -14,14 +14,17 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _data
+from . import coast_var as _cv
 from . import switch_off as _so
 from ._check import as_tau0, as_time, scalar_or_array
 from ._laplace import laplace_moment, moment, signed_moment
+from .noise_on import SWITCH as _SWITCH
 from .noise_on import (
     distance_mean_noise_on as _distance_mean_on,
-    displacement_var,
+    displacement_var as _displacement_var_on,
     distance_second_moment,
-    distance_var,
+    distance_var as _distance_var_on,
     velocity_abs_mean,
     velocity_logpdf,
     velocity_pdf,
@@ -71,6 +74,8 @@ __all__ = [
     "velocity_pdf",
     "velocity_quantile",
     "velocity_sf",
+    "velocity_abs_distance_cov",
+    "velocity_displacement_cov",
     "velocity_var",
 ]
 
@@ -161,3 +166,180 @@ def distance_mean(tau, tau0=np.inf):
         # t0/2 - H/4 would cancel catastrophically just after the switch-off)
         out[~on] = _distance_mean_on(np.array([t0]))[0] + _so.coast_distance_increment(t[~on], t0)
     return scalar_or_array(out)
+
+
+def _on_then_coast(tau, tau0, on, coast):
+    t = as_time(tau)
+    t0 = as_tau0(tau0)
+    out = np.empty(t.shape)
+    before = t <= t0
+    if np.any(before):
+        out[before] = on(t[before], t0)
+    if np.any(~before):
+        out[~before] = coast(t[~before], t0)
+    return scalar_or_array(out)
+
+
+def displacement_var(tau, tau0=np.inf):
+    """Variance of the scaled displacement, Var U2(tau) = E[U2^2] (E U2 = 0 by symmetry).
+
+    For tau <= tau0 (eq10t):
+
+    .. math::
+        \\sigma_{U_2}^2 = \\tfrac58\\tau - \\tfrac{27}{32} + e^{-\\tau}\\Big[1 - \\sqrt{\\tau/\\pi}
+        \\big(\\tfrac12\\tau^3 + \\tfrac7{12}\\tau^2 - \\tfrac{13}{24}\\tau + \\tfrac5{16}\\big)\\Big]
+        + \\mathrm{erfc}\\sqrt\\tau\\,\\big(\\tfrac12\\tau^4 + \\tfrac56\\tau^3 - \\tfrac12\\tau^2
+        + \\tfrac38\\tau - \\tfrac5{32}\\big)
+
+    For tau > tau0 the coast (eq13b) moves U2 by sigma g(a), a = |U1(tau0)|, sigma its sign,
+    g(a) = a delta' - delta'^2, delta' = min(tau - tau0, a/2), so
+
+    .. math:: \\mathrm{Var}\\,U_2(\\tau) = E[U_2(\\tau_0)^2] + 2E[U_2(\\tau_0)\\,\\sigma g(a)]
+              + E[g(a)^2],
+
+    the mixed term from the Markov property as a double integral over the killed process
+    (docs/analytic.md, "Var U2 and Var U3 during the coast"); it tends to
+    :func:`displacement_at_stop_var` as the body stops.
+
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time (eq8), 0 <= tau < inf.
+    tau0 : float, optional
+        Scaled switch-off time, >= 0; default never (numpy.inf).
+
+    Returns
+    -------
+    float or ndarray
+        Var U2 in scaled units (U2 = mu^3 g^3 U / (2 h^4)). Small tau: (2/3) tau^3; large tau
+        (noise on): (5/8) tau - 27/32.
+
+    Notes
+    -----
+    Printed eq10t is correct (checked against the inverse Laplace transform of eq10p).
+    Accuracy for tau <= tau0: relative error below 1e-12 over 1e-8 <= tau <= 1e6 (series in
+    sqrt(tau) below tau = 1, erfcx form above). For tau > tau0: relative error below 1e-10 for
+    every tau0 in [1e-100, 1e300] (Gauss-Legendre product rule in double precision, checked
+    against an independent quadrature of the Markov formula and against the limits at tau0
+    and at the stop); smaller tau0 by the exact small-tau0 scaling tau0^2 F((tau - tau0) /
+    sqrt(tau0)) from tau0 = 1e-100 (the values leave the normal doubles below tau0 ~ 1e-154).
+    About 10 ms per distinct tau; the value at the stop (closed form) once 2 (tau - tau0)
+    exceeds every |U1(tau0)| with weight.
+    """
+    return _on_then_coast(tau, tau0, lambda t, t0: _data.M020(t, _SWITCH),
+                          _cv.coast_displacement_var)
+
+
+def distance_var(tau, tau0=np.inf):
+    """Variance of the scaled distance travelled, Var U3(tau) (eq10u, corrected).
+
+    For tau <= tau0: Var U3 = E[U3^2] - E[U3]^2 with E[U3^2] from :func:`distance_second_moment`
+    (eq10u with the missing -(5/16) sqrt(tau/pi) e^-tau restored) and E[U3] from eq10r, the
+    difference formed in exact arithmetic (large tau, tau/4 - 23/64; small tau,
+    (3/4 - 16/(9 pi)) tau^3, the Brownian limit).
+
+    For tau > tau0 the coast (eq13c) adds g(a) = a delta' - delta'^2 to U3, a = |U1(tau0)|,
+    delta' = min(tau - tau0, a/2):
+
+    .. math:: \\mathrm{Var}\\,U_3(\\tau) = \\mathrm{Var}\\,U_3(\\tau_0)
+              + 2\\,\\mathrm{Cov}(U_3(\\tau_0), g(a)) + \\mathrm{Var}\\,g(a),
+
+    the covariance as a double integral of non-negative terms (docs/analytic.md, "Var U2 and
+    Var U3 during the coast"); it tends to :func:`distance_at_stop_var` as the body stops.
+
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time, 0 <= tau < inf.
+    tau0 : float, optional
+        Scaled switch-off time, >= 0; default never.
+
+    Returns
+    -------
+    float or ndarray
+        Var U3, scaled units (U3 = mu^3 g^3 S / (2 h^4)).
+
+    Notes
+    -----
+    Accuracy: relative error below 1e-12 for 1e-8 <= tau <= 1e6 (tau <= tau0); after the
+    switch-off, below 1e-10 for every tau0 in [1e-100, 1e300], scaled from 1e-100 below (as
+    :func:`displacement_var`).
+    """
+    return _on_then_coast(tau, tau0, lambda t, t0: _data.VAR_U3(t, _SWITCH),
+                          _cv.coast_distance_var)
+
+
+def velocity_displacement_cov(tau, tau0=np.inf):
+    """E[U1(tau) U2(tau)], the covariance of the scaled velocity and displacement (both have
+    mean 0), equal to (1/2) d Var U2 / d tau.
+
+    For tau <= tau0 the inverse of the Laplace recursion's transform (docs/analytic.md,
+    section 2):
+
+    .. math:: E[U_1U_2] = \\tfrac5{16} - \\tfrac12 e^{-\\tau}
+              + \\sqrt{\\tau/\\pi}\\,e^{-\\tau}\\big(\\tfrac38 - \\tfrac34\\tau - \\tau^2\\big)
+              + \\mathrm{erfc}\\sqrt\\tau\\,\\big(\\tfrac3{16} - \\tfrac12\\tau
+              + \\tfrac54\\tau^2 + \\tau^3\\big)
+
+    For tau > tau0, with a = |U1(tau0)|, sigma its sign, c = 2 (tau - tau0):
+    U1(tau) U2(tau) = (a - c)_+ (sigma U2(tau0) + g(a)), so
+    E[U1 U2](tau) = E[U2(tau0) sigma (a - c)_+] + E[g(a) (a - c)_+], both terms >= 0, by the
+    same integrals as :func:`displacement_var`; 0 once the body has stopped.
+
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time, 0 <= tau < inf.
+    tau0 : float, optional
+        Scaled switch-off time, >= 0; default never.
+
+    Returns
+    -------
+    float or ndarray
+        Scaled units of U1 U2. Limits (noise on): tau^2 at small tau (the Brownian limit),
+        5/16 at large tau.
+
+    Notes
+    -----
+    Accuracy as :func:`displacement_var`: 1e-12 relative (closed form) for tau <= tau0,
+    1e-10 after the switch-off.
+    """
+    return _on_then_coast(tau, tau0, lambda t, t0: _data.M110(t, _SWITCH),
+                          _cv.coast_velocity_displacement_cov)
+
+
+def velocity_abs_distance_cov(tau, tau0=np.inf):
+    """Cov(|U1(tau)|, U3(tau)), the covariance of the scaled speed and distance, equal to
+    (1/2) d Var U3 / d tau.
+
+    For tau <= tau0: E[|U1| U3] - E|U1| E U3, with E[|U1| U3] the inverse of the signed
+    transform (docs/analytic.md, section 2),
+
+    .. math:: E[|U_1|U_3] = \\tfrac1{16} + \\tfrac14\\tau - \\tfrac14 e^{-\\tau}
+              + \\sqrt{\\tau/\\pi}\\,e^{-\\tau}\\big(\\tfrac38 - \\tfrac34\\tau - \\tau^2\\big)
+              + \\mathrm{erfc}\\sqrt\\tau\\,\\big(\\tfrac3{16} - \\tfrac12\\tau
+              + \\tfrac54\\tau^2 + \\tau^3\\big),
+
+    the difference formed in exact arithmetic. For tau > tau0, with |U1(tau)| = (a - c)_+:
+    Cov(U3(tau0), (a - c)_+) + Cov(g(a), (a - c)_+), both >= 0, by the same integrals as
+    :func:`distance_var`; 0 once the body has stopped.
+
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time, 0 <= tau < inf.
+    tau0 : float, optional
+        Scaled switch-off time, >= 0; default never.
+
+    Returns
+    -------
+    float or ndarray
+        Scaled units of U1 U3. Limits (noise on): (9/8 - 8/(3 pi)) tau^2 at small tau, 1/8 at
+        large tau.
+
+    Notes
+    -----
+    Accuracy as :func:`distance_var`.
+    """
+    return _on_then_coast(tau, tau0, lambda t, t0: _data.COV_SPEED_U3(t, _SWITCH),
+                          _cv.coast_velocity_abs_distance_cov)

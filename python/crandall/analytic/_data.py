@@ -49,6 +49,12 @@ S210 = Form.from_polys(
     Q=(F(15, 8), F(-7, 4), 4, 2),
     R=(F(15, 16), F(-3, 2), F(3, 4), -5, -2),
 )
+# E[U1 U2] (= (1/2) d E[U2^2] / d tau)
+M110 = Form.from_polys(A=(F(5, 16),), P=(F(-1, 2),), Q=(F(3, 8), F(-3, 4), -1),
+                       R=(F(3, 16), F(-1, 2), F(5, 4), 1))
+# E[|U1| U3] = E[sign(U1) U1 U3]
+S101 = Form.from_polys(A=(F(1, 16), F(1, 4)), P=(F(-1, 4),), Q=(F(3, 8), F(-3, 4), -1),
+                       R=(F(3, 16), F(-1, 2), F(5, 4), 1))
 # (1/2) int_0^tau E[U1^2] dtau', inverse transform of m~_200 / (2 p)
 HALF_INT_M200 = Form.from_polys(
     A=(F(-1, 8), F(1, 4)),
@@ -63,5 +69,7 @@ VAR_U3_AT_STOP = VAR_U3 + (M400 - M200 * M200) * F(1, 16) + (M201 - M001 * M200)
 MEAN_U3_AT_STOP = M001 + M200 * F(1, 4)
 # U2(tau_s) = U2(tau0) + U1(tau0) |U1(tau0)| / 4, E[U2(tau_s)] = 0
 VAR_U2_AT_STOP = M020 + S210 * F(1, 2) + M400 * F(1, 16)
+# Cov(|U1|, U3) (= (1/2) d Var U3 / d tau)
+COV_SPEED_U3 = S101 - S100 * M001
 # tau_s - tau0 = |U1(tau0)| / 2
 VAR_STOP_TIME = (M200 - S100 * S100) * F(1, 4)

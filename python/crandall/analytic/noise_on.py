@@ -54,8 +54,8 @@ def displacement_var(tau, tau0=np.inf):
     tau : float or array_like
         Scaled time (eq8), 0 <= tau <= tau0, finite.
     tau0 : float, optional
-        Scaled switch-off time; default never. tau > tau0 raises ValueError (after switch-off
-        only the value at the stop is known in closed form: :func:`displacement_at_stop_var`).
+        Scaled switch-off time; default never. tau > tau0 raises ValueError here: the public
+        :func:`crandall.analytic.displacement_var` continues past tau0 (coast_var.py).
 
     Returns
     -------
@@ -110,14 +110,15 @@ def distance_var(tau, tau0=np.inf):
     Var U3 = E[U3^2] - E[U3]^2 with E[U3^2] from :func:`distance_second_moment` (eq10u with the
     missing -(5/16) sqrt(tau/pi) e^-tau restored) and E[U3] from eq10r. The difference is formed
     in exact arithmetic, so the tau^2 terms cancel symbolically: large tau, tau/4 - 23/64;
-    small tau, (4/3 - 2/pi) tau^3 ... (the Brownian limit).
+    small tau, (3/4 - 16/(9 pi)) tau^3 ... (the Brownian limit).
 
     Parameters
     ----------
     tau : float or array_like
         Scaled time, 0 <= tau <= tau0, finite.
     tau0 : float, optional
-        Scaled switch-off time (default never); tau > tau0 raises ValueError.
+        Scaled switch-off time (default never); tau > tau0 raises ValueError here: the public
+        :func:`crandall.analytic.distance_var` continues past tau0 (coast_var.py).
 
     Returns
     -------

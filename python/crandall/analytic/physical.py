@@ -34,7 +34,7 @@ _TABLE = {
     "displacement_at_stop_var": ("length", 2, True, _data.VAR_U2_AT_STOP),
 }
 PHYSICAL_NAMES = tuple(sorted(_TABLE))
-_NOISE_ON_ONLY = ("velocity_abs_mean", "displacement_var", "distance_var")
+_NOISE_ON_ONLY = ("velocity_abs_mean",)
 
 # scaled times the scaled functions are evaluated at; beyond, the leading term is used
 _TAU_MIN, _TAU_MAX = 1e-300, 1e300
