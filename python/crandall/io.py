@@ -20,14 +20,14 @@ import numpy as np
 from . import _core
 from ._files import check_moments, write_atomic
 from .methods import METHODS
-from .scene import STOP_QUANTITIES, Scene
+from .quantities import VARIABLES, quantity
+from .scene import Scene
 
 __all__ = ["to_xarray", "to_pandas", "save", "load", "STATISTICS"]
 
 #: The statistics a table holds, per quantity and time.
 STATISTICS = ("mean", "var", "std", "stderr", "var_stderr")
 
-_VARIABLES = ("velocity", "displacement", "distance")
 _FORMAT = "crandall-result"
 
 
@@ -40,7 +40,7 @@ def _require(module: str):
 
 def _stats(result, name):
     out = [result.mean(name), result.var(name), result.std(name), result.stderr(name)]
-    if name == "kinetic_energy":
+    if not quantity(name).has_var_stderr:
         out.append(np.full_like(np.asarray(out[0], dtype=float), np.nan))
     else:
         out.append(result.var_stderr(name))
@@ -48,14 +48,7 @@ def _stats(result, name):
 
 
 def _long_name(result, name):
-    scaled = result.scene.units == "scaled"
-    names = {"velocity": "velocity U1" if scaled else "velocity",
-             "displacement": "displacement U2" if scaled else "displacement",
-             "distance": "distance travelled U3" if scaled else "distance travelled",
-             "kinetic_energy": "kinetic energy", "dissipated_energy": "energy dissipated by friction",
-             "stop_time": "stop time"}
-    base = name.replace("_at_stop", "")
-    return names[base] + (" at the stop" if name.endswith("_at_stop") else "")
+    return quantity(name).long_name_in(result.scene.units)
 
 
 def _count_attr(n: int):
@@ -69,13 +62,13 @@ def to_xarray(result):
     """The result as an ``xarray.Dataset``; see :meth:`crandall.Result.to_xarray`."""
     xr = _require("xarray")
     sc = result.scene
-    time_names = [n for n in result.names if n not in STOP_QUANTITIES]
-    stop_names = [n for n in result.names if n in STOP_QUANTITIES]
+    time_names = [n for n in result.names if not quantity(n).at_stop]
+    stop_names = [n for n in result.names if quantity(n).at_stop]
     exps = [tuple(e) for e in _core.monomial_exponents()]
     data_vars = {}
     coords = {
         "statistic": ("statistic", list(STATISTICS)),
-        "variable": ("variable", list(_VARIABLES)),
+        "variable": ("variable", list(VARIABLES)),
         "monomial": ("monomial", np.arange(len(exps), dtype=np.int32)),
         "exponents": (("monomial", "variable"), np.array(exps, dtype=np.int32),
                       {"long_name": "powers of (velocity, displacement, distance) of each "
@@ -140,7 +133,7 @@ def to_pandas(result):
     sc = result.scene
     for name in result.names:
         table = _stats(result, name)
-        if name in STOP_QUANTITIES:
+        if quantity(name).at_stop:
             rows.append((name, math.nan, sc.units_of(name), *table.tolist()))
         else:
             for t, stats in zip(result.times, table):

@@ -9,7 +9,8 @@ from typing import Optional
 import numpy as np
 
 from . import _core
-from .scene import STOP_QUANTITIES, Scene
+from .quantities import core_flags, find, names_for, quantity
+from .scene import Scene
 
 __all__ = ["Result", "StatisticsWarning"]
 
@@ -25,11 +26,6 @@ class StatisticsWarning(UserWarning):
 
 _EXPONENTS = [tuple(e) for e in _core.monomial_exponents()]
 _INDEX = {e: i for i, e in enumerate(_EXPONENTS)}
-# Which simulated variable (0 velocity, 1 displacement, 2 distance) carries each quantity.
-_VARIABLE = {"velocity": 0, "displacement": 1, "distance": 2, "dissipated_energy": 2,
-             "kinetic_energy": 0}
-_STOP_VARIABLE = {"stop_time": 0, "displacement_at_stop": 1, "distance_at_stop": 2,
-                  "dissipated_energy_at_stop": 2}
 
 
 def _sqrt(x: float) -> float:
@@ -102,11 +98,7 @@ class Result:
     @property
     def names(self) -> tuple:
         """The quantities this result holds."""
-        obs = self.scene.observe
-        out = [n for n in obs if n != "stop"]
-        if "stop" in obs:
-            out += [q for q, need in STOP_QUANTITIES.items() if need is None or need in obs]
-        return tuple(out)
+        return names_for(self.scene.observe)
 
     # -- statistics ---------------------------------------------------------------------
 
@@ -115,32 +107,28 @@ class Result:
             raise ValueError(
                 f"name: {name!r} is not in this result; it holds {', '.join(self.names)}"
             )
-        if name in _STOP_VARIABLE:
-            return self._stop, self._stop_raw, _STOP_VARIABLE[name], True
-        return self._moments, self._raw, _VARIABLE[name], False
+        q = quantity(name)
+        if q.at_stop:
+            return self._stop, self._stop_raw, q.variable, True
+        return self._moments, self._raw, q.variable, False
 
     def _factor(self, name: str) -> float:
-        base = name.replace("_at_stop", "")
-        if base == "dissipated_energy":
-            return self.scene.mass * self.scene.drift
-        if base == "kinetic_energy":
-            return 0.5 * self.scene.mass
-        return 1.0
+        return quantity(name).factor(self.scene)
 
     def _stats(self, name: str):
         acc, raw, v, scalar = self._source(name)
         n = acc.counts
         f = self._factor(name)
         with np.errstate(invalid="ignore", divide="ignore"):
-            if name == "kinetic_energy":
+            q = quantity(name)
+            if q.power == 2:
                 m2, m4 = raw[:, _e(v, 2)], raw[:, _e(v, 4)]
                 mean = f * m2
                 spread = (m4 - m2 * m2) * n
             else:
                 mean = f * acc.means[:, v]
-                if name == "stop_time":
-                    # The core keeps the time from the switch-off to the stop (exact at any t0).
-                    mean = mean + self.scene.t0
+                if q.offset is not None:
+                    mean = mean + q.offset(self.scene)
                 spread = acc.central[:, _e(v, 2)]
             # An extrapolated second moment may be negative with few paths: truncated at 0
             # (see the class docstring). Fewer than 2 paths: undefined (NaN).
@@ -196,8 +184,9 @@ class Result:
         scene: the combination of the grids is then no distribution's moments); or fourth
         moments that overflow doubles. Never 0 unless the quantity is constant (m2 = m4 = 0).
         """
-        if name == "kinetic_energy":
-            raise ValueError("name: the variance of kinetic_energy has no standard error "
+        known = find(name)
+        if known is not None and not known.has_var_stderr:
+            raise ValueError(f"name: the variance of {name} has no standard error "
                              "here (needs moments of order 8)")
         acc, _, v, scalar = self._source(name)
         n = acc.counts
@@ -235,10 +224,10 @@ class Result:
                 raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
         if j + k + l > 4:
             raise ValueError(f"j + k + l must be <= 4 (moments are kept to order 4), got {j + k + l}")
-        obs = self.scene.observe
-        if k and "displacement" not in obs:
+        recorded = core_flags(self.scene.observe)
+        if k and not recorded["displacement"]:
             raise ValueError("k: the displacement (U2) was not observed in this scene")
-        if l and not ({"distance", "dissipated_energy"} & set(obs)):
+        if l and not recorded["distance"]:
             raise ValueError("l: the distance (U3) was not observed in this scene")
         value = self._raw[:, _INDEX[(j, k, l)]].copy()
         if self.scene.units == "SI":
@@ -266,7 +255,7 @@ class Result:
         ]
         if self.paths < 2:
             lines.append("  (n/a: a variance needs at least 2 paths)")
-        time_names = [n for n in self.names if n not in STOP_QUANTITIES]
+        time_names = [n for n in self.names if not quantity(n).at_stop]
         if time_names and self.times.size:
             # One block per quantity: time, mean ± standard error, variance, standard deviation.
             for n in time_names:
@@ -279,7 +268,7 @@ class Result:
                     lines.append(f"    {t:>10.4g}  {mean[i]:>13.6g}  "
                                  f"{_fmt(_sqrt(var[i] / cnt[i]), '10.2g')}  "
                                  f"{_fmt(var[i], '12.6g')}  {_fmt(_sqrt(var[i]), '12.6g')}")
-        stop_names = [n for n in self.names if n in STOP_QUANTITIES]
+        stop_names = [n for n in self.names if quantity(n).at_stop]
         if stop_names:
             lines.append("  at the stop:")
             for n in stop_names:

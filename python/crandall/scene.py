@@ -11,29 +11,10 @@ from typing import Any, Dict, Iterable, Mapping, Optional, Sequence, Union
 import numpy as np
 
 from .methods import METHODS
+from .quantities import OBSERVABLES, STOP_QUANTITIES, quantity
 from .units import Scaling
 
 __all__ = ["Scene", "OBSERVABLES", "STOP_QUANTITIES", "RUN_SETTINGS", "MAX_RANGE_TIMES"]
-
-#: Everything a scene can observe. "stop" is the stop time; with displacement, distance or
-#: dissipated energy also observed, their values at the stop as well.
-OBSERVABLES = (
-    "velocity",
-    "displacement",
-    "distance",
-    "kinetic_energy",
-    "dissipated_energy",
-    "stop",
-)
-
-#: Scalar quantities at the stop, and the observable each needs besides "stop".
-STOP_QUANTITIES = {
-    "stop_time": None,
-    "displacement_at_stop": "displacement",
-    "distance_at_stop": "distance",
-    "dissipated_energy_at_stop": "dissipated_energy",
-}
-
 
 #: Keys of a scene file's [run] table, as ``simulate`` takes them.
 RUN_SETTINGS = ("paths", "seed", "method", "dt")
@@ -257,7 +238,7 @@ class Scene:
     def _setup(self, *, units, drift, noise, t0, times, observe, mass, params, scaling):
         can_stop = math.isfinite(t0) and (drift > 0 or noise == 0)
         if observe is None:
-            observe = OBSERVABLES if can_stop else OBSERVABLES[:-1]
+            observe = OBSERVABLES if can_stop else tuple(n for n in OBSERVABLES if n != "stop")
         observe = _observe(observe)
         if "stop" in observe and not math.isfinite(t0):
             name = "t0" if units == "SI" else "tau0"
@@ -372,9 +353,7 @@ class Scene:
         """Units of an observable or stop quantity in this scene ("" in scaled units)."""
         if self.units == "scaled":
             return ""
-        base = name.replace("_at_stop", "")
-        return {"velocity": "m/s", "displacement": "m", "distance": "m", "kinetic_energy": "J",
-                "dissipated_energy": "J", "stop_time": "s"}[base]
+        return quantity(name).si_unit
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())

@@ -13,6 +13,7 @@ from . import _core
 from . import checkpoint as _ckpt
 from .methods import (DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE,
                       METHODS)
+from .quantities import core_flags, simulated_variables
 from .results import Result
 from .scene import Scene
 
@@ -171,12 +172,8 @@ def make_plan(scene: Scene, *, paths: int, seed: int, dt: float, method: str,
     o.dt = dt
     o.min_steps = min_steps
     o.method = method
-    obs = set(scene.observe)
-    o.velocity = bool(obs & {"velocity", "kinetic_energy"}) or not (
-        obs & {"displacement", "distance", "dissipated_energy"})
-    o.displacement = "displacement" in obs
-    o.distance = bool(obs & {"distance", "dissipated_energy"})
-    o.stop = "stop" in obs
+    for flag, on in core_flags(scene.observe).items():
+        setattr(o, flag, on)
     o.seed = seed
     o.paths = paths
     return _core.Plan(o)
@@ -330,10 +327,8 @@ class _Run:
         # Means and variances must be numbers; only fourth moments may overflow (var_stderr
         # then says so). Non-finite values come from scenes whose values exceed doubles.
         obs = set(self.scene.observe)
-        integrals = [v for v, names in ((1, {"displacement"}),
-                                        (2, {"distance", "dissipated_energy"})) if names & obs]
-        at_times = ([0] if obs & {"velocity", "kinetic_energy"} else []) + integrals
-        at_stop = [0] + integrals  # the stop time, and the integrals at the stop
+        at_times = list(simulated_variables(obs, at_stop=False))
+        at_stop = list(simulated_variables(obs, at_stop=True))
         exps = _core.monomial_exponents()
         for acc, variables, what in ((self.times_acc, at_times, "at the output times"),
                                      (self.stop_acc if "stop" in obs else None, at_stop,
