@@ -73,3 +73,15 @@ def test_a_new_quantity_is_one_row(monkeypatch, physical_scene):
     assert isinstance(table, pd.DataFrame)
     assert set(table.loc[table.quantity == "momentum", "units"]) == {"kg m/s"}
     assert not math.isnan(table.loc[table.quantity == "momentum", "var_stderr"].iloc[0])
+
+
+def test_accumulators_are_public(paper_scene):
+    r = crandall.simulate(paper_scene, paths=100, seed=2, dt=0.1)
+    acc = r.accumulators
+    assert acc.times.slots == paper_scene.times.size and acc.stop.slots == 1
+    assert np.array_equal(acc.times.counts, np.full(paper_scene.times.size, 100.0))
+    # The statistics are those of the accumulators: the mean velocity is their mean.
+    assert np.array_equal(r.mean("velocity"), acc.times.means[:, 0])
+    no_stop = crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[1.0],
+                                                      observe=["velocity"]), paths=10, seed=1)
+    assert no_stop.accumulators.stop is None

@@ -92,9 +92,10 @@ def to_xarray(result):
         table = np.stack([_stats(result, n) for n in stop_names], axis=0)
         data_vars["stop_statistics"] = (("stop_quantity", "statistic"), table,
                                         {"long_name": "statistics over paths at the stop"})
-    accs = [("", result._moments, "slot")]
-    if result._stop is not None:
-        accs.append(("stop_", result._stop, "stop_slot"))
+    acc_times, acc_stop = result.accumulators
+    accs = [("", acc_times, "slot")]
+    if acc_stop is not None:
+        accs.append(("stop_", acc_stop, "stop_slot"))
     for prefix, acc, dim in accs:
         if acc.slots == 0:
             continue
@@ -119,7 +120,7 @@ def to_xarray(result):
         "steps_per_path": _count_attr(result.steps_per_path),
         "min_steps": _count_attr(result.min_steps),
         "random_stream": int(result.random_stream),
-        "slots": int(result._moments.slots),
+        "slots": int(acc_times.slots),
     }
     for k, v in sc.params.items():
         attrs["scene_" + k] = float(v)

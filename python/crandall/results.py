@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from typing import Optional
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -12,7 +12,7 @@ from . import _core
 from .quantities import core_flags, find, names_for, quantity
 from .scene import Scene
 
-__all__ = ["Result", "StatisticsWarning"]
+__all__ = ["Result", "Accumulators", "StatisticsWarning"]
 
 
 class StatisticsWarning(UserWarning):
@@ -42,6 +42,22 @@ def _e(v: int, power: int) -> int:
     exps = [0, 0, 0]
     exps[v] = power
     return _INDEX[tuple(exps)]
+
+
+class Accumulators(NamedTuple):
+    """The merged accumulators a result's statistics come from (``Result.accumulators``).
+
+    Each is a ``crandall._core.Moments``: ``counts``, ``means`` (of velocity, displacement,
+    distance) and ``central`` sums per slot, exactly as the run merged them; saving them
+    (``crandall.io``) is what makes a loaded result bitwise the saved one. Read them only:
+    the result's statistics are computed from the same objects.
+    """
+
+    #: One slot per output time.
+    times: object
+    #: One slot: the stop (time after the switch-off, and the integrals there); None when the
+    #: scene does not observe "stop".
+    stop: Optional[object]
 
 
 class Result:
@@ -89,6 +105,11 @@ class Result:
         self._warned: set = set()
         self._raw = moments.raw() if moments.slots else np.zeros((0, len(_EXPONENTS)))
         self._stop_raw = stop_moments.raw() if stop_moments is not None else None
+
+    @property
+    def accumulators(self) -> Accumulators:
+        """The raw accumulators of the run (see :class:`Accumulators`)."""
+        return Accumulators(self._moments, self._stop)
 
     @property
     def times(self) -> np.ndarray:
