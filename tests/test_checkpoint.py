@@ -40,7 +40,7 @@ def counting_run_chunk(monkeypatch, fail_at=None):
         calls.append(chunk)
         return real(plan, chunk, threads)
 
-    monkeypatch.setattr(SIM._core, "run_chunk", run_chunk)
+    monkeypatch.setattr(_core, "run_chunk", run_chunk)
     return calls
 
 
@@ -101,7 +101,7 @@ def test_sweep_resumes_every_scene_bitwise(tmp_path, monkeypatch):
         calls.append(chunk)
         return REAL_RUN_CHUNK(plan, chunk, threads)
 
-    monkeypatch.setattr(SIM._core, "run_chunk", run_chunk)
+    monkeypatch.setattr(_core, "run_chunk", run_chunk)
     with pytest.raises(Stop):
         crandall.simulate_many(sweep(), paths=PATHS, seed=9, dt=0.05, checkpoint_dir=folder)
     assert sorted(p.name for p in folder.iterdir()) == ["scene-0000.ckpt", "scene-0001.ckpt"]

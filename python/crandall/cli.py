@@ -17,6 +17,7 @@ from typing import List, Optional, Sequence
 import numpy as np
 
 from . import analytic, paper
+from ._version import __version__
 from ._files import check_folder_writable, write_atomic
 from .methods import DEFAULT_METHOD, METHODS
 from .scene import Scene
@@ -125,8 +126,6 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _version() -> str:
-    from . import __version__
-
     return __version__
 
 

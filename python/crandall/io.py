@@ -18,6 +18,7 @@ from typing import Any, Dict, Optional, Union
 import numpy as np
 
 from . import _core
+from ._version import __version__
 from ._files import check_moments, write_atomic
 from .methods import METHODS
 from .quantities import VARIABLES, quantity
@@ -105,8 +106,6 @@ def to_xarray(result):
                                                      "distance), SI or scaled as the scene"})
         data_vars[prefix + "central"] = ((dim, "monomial"), acc.central,
                                          {"long_name": "central sums, powers as in exponents"})
-    from . import __version__
-
     attrs = {
         "title": f"crandall result: {sc!r}",
         "format": _FORMAT,

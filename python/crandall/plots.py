@@ -16,7 +16,8 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from . import _core, analytic
+from . import analytic
+from .engine import velocity_samples
 from .paper import scaled_factors
 from .results import Result
 
@@ -177,11 +178,6 @@ def _check_samples(paths, seed):
     return int(paths), int(seed)
 
 
-def _velocity_samples(tau: float, paths: int, seed: int) -> np.ndarray:
-    # One exact step from rest to tau per path: exact in law for any tau (docs/exact-step.md).
-    return _core.exact_steps(np.zeros(paths), float(tau), 2.0, math.sqrt(2.0), seed)
-
-
 def velocity_density(times: Sequence[float] = (0.25, 1.0, 5.0), *, paths: int = 200_000,
                      seed: int = 0):
     """The density of the scaled velocity U1(tau) at a few times against histograms.
@@ -213,7 +209,7 @@ def velocity_density(times: Sequence[float] = (0.25, 1.0, 5.0), *, paths: int = 
     fig = _figure(width=3.2 * len(taus) + 0.6, height=3.8)
     axes = fig.subplots(1, len(taus), squeeze=False)[0]
     for i, (ax, tau) in enumerate(zip(axes, taus)):
-        y = _velocity_samples(tau, paths, seed + i)
+        y = velocity_samples(tau, paths, seed + i)
         # Four standard deviations: all but the far tail (Var U1 <= 1/2 at every tau).
         half = max(4.0 * math.sqrt(float(analytic.velocity_var(tau))), 0.05)
         ax.hist(y, bins=np.linspace(-half, half, 61), density=True, histtype="stepfilled",
@@ -251,7 +247,7 @@ def stop_time_density(tau0: float = 5.0, *, paths: int = 200_000, seed: int = 0)
             or not math.isfinite(tau0) or tau0 <= 0:
         raise ValueError(f"tau0 must be finite and > 0, got {tau0!r}")
     tau0 = float(tau0)
-    stops = tau0 + np.abs(_velocity_samples(tau0, paths, seed)) / 2
+    stops = tau0 + np.abs(velocity_samples(tau0, paths, seed)) / 2
     mean, sd = float(analytic.stop_time_mean(tau0)), math.sqrt(float(analytic.stop_time_var(tau0)))
     right = mean + 5 * sd
     fig = _figure()

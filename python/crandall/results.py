@@ -24,7 +24,9 @@ class StatisticsWarning(UserWarning):
     at a step far too long for it) or overflows doubles.
     """
 
-_EXPONENTS = [tuple(e) for e in _core.monomial_exponents()]
+#: Exponents (velocity, displacement, distance) of the accumulators' moments, in their order.
+MONOMIALS = tuple(tuple(e) for e in _core.monomial_exponents())
+_EXPONENTS = list(MONOMIALS)
 _INDEX = {e: i for i, e in enumerate(_EXPONENTS)}
 
 
