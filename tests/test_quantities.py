@@ -85,3 +85,15 @@ def test_accumulators_are_public(paper_scene):
     no_stop = crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[1.0],
                                                       observe=["velocity"]), paths=10, seed=1)
     assert no_stop.accumulators.stop is None
+
+
+def test_one_unit_convention(physical_scene):
+    s = physical_scene.scaling
+    # to_si multiplies by the scale, to_scaled divides, one factor at a time.
+    assert s.to_si(3.0, "length", 2) == 3.0 * s.length_scale * s.length_scale
+    assert s.to_scaled(3.0, "velocity", 2) == 3.0 / s.velocity_scale / s.velocity_scale
+    assert s.to_tau(2.0) == 2.0 / s.time_scale and s.to_t(2.0) == 2.0 * s.time_scale
+    with pytest.raises(ValueError, match="kind"):
+        s.to_si(1.0, "mass")
+    r = crandall.simulate(physical_scene, paths=100, seed=1, dt=0.1)
+    assert np.allclose(r.moment(0, 0, 1), r.mean("distance") / s.length_scale, rtol=1e-14)

@@ -18,7 +18,7 @@ import numpy as np
 
 from . import analytic
 from .engine import velocity_samples
-from .paper import scaled_factors
+from .paper import CURVES, Curve, curve, scaled_factors
 from .results import Result
 
 __all__ = [
@@ -65,22 +65,17 @@ def _switch_off_line(ax, tau0, right):
                     xytext=(3, -12), textcoords="offset points", fontsize=8, color="0.4")
 
 
-def _moment_figure(result: Result, *, name: str, kind: str, curve, noise_on_only: bool,
-                   ylabel: str, title: str):
+def _moment_figure(result: Result, c: Curve):
     if not isinstance(result, Result):
         raise ValueError(f"result must be a crandall.Result, got {type(result).__name__}")
-    if name not in result.names:
-        raise ValueError(f"result: {name!r} was not observed in this scene")
-    tau, tau0, fv, fl, _ = scaled_factors(result)
-    f = fv if name == "velocity" else fl
-    if kind == "mean":
-        sim, se = result.mean(name) * f, result.stderr(name) * f
-    else:
-        sim, se = result.var(name) * f * f, result.var_stderr(name) * f * f
+    if c.quantity not in result.names:
+        raise ValueError(f"result: {c.quantity!r} was not observed in this scene")
+    tau, tau0, *_ = scaled_factors(result)
+    sim, se = c.simulated_scaled(result)
     fig = _figure()
     ax = fig.add_subplot()
-    grid = _curve_grid(tau, tau0, noise_on_only=noise_on_only)
-    ax.plot(grid, curve(grid, tau0), label="analytic", **_CURVE)
+    grid = _curve_grid(tau, tau0, noise_on_only=c.noise_on_only)
+    ax.plot(grid, c.analytic(grid, tau0), label="analytic", **_CURVE)
     ax.errorbar(tau, sim, yerr=Z95 * se, label=f"simulated, ±{Z95} stderr ({result.paths:,} paths)",
                 **_SIM)
     right = max(grid[-1], float(np.max(tau)) if np.size(tau) else 0.0)
@@ -88,9 +83,9 @@ def _moment_figure(result: Result, *, name: str, kind: str, curve, noise_on_only
     ax.set_xlim(0, right * 1.02)
     ax.set_ylim(bottom=0)
     ax.set_xlabel(r"scaled time $\tau$")
-    ax.set_ylabel(ylabel)
+    ax.set_ylabel(c.ylabel)
     where = "" if result.scene.units == "scaled" else " (SI scene in scaled units, eq8)"
-    ax.set_title(title + where, fontsize=10)
+    ax.set_title(c.title + where, fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="best")
     return fig
@@ -108,9 +103,7 @@ def distance_mean(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, name="distance", kind="mean", noise_on_only=False,
-                          curve=lambda t, t0: analytic.distance_mean(t, t0),
-                          ylabel=r"$E\,U_3$", title="Mean scaled distance travelled (Fig. 2)")
+    return _moment_figure(result, curve("distance_mean"))
 
 
 def velocity_var(result: Result):
@@ -125,9 +118,7 @@ def velocity_var(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, name="velocity", kind="var", noise_on_only=False,
-                          curve=lambda t, t0: analytic.velocity_var(t, t0),
-                          ylabel=r"Var $U_1$", title="Variance of the scaled velocity (Fig. 3)")
+    return _moment_figure(result, curve("velocity_var"))
 
 
 def displacement_var(result: Result):
@@ -145,10 +136,7 @@ def displacement_var(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, name="displacement", kind="var", noise_on_only=True,
-                          curve=lambda t, t0: analytic.displacement_var(t, t0),
-                          ylabel=r"Var $U_2$",
-                          title="Variance of the scaled displacement (Fig. 4)")
+    return _moment_figure(result, curve("displacement_var"))
 
 
 def distance_var(result: Result):
@@ -165,9 +153,7 @@ def distance_var(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, name="distance", kind="var", noise_on_only=True,
-                          curve=lambda t, t0: analytic.distance_var(t, t0),
-                          ylabel=r"Var $U_3$", title="Variance of the scaled distance (Fig. 5)")
+    return _moment_figure(result, curve("distance_var"))
 
 
 def _check_samples(paths, seed):
@@ -289,15 +275,7 @@ def figures(result: Result, *, paths: int = 200_000) -> Dict[str, object]:
     """
     tau, tau0, *_ = scaled_factors(result)  # raises ValueError for scenes without scaled units
     names = result.names
-    out = {}
-    if "distance" in names:
-        out["fig2_distance_mean"] = distance_mean(result)
-    if "velocity" in names:
-        out["fig3_velocity_var"] = velocity_var(result)
-    if "displacement" in names:
-        out["fig4_displacement_var"] = displacement_var(result)
-    if "distance" in names:
-        out["fig5_distance_var"] = distance_var(result)
+    out = {c.figure: _moment_figure(result, c) for c in CURVES if c.quantity in names}
     seed = result.seed
     on = sorted({float(t) for t in np.atleast_1d(tau) if 0 < t <= tau0})
     if len(on) > 3:

@@ -51,6 +51,10 @@ class Quantity:
         A scalar at the stop (one slot), rather than an array over the output times.
     twin : str or None
         The same quantity at the stop (for a time quantity) or over time (for a stop one).
+    kind : str or None
+        What its scaled unit is (a key of ``crandall.units.KINDS``: "velocity", "length",
+        "time"); None where a physical value has no single scale (the energies, which also
+        carry the mass).
     offset : callable or None
         ``offset(scene)`` added to the mean: the core keeps the stop time from the switch-off,
         the result reports it from the start (exact at any t0).
@@ -66,6 +70,7 @@ class Quantity:
     symbol: str = ""
     at_stop: bool = False
     twin: Optional[str] = None
+    kind: Optional[str] = None
     offset: Optional[Callable[[Any], float]] = None
 
     def long_name_in(self, units: str) -> str:
@@ -90,11 +95,12 @@ def _kinetic(scene) -> float:
 
 # Time-resolved quantities; each is also an observable of the same name.
 _OVER_TIME = (
-    Quantity("velocity", VELOCITY, "m/s", "velocity", ("velocity",), symbol="U1"),
+    Quantity("velocity", VELOCITY, "m/s", "velocity", ("velocity",), symbol="U1",
+             kind="velocity"),
     Quantity("displacement", DISPLACEMENT, "m", "displacement", ("displacement",),
-             symbol="U2", twin="displacement_at_stop"),
+             symbol="U2", twin="displacement_at_stop", kind="length"),
     Quantity("distance", DISTANCE, "m", "distance travelled", ("distance",), symbol="U3",
-             twin="distance_at_stop"),
+             twin="distance_at_stop", kind="length"),
     Quantity("kinetic_energy", VELOCITY, "J", "kinetic energy", ("kinetic_energy",),
              factor=_kinetic, power=2),
     Quantity("dissipated_energy", DISTANCE, "J", "energy dissipated by friction",
@@ -105,7 +111,8 @@ _OVER_TIME = (
 
 def _at_stop(q: Quantity) -> Quantity:
     return Quantity(q.twin, q.variable, q.si_unit, q.long_name, (STOP,) + q.needs,
-                    factor=q.factor, power=q.power, symbol=q.symbol, at_stop=True, twin=q.name)
+                    factor=q.factor, power=q.power, symbol=q.symbol, at_stop=True, twin=q.name,
+                    kind=q.kind)
 
 
 def _stop_time_offset(scene) -> float:
@@ -114,7 +121,7 @@ def _stop_time_offset(scene) -> float:
 
 #: Every quantity, time-resolved ones first, in the order results list them.
 QUANTITIES: Tuple[Quantity, ...] = _OVER_TIME + (
-    Quantity("stop_time", VELOCITY, "s", "stop time", (STOP,), at_stop=True,
+    Quantity("stop_time", VELOCITY, "s", "stop time", (STOP,), at_stop=True, kind="time",
              offset=_stop_time_offset),
 ) + tuple(_at_stop(q) for q in _OVER_TIME if q.twin is not None)
 

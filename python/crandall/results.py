@@ -258,11 +258,7 @@ class Result:
             if s is None:
                 raise ValueError("moment: scaled units need mu > 0 and h > 0 with scales "
                                  "that fit in doubles (eq8; Scene.scaling is None)")
-            # One factor at a time: the product of the scales may overflow where the moment
-            # itself does not.
-            for scale, power in ((s.velocity_scale, j), (s.length_scale, k + l)):
-                for _ in range(power):
-                    value /= scale
+            value = s.to_scaled(s.to_scaled(value, "velocity", j), "length", k + l)
         return value
 
     # -- presentation -------------------------------------------------------------------
