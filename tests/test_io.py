@@ -291,7 +291,7 @@ def test_save_is_atomic_and_durable(tmp_path, scaled_result, monkeypatch):
     assert len(fsyncs) == 2
     assert [p.name for p in tmp_path.iterdir()] == ["r.nc"]
     before = path.read_bytes()
-    monkeypatch.setattr(crandall.io, "to_xarray", lambda r: 1 / 0)
+    monkeypatch.setattr(crandall._dataset, "to_xarray", lambda r: 1 / 0)
     with pytest.raises(ZeroDivisionError):
         scaled_result.save(path)
     assert path.read_bytes() == before and [p.name for p in tmp_path.iterdir()] == ["r.nc"]

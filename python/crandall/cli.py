@@ -16,7 +16,7 @@ from typing import List, Optional, Sequence
 
 import numpy as np
 
-from . import analytic, paper
+from . import analytic, paper, plots
 from ._version import __version__
 from ._files import check_folder_writable, write_atomic
 from .methods import DEFAULT_METHOD, METHODS
@@ -199,9 +199,7 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ())
             notes.append(f"results not written ({exc})")
         if figures:
             try:
-                from .plots import write_figures
-
-                written += write_figures(result, out)
+                written += plots.write_figures(result, out)
             except ImportError as exc:
                 notes.append(f"figures not drawn ({exc})")
             except ValueError as exc:  # a scene without scaled units (mu = 0 or h = 0)

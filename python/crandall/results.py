@@ -8,7 +8,7 @@ from typing import NamedTuple, Optional
 
 import numpy as np
 
-from . import _core
+from . import _core, _dataset
 from .quantities import core_flags, find, names_for, quantity
 from .scene import Scene
 
@@ -316,9 +316,7 @@ class Result:
             JSON and one ``scene_*`` attribute per parameter), paths, seed (a string: it may
             not fit a netCDF-3 integer), dt, method, crandall version.
         """
-        from . import io
-
-        return io.to_xarray(self)
+        return _dataset.to_xarray(self)
 
     def to_pandas(self):
         """The statistics as a ``pandas.DataFrame``, one row per quantity and time.
@@ -330,9 +328,7 @@ class Result:
             ``units``, ``mean``, ``var``, ``std``, ``stderr``, ``var_stderr`` (NaN for the
             kinetic energy).
         """
-        from . import io
-
-        return io.to_pandas(self)
+        return _dataset.to_pandas(self)
 
     def save(self, path) -> None:
         """Write the result to a netCDF file (replaced atomically); read it with
@@ -343,9 +339,7 @@ class Result:
         path : str or os.PathLike
             Conventionally ending in ``.nc``.
         """
-        from . import io
-
-        io.save(self, path)
+        _dataset.save(self, path)
 
     def __repr__(self) -> str:
         return (f"<crandall.Result {self.scene!r} paths={self.paths} seed={self.seed} "
