@@ -63,3 +63,14 @@ def test_engine_task_takes_a_spec_or_its_dict():
     assert (r.accumulators.times.central == a[0][0].central).all()
     assert same_result(r, crandall.simulate(SCENE, paths=300, seed=5, dt=0.1, method="exact",
                                             threads=1))
+
+
+def test_method_grid_counts_are_the_cores():
+    # One step of dt to the only output time: the core rounds the step count up to a multiple
+    # of its grid group, 2^(grids - 1), which is what methods.GRIDS must say.
+    from crandall.methods import GRIDS, METHODS
+
+    scene = crandall.Scene.scaled(tau0=1.0, times=[0.1], observe=["distance"])
+    for method in METHODS:
+        plan = engine.make_plan(RunSpec(scene, 10, 1, 0.1, method))
+        assert plan.steps_per_path == 2 ** (GRIDS[method] - 1), method

@@ -17,7 +17,7 @@ import numpy as np
 
 from . import checkpoint as _ckpt
 from . import engine
-from .methods import DEFAULT_METHOD, METHODS
+from .methods import DEFAULT_METHOD, GRIDS, METHODS
 from .quantities import simulated_variables
 from .results import MONOMIALS, Result
 from .scene import Scene
@@ -113,7 +113,7 @@ def _memory_need(scene: Scene, threads: int, method: str) -> int:
     # the chunk's sums; then the combined chunk, the total, and raw moments and copies in
     # Python. Nothing grows with the number of paths. Each OpenMP thread also maps a stack.
     per_slot = 39 * 8
-    grids = {"richardson": 3, "richardson2": 2}.get(method, 1)
+    grids = GRIDS[method]
     slots = scene.times.size
     return slots * per_slot * (grids * (2 * threads + 1) + 5) + threads * (16 << 20)
 
@@ -385,7 +385,7 @@ def simulate(
         On any bad argument (the message names it); when the output times' accumulators would
         not fit in the memory this process may still allocate (free memory, its rlimits and
         its memory cgroup), before allocating them; when a scene's values overflow doubles.
-        KeyboardInterrupt (Ctrl-C) stops the run within a fraction of a second.
+        KeyboardInterrupt (Ctrl-C) interrupts the run within a fraction of a second.
 
     See Also
     --------
