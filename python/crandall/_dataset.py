@@ -2,15 +2,8 @@
 
 Knows a result only through its public interface (statistics, ``accumulators``, scene and
 run fields), so that ``crandall.results`` can use it without an import cycle; ``crandall.io``
-adds :func:`~crandall.io.load`, which builds a ``Result`` from :func:`read`.
-
-
-A saved result holds the statistics (readable by any netCDF tool) and the raw accumulators
-(counts, means and central sums of every output time), so :func:`load` gives back a
-:class:`~crandall.Result` whose every statistic is bitwise the one saved. Files are netCDF-3
-written by SciPy (xarray's ``engine="scipy"``): no system library needed.
-
-Needs the ``io`` extra: ``pip install crandall[io]`` (xarray, pandas).
+adds :func:`~crandall.io.load`, which builds a ``Result`` from :func:`read`. Needs xarray
+and pandas (imported when used).
 """
 
 from __future__ import annotations

@@ -20,6 +20,7 @@ from . import analytic
 from .engine import velocity_samples
 from .paper import CURVES, Curve, curve, scaled_factors
 from .results import Result
+from .spec import MAX_SEED, check_int
 
 __all__ = [
     "distance_mean",
@@ -157,11 +158,7 @@ def distance_var(result: Result):
 
 
 def _check_samples(paths, seed):
-    if isinstance(paths, bool) or not isinstance(paths, (int, np.integer)) or paths < 100:
-        raise ValueError(f"paths must be an integer >= 100, got {paths!r}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 1 << 64:
-        raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
-    return int(paths), int(seed)
+    return check_int("paths", paths, 100), check_int("seed", seed, 0, MAX_SEED)
 
 
 def velocity_density(times: Sequence[float] = (0.25, 1.0, 5.0), *, paths: int = 200_000,

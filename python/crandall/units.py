@@ -30,6 +30,8 @@ import math
 import sys
 from dataclasses import dataclass
 
+from .errors import ParameterError
+
 __all__ = ["Scaling", "KINDS"]
 
 #: The kinds of value that have a scaled unit: time (tau), velocity (U1), length (U2, U3),
@@ -40,9 +42,8 @@ KINDS = ("time", "velocity", "length", "energy")
 def _check_positive_finite(name: str, value: float) -> float:
     value = float(value)
     if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(
-            f"{name} must be positive and finite for the scaled units of eq8, got {value!r}"
-        )
+        raise ParameterError(
+            name, f"{name} must be positive and finite for the scaled units of eq8, got {value!r}")
     return value
 
 
