@@ -74,3 +74,14 @@ def test_method_grid_counts_are_the_cores():
     for method in METHODS:
         plan = engine.make_plan(RunSpec(scene, 10, 1, 0.1, method))
         assert plan.steps_per_path == 2 ** (GRIDS[method] - 1), method
+
+
+def test_result_gives_its_spec():
+    r = crandall.simulate(SCENE, paths=300, seed=8)
+    spec = r.spec
+    assert spec == RunSpec.create(SCENE, paths=300, seed=8)
+    again = crandall.simulate(spec.scene, paths=spec.paths, seed=spec.seed, dt=spec.dt,
+                              method=spec.method)
+    # An explicit dt gives a uniform grid; the default one was graded: repeating needs both.
+    assert spec.min_steps == DEFAULT_MIN_STEPS and again.min_steps == 0
+    assert same_result(r, crandall.simulate(SCENE, paths=300, seed=8, dt=None))

@@ -104,18 +104,19 @@ def to_xarray(result):
                                                      "distance), SI or scaled as the scene"})
         data_vars[prefix + "central"] = ((dim, "monomial"), acc.central,
                                          {"long_name": "central sums, powers as in exponents"})
+    spec = result.spec  # the run's fields, checked
     attrs = {
         "title": f"crandall result: {sc!r}",
         "format": _FORMAT,
         "crandall_version": __version__,
         "scene": json.dumps(sc.to_dict()),
         "units_system": sc.units,
-        "paths": _count_attr(result.paths),
-        "seed": str(result.seed),  # up to 2**64 - 1: more than netCDF-3 integers hold
-        "dt": float(result.dt),
-        "method": result.method,
+        "paths": _count_attr(spec.paths),
+        "seed": str(spec.seed),  # up to 2**64 - 1: more than netCDF-3 integers hold
+        "dt": spec.dt,
+        "method": spec.method,
         "steps_per_path": _count_attr(result.steps_per_path),
-        "min_steps": _count_attr(result.min_steps),
+        "min_steps": _count_attr(spec.min_steps),
         "random_stream": int(result.random_stream),
         "slots": int(acc_times.slots),
     }

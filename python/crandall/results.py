@@ -11,6 +11,7 @@ import numpy as np
 from . import _core, _dataset
 from .quantities import core_flags, find, names_for, quantity
 from .scene import Scene
+from .spec import RunSpec
 
 __all__ = ["Result", "Accumulators", "StatisticsWarning"]
 
@@ -107,6 +108,13 @@ class Result:
         self._warned: set = set()
         self._raw = moments.raw() if moments.slots else np.zeros((0, len(_EXPONENTS)))
         self._stop_raw = stop_moments.raw() if stop_moments is not None else None
+
+    @property
+    def spec(self) -> RunSpec:
+        """The run's specification (scene, paths, seed, dt, method, min_steps): what a
+        checkpoint of the run records. ``min_steps > 0`` is the default graded grid, which
+        ``simulate`` repeats with ``dt=None``."""
+        return RunSpec(self.scene, self.paths, self.seed, self.dt, self.method, self.min_steps)
 
     @property
     def accumulators(self) -> Accumulators:
