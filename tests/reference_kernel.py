@@ -56,7 +56,8 @@ def coast(x, u, s, drift: float, elapsed):
     ``drift`` to rest, then rest."""
     speed, sign = np.abs(x), np.sign(x)
     stopped = elapsed * drift >= speed
-    travelled = np.where(stopped, 0.5 * speed * speed / drift, elapsed * (speed - 0.5 * drift * elapsed))
+    travelled = np.where(stopped, 0.5 * speed * speed / drift,
+                         elapsed * (speed - 0.5 * drift * elapsed))
     velocity = np.where(stopped, 0.0, sign * (speed - drift * elapsed))
     return velocity, u + sign * travelled, s + travelled
 

@@ -11,8 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, Iterable, Optional, Tuple
 
-__all__ = ["Quantity", "QUANTITIES", "OBSERVABLES", "STOP_QUANTITIES", "VARIABLES", "quantity", "find",
-           "names_for", "core_flags", "simulated_variables"]
+__all__ = ["Quantity", "QUANTITIES", "OBSERVABLES", "STOP_QUANTITIES", "VARIABLES", "quantity",
+           "find", "names_for", "core_flags", "simulated_variables"]
 
 #: The core's simulated variables, in the order of its accumulators (paper eq3: U1, U2, U3).
 VARIABLES = ("velocity", "displacement", "distance")
@@ -158,7 +158,8 @@ def names_for(observe: Iterable[str]) -> Tuple[str, ...]:
 def simulated_variables(observe: Iterable[str], *, at_stop: bool) -> Tuple[int, ...]:
     """The core variables that carry the observed quantities over time or at the stop."""
     held = names_for(observe)
-    return tuple(sorted({q.variable for q in QUANTITIES if q.at_stop == at_stop and q.name in held}))
+    return tuple(sorted({q.variable for q in QUANTITIES
+                         if q.at_stop == at_stop and q.name in held}))
 
 
 def core_flags(observe: Iterable[str]) -> Dict[str, bool]:
