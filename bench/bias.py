@@ -22,6 +22,7 @@ import numpy as np
 
 import crandall
 from crandall import analytic
+from crandall.paper import CURVES
 
 HERE = Path(__file__).resolve().parent
 TAU0 = 5.0
@@ -31,10 +32,7 @@ TIMES = [0.1, 0.5, 1.0, 5.0]
 def reference():
     t = np.array(TIMES)
     return {
-        "distance_mean": analytic.distance_mean(t, TAU0),
-        "velocity_var": analytic.velocity_var(t, TAU0),
-        "displacement_var": analytic.displacement_var(t, TAU0),
-        "distance_var": analytic.distance_var(t, TAU0),
+        **{c.name: c.analytic(t, TAU0) for c in CURVES},
         "stop_time_mean": np.array([analytic.stop_time_mean(TAU0)]),
         "distance_at_stop_var": np.array([analytic.distance_at_stop_var(TAU0)]),
         "distance_at_stop_mean": np.array([TAU0 / 2]),
@@ -43,10 +41,7 @@ def reference():
 
 def measure(result):
     return {
-        "distance_mean": (result.mean("distance"), result.stderr("distance")),
-        "velocity_var": (result.var("velocity"), result.var_stderr("velocity")),
-        "displacement_var": (result.var("displacement"), result.var_stderr("displacement")),
-        "distance_var": (result.var("distance"), result.var_stderr("distance")),
+        **{c.name: c.simulated(result) for c in CURVES},
         "stop_time_mean": (np.array([result.mean("stop_time")]),
                            np.array([result.stderr("stop_time")])),
         "distance_at_stop_var": (np.array([result.var("distance_at_stop")]),

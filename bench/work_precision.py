@@ -39,6 +39,7 @@ import numpy as np
 
 import crandall
 from crandall import analytic
+from crandall.paper import CURVES
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -56,28 +57,21 @@ OBSERVE = ["velocity", "displacement", "distance", "stop"]
 
 # name -> (quantity, statistic, time index or None for the stop)
 OBSERVABLES = {
-    "distance_mean@1": ("distance", "mean", 0),
-    "distance_mean@5": ("distance", "mean", 1),
-    "velocity_var@1": ("velocity", "var", 0),
-    "velocity_var@5": ("velocity", "var", 1),
-    "displacement_var@1": ("displacement", "var", 0),
-    "displacement_var@5": ("displacement", "var", 1),
-    "distance_var@1": ("distance", "var", 0),
-    "distance_var@5": ("distance", "var", 1),
+    **{f"{c.name}@{tau:g}": (c.quantity, c.statistic, i)
+       for c in CURVES for i, tau in enumerate(TIMES)},
     "stop_time_mean": ("stop_time", "mean", None),
     "distance_at_stop_var": ("distance_at_stop", "var", None),
 }
-CURVES_AT_5 = ["distance_mean@5", "velocity_var@5", "displacement_var@5", "distance_var@5"]
+CURVES_AT_5 = [f"{c.name}@5" for c in CURVES]
 
 
 def reference() -> dict:
     t = np.array(TIMES)
     ref = {}
-    for i, tau in enumerate(TIMES):
-        ref[f"distance_mean@{tau:g}"] = float(analytic.distance_mean(t, TAU0)[i])
-        ref[f"velocity_var@{tau:g}"] = float(analytic.velocity_var(t, TAU0)[i])
-        ref[f"displacement_var@{tau:g}"] = float(analytic.displacement_var(t, TAU0)[i])
-        ref[f"distance_var@{tau:g}"] = float(analytic.distance_var(t, TAU0)[i])
+    for c in CURVES:
+        values = c.analytic(t, TAU0)
+        for i, tau in enumerate(TIMES):
+            ref[f"{c.name}@{tau:g}"] = float(values[i])
     ref["stop_time_mean"] = float(analytic.stop_time_mean(TAU0))
     ref["distance_at_stop_var"] = float(analytic.distance_at_stop_var(TAU0))
     return ref

@@ -59,12 +59,12 @@ def _double(b: np.ndarray) -> np.ndarray:
 
 # fdlibm e_log.c and FreeBSD k_sin.c / k_cos.c constants, as in detmath.hpp.
 LN2_HI, LN2_LO = float.fromhex("0x1.62e42feep-1"), float.fromhex("0x1.a39ef35793c76p-33")
-LG = [float.fromhex(h) for h in ("0x1.5555555555593p-1", "0x1.999999997fa04p-2", "0x1.2492494229359p-2",
+LG = [float.fromhex(x) for x in ("0x1.5555555555593p-1", "0x1.999999997fa04p-2", "0x1.2492494229359p-2",
                                  "0x1.c71c51d8e78afp-3", "0x1.7466496cb03dep-3", "0x1.39a09d078c69fp-3",
                                  "0x1.2f112df3e5244p-3")]
-S = [float.fromhex(h) for h in ("-0x1.5555555555549p-3", "0x1.111111110f8a6p-7", "-0x1.a01a019c161d5p-13",
+S = [float.fromhex(x) for x in ("-0x1.5555555555549p-3", "0x1.111111110f8a6p-7", "-0x1.a01a019c161d5p-13",
                                 "0x1.71de357b1fe7dp-19", "-0x1.ae5e68a2b9cebp-26", "0x1.5d93a5acfd57cp-33")]
-C = [float.fromhex(h) for h in ("0x1.555555555554cp-5", "-0x1.6c16c16c15177p-10", "0x1.a01a019cb159p-16",
+C = [float.fromhex(x) for x in ("0x1.555555555554cp-5", "-0x1.6c16c16c15177p-10", "0x1.a01a019cb159p-16",
                                 "-0x1.27e4f809c52adp-22", "0x1.1ee9ebdb4b1c4p-29", "-0x1.8fae9be8838d4p-37")]
 TURN_HI, TURN_LO = float.fromhex("0x1.921fb5p-28"), float.fromhex("0x1.110b4611a6263p-54")
 
@@ -132,14 +132,14 @@ def draw_pairs(seed: int, paths, pair: int) -> np.ndarray:
                      (w1 & np.uint64(1)).astype(np.float64), ((w1 >> np.uint64(1)) & np.uint64(1)).astype(np.float64)])
 
 
-def exact_step(x0: np.ndarray, h: float, drift: float, noise: float, normal: np.ndarray,
+def exact_step(x0: np.ndarray, dt: float, drift: float, noise: float, normal: np.ndarray,
                exponential: np.ndarray, coin: np.ndarray) -> np.ndarray:
     """The exact velocity step as the kernel evaluates it (docs/exact-step.md), elementwise."""
     # The regular case of skeleton.hpp (every step here has a normal root = sqrt(d^2 + q)):
     # with r = q / (2 (root + |d|)), the bridge minimum is min(d, 0) - r and d - m is
     # max(d, 0) + r, sums of terms of one sign (no cancellation for either sign of d).
-    mean_d, scale_d = -drift * h, noise * np.sqrt(h)
-    twice_var = 2.0 * (noise * noise * h)
+    mean_d, scale_d = -drift * dt, noise * np.sqrt(dt)
+    twice_var = 2.0 * (noise * noise * dt)
     d = scale_d * normal + mean_d
     q = twice_var * exponential
     root = np.sqrt(d * d + q)
@@ -154,8 +154,8 @@ def exact_step(x0: np.ndarray, h: float, drift: float, noise: float, normal: np.
     return np.where(positive, magnitude, -magnitude)
 
 
-def final_velocities(seed: int, paths: int, h: float, steps: int, drift: float, noise: float) -> np.ndarray:
-    """Velocities of paths 0 .. paths - 1 after `steps` exact steps of length h from rest."""
+def final_velocities(seed: int, paths: int, dt: float, steps: int, drift: float, noise: float) -> np.ndarray:
+    """Velocities of paths 0 .. paths - 1 after `steps` exact steps of length dt from rest."""
     idx = np.arange(paths, dtype=np.uint64)
     x = np.zeros(paths)
     noise_pair = None
@@ -163,5 +163,5 @@ def final_velocities(seed: int, paths: int, h: float, steps: int, drift: float, 
         if k % 2 == 0:
             noise_pair = draw_pairs(seed, idx, k // 2)
         j = k % 2
-        x = exact_step(x, h, drift, noise, noise_pair[j], noise_pair[2 + j], noise_pair[4 + j])
+        x = exact_step(x, dt, drift, noise, noise_pair[j], noise_pair[2 + j], noise_pair[4 + j])
     return x

@@ -25,7 +25,7 @@ def scene():
     return crandall.Scene.scaled(tau0=1.0, times=[0.25, 0.5, 1.0, 1.5])
 
 
-class Stop(Exception):
+class Interrupted(Exception):
     """Stands for whatever ends a run early (Ctrl-C, a crash)."""
 
 
@@ -36,11 +36,11 @@ def counting_run_chunk(monkeypatch, fail_at=None):
 
     def run_chunk(plan, chunk, threads):
         if chunk == fail_at:
-            raise Stop
+            raise Interrupted
         calls.append(chunk)
         return real(plan, chunk, threads)
 
-    monkeypatch.setattr(SIM._core, "run_chunk", run_chunk)
+    monkeypatch.setattr(_core, "run_chunk", run_chunk)
     return calls
 
 
@@ -56,7 +56,7 @@ def test_resume_after_interrupt_is_bitwise_identical(tmp_path, monkeypatch):
     path = tmp_path / "run.ckpt"
     plain = crandall.simulate(scene(), paths=PATHS, seed=5, dt=0.05)
     counting_run_chunk(monkeypatch, fail_at=3)
-    with pytest.raises(Stop):
+    with pytest.raises(Interrupted):
         crandall.simulate(scene(), paths=PATHS, seed=5, dt=0.05, checkpoint=path)
     calls = counting_run_chunk(monkeypatch)
     resumed = crandall.simulate(scene(), paths=PATHS, seed=5, dt=0.05, checkpoint=path)
@@ -68,7 +68,7 @@ def test_resume_after_interrupt_is_bitwise_identical(tmp_path, monkeypatch):
 def test_seed_none_takes_the_checkpoints_seed(tmp_path, monkeypatch):
     path = tmp_path / "run.ckpt"
     counting_run_chunk(monkeypatch, fail_at=2)
-    with pytest.raises(Stop):
+    with pytest.raises(Interrupted):
         crandall.simulate(scene(), paths=PATHS, seed=77, dt=0.05, checkpoint=path)
     monkeypatch.undo()
     resumed = crandall.simulate(scene(), paths=PATHS, dt=0.05, checkpoint=path)
@@ -92,17 +92,17 @@ def sweep():
 def test_sweep_resumes_every_scene_bitwise(tmp_path, monkeypatch):
     folder = tmp_path / "sweep"
     plain = crandall.simulate_many(sweep(), paths=PATHS, seed=9, dt=0.05)
-    # Stop in the second scene's fourth chunk: scene 0 is complete, scene 1 has 3 chunks.
+    # Interrupt in the second scene's fourth chunk: scene 0 is complete, scene 1 has 3 chunks.
     calls = []
 
     def run_chunk(plan, chunk, threads):
         if len(calls) == 5 + 3:
-            raise Stop
+            raise Interrupted
         calls.append(chunk)
         return REAL_RUN_CHUNK(plan, chunk, threads)
 
-    monkeypatch.setattr(SIM._core, "run_chunk", run_chunk)
-    with pytest.raises(Stop):
+    monkeypatch.setattr(_core, "run_chunk", run_chunk)
+    with pytest.raises(Interrupted):
         crandall.simulate_many(sweep(), paths=PATHS, seed=9, dt=0.05, checkpoint_dir=folder)
     assert sorted(p.name for p in folder.iterdir()) == ["scene-0000.ckpt", "scene-0001.ckpt"]
     calls = counting_run_chunk(monkeypatch)
@@ -230,7 +230,7 @@ def partial_checkpoint(tmp_path_factory):
     path = tmp_path_factory.mktemp("ckpt") / "run.ckpt"
     with pytest.MonkeyPatch.context() as mp:
         counting_run_chunk(mp, fail_at=2)
-        with pytest.raises(Stop):
+        with pytest.raises(Interrupted):
             crandall.simulate(scene(), paths=PATHS, seed=5, dt=0.05, method="exact",
                               checkpoint=path)
     with np.load(path, allow_pickle=False) as data:
@@ -404,7 +404,7 @@ def test_negative_even_central_sums_are_allowed_where_richardson_makes_them(tmp_
     for seed in range(40):
         path = tmp_path / f"r{seed}.ckpt"
         r = crandall.simulate(sc, paths=2, seed=seed, checkpoint=path)
-        if (r._moments.central[:, EVEN] < 0).any():
+        if (r.accumulators.times.central[:, EVEN] < 0).any():
             break
     else:  # the core no longer extrapolates below zero: nothing to check
         pytest.skip("no negative extrapolated central sum among 40 seeds")
@@ -513,9 +513,9 @@ def test_checkpoint_write_leaves_no_temporary_file_on_failure(tmp_path, monkeypa
 
     def fail(f):
         f.write(b"partial")
-        raise Stop
+        raise Interrupted
 
-    with pytest.raises(Stop):
+    with pytest.raises(Interrupted):
         _files.write_atomic(path, fail)
     assert [p.name for p in tmp_path.iterdir()] == ["f"] and path.read_bytes() == b"old"
     fsyncs = []

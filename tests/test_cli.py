@@ -319,7 +319,7 @@ def test_failed_write_after_the_run_is_one_line_not_a_traceback(tmp_path, monkey
     def disk_full(result, path):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
 
-    monkeypatch.setattr(crandall.io, "save", disk_full)
+    monkeypatch.setattr(crandall._dataset, "save", disk_full)
     assert cli.main(["run", str(scene_file), "--out", str(tmp_path / "o"), "--no-figures"]) == 2
     _one_line_error(capsys, "result.nc", os.strerror(errno.ENOSPC))
 

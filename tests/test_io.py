@@ -262,12 +262,12 @@ def test_counts_beyond_netcdf3_integers_round_trip(tmp_path, scaled_result):
     """netCDF-3 integers have 32 bits: paths and steps per path beyond them are kept exactly
     (as text, like the seed) instead of failing after the run."""
     big = 3_000_000_001
-    slots = scaled_result._moments.slots
+    slots = scaled_result.accumulators.times.slots
     moments = crandall._core.Moments(slots, np.full(slots, float(big)),
-                                     scaled_result._moments.means,
-                                     scaled_result._moments.central * big / 3000)
-    stop = crandall._core.Moments(1, np.full(1, float(big)), scaled_result._stop.means,
-                                  scaled_result._stop.central * big / 3000)
+                                     scaled_result.accumulators.times.means,
+                                     scaled_result.accumulators.times.central * big / 3000)
+    stop = crandall._core.Moments(1, np.full(1, float(big)), scaled_result.accumulators.stop.means,
+                                  scaled_result.accumulators.stop.central * big / 3000)
     moments.central[:, 0] = big
     r = crandall.Result(scene=scaled_result.scene, paths=big, seed=scaled_result.seed,
                         dt=scaled_result.dt, method=scaled_result.method, moments=moments,
@@ -291,7 +291,7 @@ def test_save_is_atomic_and_durable(tmp_path, scaled_result, monkeypatch):
     assert len(fsyncs) == 2
     assert [p.name for p in tmp_path.iterdir()] == ["r.nc"]
     before = path.read_bytes()
-    monkeypatch.setattr(crandall.io, "to_xarray", lambda r: 1 / 0)
+    monkeypatch.setattr(crandall._dataset, "to_xarray", lambda r: 1 / 0)
     with pytest.raises(ZeroDivisionError):
         scaled_result.save(path)
     assert path.read_bytes() == before and [p.name for p in tmp_path.iterdir()] == ["r.nc"]

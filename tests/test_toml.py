@@ -150,3 +150,30 @@ def test_huge_ranges_are_refused_before_they_are_built(tmp_path, times, key):
         crandall.Scene.from_toml(path)
     assert time.perf_counter() - start < 0.5
     assert str(MAX_RANGE_TIMES) in str(info.value)
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    (dict(mu=-1.0, h=1.0, t0=1.0, times=[1.0]), "mu"),
+    (dict(mu=0.3, h=1.0, t0=1.0, times=[2.0, 1.0]), "times"),
+    (dict(mu=0.3, h=1.0, t0=1.0, times=[1.0], observe=["heat"]), "observe"),
+    (dict(mu=1e300, g=1e300, h=1.0, t0=1.0, times=[1.0]), "mu, g"),
+])
+def test_scene_errors_carry_the_parameter_name(kwargs, name):
+    from crandall.scene import ParameterError
+
+    with pytest.raises(ValueError) as info:
+        crandall.Scene(**kwargs)
+    assert isinstance(info.value, ParameterError) and info.value.name == name
+    assert str(info.value).startswith(name)
+
+
+def test_file_key_comes_from_the_error_not_its_wording(tmp_path):
+    # Two parameters at fault: no single key of the file, so the table is named.
+    path = tmp_path / "s.toml"
+    path.write_text("[scene]\nmu = 1e300\ng = 1e300\nh = 1.0\nt0 = 1.0\ntimes = [1.0]\n")
+    with pytest.raises(ValueError, match=r"s\.toml: scene: mu, g: the friction deceleration"):
+        crandall.Scene.from_toml(path)
+    path.write_text("[scene]\nmu = 0.3\nh = 1.0\nt0 = 1.0\ntimes = [1.0]\n"
+                    "observe = ['stop', 'heat']\n")
+    with pytest.raises(ValueError, match=r"s\.toml: scene\.observe: observe: unknown"):
+        crandall.Scene.from_toml(path)

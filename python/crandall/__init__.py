@@ -10,6 +10,7 @@ Berezin & Zayats (see ``crandall.analytic``).
 (2,)
 """
 
+from ._version import __version__
 from .io import load
 from .results import Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene
@@ -18,4 +19,3 @@ from .units import Scaling
 
 __all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS",
            "StatisticsWarning"]
-__version__ = "0.2.0"

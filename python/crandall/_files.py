@@ -20,6 +20,7 @@ from typing import Callable, Dict, Optional
 import numpy as np
 
 from . import _core
+from .methods import EXTRAPOLATING_METHODS
 
 __all__ = ["write_atomic", "check_file_writable", "check_folder_writable", "check_moments"]
 
@@ -27,9 +28,6 @@ _EXPONENTS = [tuple(e) for e in _core.monomial_exponents()]
 # Central sums of (x - mean)^a (y - mean)^b (z - mean)^c with a, b, c all even are sums of
 # non-negative terms.
 _EVEN = [i for i, e in enumerate(_EXPONENTS) if all(p % 2 == 0 for p in e)]
-#: Methods whose accumulators are a signed combination of several grids (Richardson
-#: extrapolation): their even central sums may be negative for a handful of paths.
-EXTRAPOLATING_METHODS = ("richardson", "richardson2")
 
 
 def _fsync_folder(folder: str) -> None:

@@ -23,6 +23,8 @@ from typing import Any, Dict, Optional, Tuple
 import numpy as np
 
 from . import _core
+from ._version import __version__
+from .spec import RunSpec
 from ._files import check_file_writable, check_folder_writable, check_moments, write_atomic
 
 __all__ = ["identity", "load", "save", "stored_seed", "check_writable", "make_folder"]
@@ -35,15 +37,27 @@ _ARRAYS = ("identity", "next_chunk", "times_counts", "times_means", "times_centr
            "stop_counts", "stop_means", "stop_central")
 
 
-def identity(scene, *, paths: int, seed: int, dt: float, method: str,
-             min_steps: int = 0) -> Dict[str, Any]:
-    """What makes two runs the same run (plain data, compared for equality)."""
-    from . import __version__
+def identity(spec, **fields) -> Dict[str, Any]:
+    """What makes two runs the same run (plain data, compared for equality).
 
+    Parameters
+    ----------
+    spec : RunSpec or Scene
+        The run; or, as before run specifications, its scene with the keywords ``paths``,
+        ``seed``, ``dt``, ``method`` and optionally ``min_steps``.
+
+    Returns
+    -------
+    dict
+        The checkpoint format, crandall version and random stream, and ``spec.to_dict()``.
+    """
+    if not isinstance(spec, RunSpec):
+        spec = RunSpec(spec, **fields)
+    elif fields:
+        raise ValueError(f"{sorted(fields)[0]}: give a RunSpec or a scene with its fields, "
+                         "not both")
     return {"format": FORMAT, "format_version": FORMAT_VERSION, "crandall": __version__,
-            "random_stream": int(_core.RANDOM_STREAM),
-            "scene": scene.to_dict(), "paths": int(paths), "seed": int(seed),
-            "dt": float(dt), "method": str(method), "min_steps": int(min_steps)}
+            "random_stream": int(_core.RANDOM_STREAM), **spec.to_dict()}
 
 
 def check_writable(path) -> str:

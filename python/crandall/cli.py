@@ -16,9 +16,11 @@ from typing import List, Optional, Sequence
 
 import numpy as np
 
-from . import analytic, paper
+from . import analytic, paper, plots
+from ._version import __version__
 from ._files import check_folder_writable, write_atomic
 from .methods import DEFAULT_METHOD, METHODS
+from .quantities import quantity
 from .scene import Scene
 from .simulate import simulate
 
@@ -35,9 +37,8 @@ DEFAULT_OUT = "crandall-out"
 MANIFEST = ".crandall-files.json"
 # Names crandall writes into an output folder: a folder holding any of them (without a
 # manifest, e.g. a run that was killed while writing) holds another run's files.
-_OUTPUT_NAMES = ("result.nc", "result.csv", "fig2_distance_mean.png", "fig3_velocity_var.png",
-                 "fig4_displacement_var.png", "fig5_distance_var.png", "velocity_density.png",
-                 "stop_time_density.png", MANIFEST)
+_OUTPUT_NAMES = (("result.nc", "result.csv") + tuple(c.figure + ".png" for c in paper.CURVES)
+                 + ("velocity_density.png", "stop_time_density.png", MANIFEST))
 
 
 def _positive_int(text: str) -> int:
@@ -125,8 +126,6 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _version() -> str:
-    from . import __version__
-
     return __version__
 
 
@@ -200,9 +199,7 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ())
             notes.append(f"results not written ({exc})")
         if figures:
             try:
-                from .plots import write_figures
-
-                written += write_figures(result, out)
+                written += plots.write_figures(result, out)
             except ImportError as exc:
                 notes.append(f"figures not drawn ({exc})")
             except ValueError as exc:  # a scene without scaled units (mu = 0 or h = 0)
@@ -282,21 +279,29 @@ def _analytic_table(scene: Scene) -> str:
         raise ValueError("scene: the analytic layer needs mu > 0 and h > 0 (eq8)")
     if sc.units == "scaled":
         tau, tau0 = sc.times, sc.t0
-        fv = fl = ft = 1.0
-        tname, units = "tau", {"U": "", "V": ""}
+        tname = "tau"
+
+        def si(value, kind, power=1):
+            return value
     else:
         s = sc.scaling
         tau, tau0 = s.to_tau(sc.times), (s.to_tau(sc.t0) if math.isfinite(sc.t0) else math.inf)
-        fv, fl, ft = s.velocity_scale, s.length_scale, s.time_scale
-        tname, units = "t [s]", {"U": " [m]", "V": " [m/s]"}
-    cols = [
-        (f"E distance{units['U']}", lambda t: analytic.distance_mean(t, tau0) * fl),
-        (f"Var velocity{units['V'] and ' [m^2/s^2]'}", lambda t: analytic.velocity_var(t, tau0) * fv**2),
-        (f"Var displacement{units['U'] and ' [m^2]'}",
-         lambda t: analytic.displacement_var(t, tau0) * fl**2 if t <= tau0 else math.nan),
-        (f"Var distance{units['U'] and ' [m^2]'}",
-         lambda t: analytic.distance_var(t, tau0) * fl**2 if t <= tau0 else math.nan),
-    ]
+        tname = "t [s]"
+        si = s.to_si
+
+    def column(c):
+        q = quantity(c.quantity)
+        power = 1 if c.statistic == "mean" else 2
+        unit = sc.units_of(c.quantity)
+        unit = unit if power == 1 else "/".join(f"{u}^2" for u in unit.split("/")) if unit else ""
+        title = f"{'E' if power == 1 else 'Var'} {c.quantity}" + (f" [{unit}]" if unit else "")
+
+        def value(t):
+            return si(c.analytic(t, tau0), q.kind, power) if c.in_domain(t, tau0) else math.nan
+        return title, value
+
+    cols = [column(c) for c in paper.CURVES]
+    units = {"U": "" if sc.units == "scaled" else " [m]"}
     label = "scaled units (eq3)" if sc.units == "scaled" else "SI units"
     lines = [f"crandall analytic: {sc!r}, {label}",
              f"{tname:>10}" + "".join(f"  {name:>24}" for name, _ in cols)]
@@ -310,15 +315,18 @@ def _analytic_table(scene: Scene) -> str:
         tu = "" if sc.units == "scaled" else " s"
         lines += [
             "At the stop (eq14):",
-            f"  mean stop time            {float(analytic.stop_time_mean(tau0)) * ft:.8g}{tu}",
-            f"  var stop time             {float(analytic.stop_time_var(tau0)) * ft**2:.8g}"
+            f"  mean stop time            {si(float(analytic.stop_time_mean(tau0)), 'time'):.8g}{tu}",
+            f"  var stop time             {si(float(analytic.stop_time_var(tau0)), 'time', 2):.8g}"
             f"{tu and ' s^2'}",
-            f"  mean distance at stop     {float(analytic.distance_at_stop_mean(tau0)) * fl:.8g}"
+            f"  mean distance at stop     "
+            f"{si(float(analytic.distance_at_stop_mean(tau0)), 'length'):.8g}"
             f"{units['U'] and ' m'}  (eq7: tau0/2 in scaled units)",
-            f"  var distance at stop      {float(analytic.distance_at_stop_var(tau0)) * fl**2:.8g}"
+            f"  var distance at stop      "
+            f"{si(float(analytic.distance_at_stop_var(tau0)), 'length', 2):.8g}"
             f"{units['U'] and ' m^2'}",
             f"  var displacement at stop  "
-            f"{float(analytic.displacement_at_stop_var(tau0)) * fl**2:.8g}{units['U'] and ' m^2'}",
+            f"{si(float(analytic.displacement_at_stop_var(tau0)), 'length', 2):.8g}"
+            f"{units['U'] and ' m^2'}",
         ]
     return "\n".join(lines)
 

@@ -1,6 +1,7 @@
 """The simulation methods the engine offers, the default one, and the default step."""
 
-__all__ = ["METHODS", "DEFAULT_METHOD", "DEFAULT_DT_TAU", "DEFAULT_MIN_STEPS", "DEFAULT_STEPS_FREE"]
+__all__ = ["METHODS", "GRIDS", "EXTRAPOLATING_METHODS", "DEFAULT_METHOD", "DEFAULT_DT_TAU",
+           "DEFAULT_MIN_STEPS", "DEFAULT_STEPS_FREE"]
 
 #: Method names accepted by ``simulate(method=...)``:
 #: "exact": velocity exact in law for any step; displacement and distance by the trapezoid
@@ -11,6 +12,14 @@ __all__ = ["METHODS", "DEFAULT_METHOD", "DEFAULT_DT_TAU", "DEFAULT_MIN_STEPS", "
 #: assuming c h^1.5. "refine": the exact skeleton, with steps that start within 2 standard
 #: deviations of 0 taken as 8 exact substeps (docs/methods/refine.md).
 METHODS = ("exact", "euler", "richardson", "richardson2", "refine")
+
+#: Grids each method integrates on (the core's Richardson levels): the fine one, and for the
+#: extrapolating methods every 2nd (and 4th) point of it. Sizes the accumulators in memory.
+GRIDS = {"exact": 1, "euler": 1, "richardson": 3, "richardson2": 2, "refine": 1}
+
+#: Methods whose accumulators are a signed combination of several grids (Richardson
+#: extrapolation): their even central sums may be negative for a handful of paths.
+EXTRAPOLATING_METHODS = tuple(m for m in METHODS if GRIDS[m] > 1)
 
 #: The method ``simulate`` uses when none is given: "richardson", the cheapest for a given
 #: accuracy in bench/work_precision.py (bench/results/work_precision.json): its bias in the

@@ -8,14 +8,17 @@ the energy law eq7.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from . import analytic
+from .quantities import quantity
 from .results import Result
 from .scene import Scene
 
-__all__ = ["default_scene", "DEFAULT_PATHS", "comparison", "scaled_factors"]
+__all__ = ["default_scene", "DEFAULT_PATHS", "comparison", "scaled_factors", "to_scaled",
+           "Curve", "CURVES", "curve"]
 
 #: Paths of the main job.
 DEFAULT_PATHS = 1_000_000
@@ -29,21 +32,115 @@ def default_scene() -> Scene:
     return Scene.scaled(tau0=PAPER_TAU0, times=times)
 
 
+def _scaling(result: Result):
+    """The scene's Scaling (None for a scaled scene); ValueError if it has no scaled units."""
+    sc = result.scene
+    if sc.units == "scaled":
+        return None
+    if sc.scaling is None:
+        raise ValueError("scene: the analytic layer needs mu > 0 and h > 0 (eq8)")
+    return sc.scaling
+
+
+def to_scaled(result: Result, value, kind: str, power: int = 1):
+    """A value of ``kind ** power`` from a result's units to the paper's scaled units (eq8).
+
+    Unchanged for a scaled scene; for a physical one, :meth:`crandall.Scaling.to_scaled`.
+    ValueError if the scene has no scaled units (mu = 0 or h = 0).
+    """
+    s = _scaling(result)
+    return value if s is None else s.to_scaled(value, kind, power)
+
+
 def scaled_factors(result: Result):
     """A result's times in the paper's scaled units, and the factors to scale its quantities.
 
     Returns (tau, tau0, velocity factor, length factor, time factor): multiply a velocity by
     the first factor to get U1, a displacement or distance by the second to get U2 or U3, a
     time by the third to get tau (all 1 for a scaled scene). Physical scenes need mu > 0 and
-    h > 0 (eq8); otherwise ValueError.
+    h > 0 (eq8); otherwise ValueError. :func:`to_scaled` converts a value directly.
     """
     sc = result.scene
-    if sc.units == "scaled":
+    s = _scaling(result)
+    if s is None:
         return sc.times, sc.t0, 1.0, 1.0, 1.0
-    if sc.scaling is None:
-        raise ValueError("scene: the analytic layer needs mu > 0 and h > 0 (eq8)")
-    s = sc.scaling
-    return s.to_tau(sc.times), s.to_tau(sc.t0), 1 / s.velocity_scale, 1 / s.length_scale, 1 / s.time_scale
+    return (s.to_tau(sc.times), s.to_tau(sc.t0), s.to_scaled(1.0, "velocity"),
+            s.to_scaled(1.0, "length"), s.to_scaled(1.0, "time"))
+
+
+@dataclass(frozen=True)
+class Curve:
+    """One of the paper's curves: an analytic function of tau, the simulated statistic it
+    predicts, and the domain where the closed form is known.
+
+    Attributes
+    ----------
+    name : str
+        The analytic function in :mod:`crandall.analytic` (``distance_mean``), also the key
+        of the curve in the bench results.
+    quantity : str
+        The simulated quantity (``distance``).
+    statistic : str
+        "mean" or "var".
+    noise_on_only : bool
+        The closed form is known only while the noise is on (tau <= tau0).
+    label : str
+        Its short label in tables ("E U3").
+    figure : str
+        The paper's figure, as the file stem ``crandall run`` writes (``fig2_distance_mean``).
+    ylabel, title : str
+        The figure's axis label and title.
+    """
+
+    name: str
+    quantity: str
+    statistic: str
+    noise_on_only: bool
+    label: str
+    figure: str
+    ylabel: str
+    title: str
+
+    def analytic(self, tau, tau0=math.inf):
+        """The analytic value at scaled time(s) tau for switch-off tau0."""
+        return getattr(analytic, self.name)(tau, tau0)
+
+    def in_domain(self, tau: float, tau0: float) -> bool:
+        """Whether the analytic value is known at tau (always, or while the noise is on)."""
+        return not self.noise_on_only or tau <= tau0
+
+    def simulated(self, result: Result):
+        """(value, standard error) of the statistic over the result's times, its units."""
+        if self.statistic == "mean":
+            return result.mean(self.quantity), result.stderr(self.quantity)
+        return result.var(self.quantity), result.var_stderr(self.quantity)
+
+    def simulated_scaled(self, result: Result):
+        """:meth:`simulated` in the paper's scaled units."""
+        kind = quantity(self.quantity).kind
+        power = 1 if self.statistic == "mean" else 2
+        return tuple(to_scaled(result, x, kind, power) for x in self.simulated(result))
+
+
+#: The paper's four curves (Figs. 2-5), in the order tables and figures show them.
+CURVES = (
+    Curve("distance_mean", "distance", "mean", False, "E U3", "fig2_distance_mean",
+          r"$E\,U_3$", "Mean scaled distance travelled (Fig. 2)"),
+    Curve("velocity_var", "velocity", "var", False, "Var U1", "fig3_velocity_var",
+          r"Var $U_1$", "Variance of the scaled velocity (Fig. 3)"),
+    Curve("displacement_var", "displacement", "var", True, "Var U2", "fig4_displacement_var",
+          r"Var $U_2$", "Variance of the scaled displacement (Fig. 4)"),
+    Curve("distance_var", "distance", "var", True, "Var U3", "fig5_distance_var",
+          r"Var $U_3$", "Variance of the scaled distance (Fig. 5)"),
+)
+
+
+def curve(name: str) -> Curve:
+    """The curve of ``CURVES`` called ``name`` (KeyError if none)."""
+    for c in CURVES:
+        if c.name == name:
+            return c
+    raise KeyError(name)
 
 
 def _num(x, spec: str) -> str:
@@ -67,57 +164,47 @@ def comparison(result: Result) -> str:
     values only while the noise is on (tau <= tau0). The simulated numbers carry the method's
     bias (bench/bias.py) on top of the statistical error.
     """
-    tau, tau0, fv, fl, ft = scaled_factors(result)
-    obs = result.scene.observe
+    tau, tau0, *_ = scaled_factors(result)
+    names = result.names
     lines = [f"paths={result.paths}  seed={result.seed}  method={result.method}  "
              f"dt={result.dt:.4g}  (scaled units; z = (simulated - analytic) / stderr)"]
     head = f"{'tau':>6}"
-    cols = []
-    if "distance" in obs:
-        cols.append(("E U3", "distance", "mean", fl, lambda t: analytic.distance_mean(t, tau0)))
-    if "velocity" in obs:
-        cols.append(("Var U1", "velocity", "var", fv, lambda t: analytic.velocity_var(t, tau0)))
-    if "displacement" in obs:
-        cols.append(("Var U2", "displacement", "var", fl,
-                     lambda t: analytic.displacement_var(t, tau0) if t <= tau0 else None))
-    if "distance" in obs:
-        cols.append(("Var U3", "distance", "var", fl,
-                     lambda t: analytic.distance_var(t, tau0) if t <= tau0 else None))
-    for label, *_ in cols:
-        head += f" | {label + ' sim':>10} {'±se':>9} {'analytic':>10} {'z':>6}"
+    cols = [c for c in CURVES if c.quantity in names]
+    for c in cols:
+        head += f" | {c.label + ' sim':>10} {'±se':>9} {'analytic':>10} {'z':>6}"
     lines.append(head)
-    stats = {}
-    for label, name, kind, f, _ in cols:
-        if kind == "mean":
-            stats[label] = (result.mean(name) * f, result.stderr(name) * f)
-        else:
-            stats[label] = (result.var(name) * f * f, result.var_stderr(name) * f * f)
+    stats = {c.name: c.simulated_scaled(result) for c in cols}
     for i, t in enumerate(np.atleast_1d(tau)):
         row = f"{t:>6.3g}"
-        for label, _, _, _, ref in cols:
-            sim, se = stats[label]
-            r = ref(float(t))
-            row += " | " + _cell(sim[i], se[i], None if r is None else float(r))
+        for c in cols:
+            sim, se = stats[c.name]
+            ref = float(c.analytic(float(t), tau0)) if c.in_domain(float(t), tau0) else None
+            row += " | " + _cell(sim[i], se[i], ref)
         lines.append(row)
-    if "stop" in obs:
+
+    def at_stop(name, statistic):
+        kind = quantity(name).kind
+        if statistic == "mean":
+            return to_scaled(result, result.mean(name), kind), to_scaled(
+                result, result.stderr(name), kind)
+        return (to_scaled(result, result.var(name), kind, 2),
+                to_scaled(result, result.var_stderr(name), kind, 2))
+
+    if "stop_time" in names:
         lines.append("")
         lines.append("At the stop (tau_s = tau0 + |U1(tau0)| / 2, eq14):")
-        ts, ts_se = result.mean("stop_time") * ft, result.stderr("stop_time") * ft
-        lines.append(f"  E tau_s        {_cell(ts, ts_se, float(analytic.stop_time_mean(tau0)))}")
-        vs, vs_se = result.var("stop_time") * ft**2, result.var_stderr("stop_time") * ft**2
-        lines.append(f"  Var tau_s      {_cell(vs, vs_se, float(analytic.stop_time_var(tau0)))}")
-        if "displacement" in obs:
-            v = result.var("displacement_at_stop") * fl**2
-            se = result.var_stderr("displacement_at_stop") * fl**2
-            lines.append(f"  Var U2(tau_s)  {_cell(v, se, float(analytic.displacement_at_stop_var(tau0)))}")
-        if "distance" in obs:
-            v = result.var("distance_at_stop") * fl**2
-            se = result.var_stderr("distance_at_stop") * fl**2
-            lines.append(f"  Var U3(tau_s)  {_cell(v, se, float(analytic.distance_at_stop_var(tau0)))}")
-            m = result.mean("distance_at_stop") * fl
-            se = result.stderr("distance_at_stop") * fl
+        lines.append(f"  E tau_s        "
+                     f"{_cell(*at_stop('stop_time', 'mean'), float(analytic.stop_time_mean(tau0)))}")
+        lines.append(f"  Var tau_s      "
+                     f"{_cell(*at_stop('stop_time', 'var'), float(analytic.stop_time_var(tau0)))}")
+        if "displacement_at_stop" in names:
+            ref = float(analytic.displacement_at_stop_var(tau0))
+            lines.append(f"  Var U2(tau_s)  {_cell(*at_stop('displacement_at_stop', 'var'), ref)}")
+        if "distance_at_stop" in names:
+            ref = float(analytic.distance_at_stop_var(tau0))
+            lines.append(f"  Var U3(tau_s)  {_cell(*at_stop('distance_at_stop', 'var'), ref)}")
             lines.append("")
             lines.append("Energy law (eq7): mean friction loss = foundation's mean kinetic energy at t0,")
             lines.append("i.e. E[U3(tau_s)] = tau0 / 2:")
-            lines.append(f"  E U3(tau_s)    {_cell(m, se, tau0 / 2)}")
+            lines.append(f"  E U3(tau_s)    {_cell(*at_stop('distance_at_stop', 'mean'), tau0 / 2)}")
     return "\n".join(lines)

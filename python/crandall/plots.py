@@ -16,9 +16,11 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
-from . import _core, analytic
-from .paper import scaled_factors
+from . import analytic
+from .engine import velocity_samples
+from .paper import CURVES, Curve, curve, scaled_factors
 from .results import Result
+from .spec import MAX_SEED, check_int
 
 __all__ = [
     "distance_mean",
@@ -64,22 +66,17 @@ def _switch_off_line(ax, tau0, right):
                     xytext=(3, -12), textcoords="offset points", fontsize=8, color="0.4")
 
 
-def _moment_figure(result: Result, *, name: str, kind: str, curve, noise_on_only: bool,
-                   ylabel: str, title: str):
+def _moment_figure(result: Result, c: Curve):
     if not isinstance(result, Result):
         raise ValueError(f"result must be a crandall.Result, got {type(result).__name__}")
-    if name not in result.names:
-        raise ValueError(f"result: {name!r} was not observed in this scene")
-    tau, tau0, fv, fl, _ = scaled_factors(result)
-    f = fv if name == "velocity" else fl
-    if kind == "mean":
-        sim, se = result.mean(name) * f, result.stderr(name) * f
-    else:
-        sim, se = result.var(name) * f * f, result.var_stderr(name) * f * f
+    if c.quantity not in result.names:
+        raise ValueError(f"result: {c.quantity!r} was not observed in this scene")
+    tau, tau0, *_ = scaled_factors(result)
+    sim, se = c.simulated_scaled(result)
     fig = _figure()
     ax = fig.add_subplot()
-    grid = _curve_grid(tau, tau0, noise_on_only=noise_on_only)
-    ax.plot(grid, curve(grid, tau0), label="analytic", **_CURVE)
+    grid = _curve_grid(tau, tau0, noise_on_only=c.noise_on_only)
+    ax.plot(grid, c.analytic(grid, tau0), label="analytic", **_CURVE)
     ax.errorbar(tau, sim, yerr=Z95 * se, label=f"simulated, ±{Z95} stderr ({result.paths:,} paths)",
                 **_SIM)
     right = max(grid[-1], float(np.max(tau)) if np.size(tau) else 0.0)
@@ -87,9 +84,9 @@ def _moment_figure(result: Result, *, name: str, kind: str, curve, noise_on_only
     ax.set_xlim(0, right * 1.02)
     ax.set_ylim(bottom=0)
     ax.set_xlabel(r"scaled time $\tau$")
-    ax.set_ylabel(ylabel)
+    ax.set_ylabel(c.ylabel)
     where = "" if result.scene.units == "scaled" else " (SI scene in scaled units, eq8)"
-    ax.set_title(title + where, fontsize=10)
+    ax.set_title(c.title + where, fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="best")
     return fig
@@ -107,9 +104,7 @@ def distance_mean(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, name="distance", kind="mean", noise_on_only=False,
-                          curve=lambda t, t0: analytic.distance_mean(t, t0),
-                          ylabel=r"$E\,U_3$", title="Mean scaled distance travelled (Fig. 2)")
+    return _moment_figure(result, curve("distance_mean"))
 
 
 def velocity_var(result: Result):
@@ -124,9 +119,7 @@ def velocity_var(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, name="velocity", kind="var", noise_on_only=False,
-                          curve=lambda t, t0: analytic.velocity_var(t, t0),
-                          ylabel=r"Var $U_1$", title="Variance of the scaled velocity (Fig. 3)")
+    return _moment_figure(result, curve("velocity_var"))
 
 
 def displacement_var(result: Result):
@@ -144,10 +137,7 @@ def displacement_var(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, name="displacement", kind="var", noise_on_only=True,
-                          curve=lambda t, t0: analytic.displacement_var(t, t0),
-                          ylabel=r"Var $U_2$",
-                          title="Variance of the scaled displacement (Fig. 4)")
+    return _moment_figure(result, curve("displacement_var"))
 
 
 def distance_var(result: Result):
@@ -164,22 +154,11 @@ def distance_var(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, name="distance", kind="var", noise_on_only=True,
-                          curve=lambda t, t0: analytic.distance_var(t, t0),
-                          ylabel=r"Var $U_3$", title="Variance of the scaled distance (Fig. 5)")
+    return _moment_figure(result, curve("distance_var"))
 
 
 def _check_samples(paths, seed):
-    if isinstance(paths, bool) or not isinstance(paths, (int, np.integer)) or paths < 100:
-        raise ValueError(f"paths must be an integer >= 100, got {paths!r}")
-    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 1 << 64:
-        raise ValueError(f"seed must be an integer in [0, 2**64), got {seed!r}")
-    return int(paths), int(seed)
-
-
-def _velocity_samples(tau: float, paths: int, seed: int) -> np.ndarray:
-    # One exact step from rest to tau per path: exact in law for any tau (docs/exact-step.md).
-    return _core.exact_steps(np.zeros(paths), float(tau), 2.0, math.sqrt(2.0), seed)
+    return check_int("paths", paths, 100), check_int("seed", seed, 0, MAX_SEED)
 
 
 def velocity_density(times: Sequence[float] = (0.25, 1.0, 5.0), *, paths: int = 200_000,
@@ -213,7 +192,7 @@ def velocity_density(times: Sequence[float] = (0.25, 1.0, 5.0), *, paths: int = 
     fig = _figure(width=3.2 * len(taus) + 0.6, height=3.8)
     axes = fig.subplots(1, len(taus), squeeze=False)[0]
     for i, (ax, tau) in enumerate(zip(axes, taus)):
-        y = _velocity_samples(tau, paths, seed + i)
+        y = velocity_samples(tau, paths, seed + i)
         # Four standard deviations: all but the far tail (Var U1 <= 1/2 at every tau).
         half = max(4.0 * math.sqrt(float(analytic.velocity_var(tau))), 0.05)
         ax.hist(y, bins=np.linspace(-half, half, 61), density=True, histtype="stepfilled",
@@ -251,7 +230,7 @@ def stop_time_density(tau0: float = 5.0, *, paths: int = 200_000, seed: int = 0)
             or not math.isfinite(tau0) or tau0 <= 0:
         raise ValueError(f"tau0 must be finite and > 0, got {tau0!r}")
     tau0 = float(tau0)
-    stops = tau0 + np.abs(_velocity_samples(tau0, paths, seed)) / 2
+    stops = tau0 + np.abs(velocity_samples(tau0, paths, seed)) / 2
     mean, sd = float(analytic.stop_time_mean(tau0)), math.sqrt(float(analytic.stop_time_var(tau0)))
     right = mean + 5 * sd
     fig = _figure()
@@ -293,15 +272,7 @@ def figures(result: Result, *, paths: int = 200_000) -> Dict[str, object]:
     """
     tau, tau0, *_ = scaled_factors(result)  # raises ValueError for scenes without scaled units
     names = result.names
-    out = {}
-    if "distance" in names:
-        out["fig2_distance_mean"] = distance_mean(result)
-    if "velocity" in names:
-        out["fig3_velocity_var"] = velocity_var(result)
-    if "displacement" in names:
-        out["fig4_displacement_var"] = displacement_var(result)
-    if "distance" in names:
-        out["fig5_distance_var"] = distance_var(result)
+    out = {c.figure: _moment_figure(result, c) for c in CURVES if c.quantity in names}
     seed = result.seed
     on = sorted({float(t) for t in np.atleast_1d(tau) if 0 < t <= tau0})
     if len(on) > 3:

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import math
 import warnings
-from typing import Optional
+from typing import NamedTuple, Optional
 
 import numpy as np
 
-from . import _core
-from .scene import STOP_QUANTITIES, Scene
+from . import _core, _dataset
+from .quantities import core_flags, find, names_for, quantity
+from .scene import Scene
+from .spec import RunSpec
 
-__all__ = ["Result", "StatisticsWarning"]
+__all__ = ["Result", "Accumulators", "StatisticsWarning"]
 
 
 class StatisticsWarning(UserWarning):
@@ -23,13 +25,10 @@ class StatisticsWarning(UserWarning):
     at a step far too long for it) or overflows doubles.
     """
 
-_EXPONENTS = [tuple(e) for e in _core.monomial_exponents()]
+#: Exponents (velocity, displacement, distance) of the accumulators' moments, in their order.
+MONOMIALS = tuple(tuple(e) for e in _core.monomial_exponents())
+_EXPONENTS = list(MONOMIALS)
 _INDEX = {e: i for i, e in enumerate(_EXPONENTS)}
-# Which simulated variable (0 velocity, 1 displacement, 2 distance) carries each quantity.
-_VARIABLE = {"velocity": 0, "displacement": 1, "distance": 2, "dissipated_energy": 2,
-             "kinetic_energy": 0}
-_STOP_VARIABLE = {"stop_time": 0, "displacement_at_stop": 1, "distance_at_stop": 2,
-                  "dissipated_energy_at_stop": 2}
 
 
 def _sqrt(x: float) -> float:
@@ -46,6 +45,22 @@ def _e(v: int, power: int) -> int:
     exps = [0, 0, 0]
     exps[v] = power
     return _INDEX[tuple(exps)]
+
+
+class Accumulators(NamedTuple):
+    """The merged accumulators a result's statistics come from (``Result.accumulators``).
+
+    Each is a ``crandall._core.Moments``: ``counts``, ``means`` (of velocity, displacement,
+    distance) and ``central`` sums per slot, exactly as the run merged them; saving them
+    (``crandall.io``) is what makes a loaded result bitwise the saved one. Read them only:
+    the result's statistics are computed from the same objects.
+    """
+
+    #: One slot per output time.
+    times: object
+    #: One slot: the stop (time after the switch-off, and the integrals there); None when the
+    #: scene does not observe "stop".
+    stop: Optional[object]
 
 
 class Result:
@@ -95,6 +110,18 @@ class Result:
         self._stop_raw = stop_moments.raw() if stop_moments is not None else None
 
     @property
+    def spec(self) -> RunSpec:
+        """The run's specification (scene, paths, seed, dt, method, min_steps): what a
+        checkpoint of the run records. ``min_steps > 0`` is the default graded grid, which
+        ``simulate`` repeats with ``dt=None``."""
+        return RunSpec(self.scene, self.paths, self.seed, self.dt, self.method, self.min_steps)
+
+    @property
+    def accumulators(self) -> Accumulators:
+        """The raw accumulators of the run (see :class:`Accumulators`)."""
+        return Accumulators(self._moments, self._stop)
+
+    @property
     def times(self) -> np.ndarray:
         """Output times, in the scene's time units (s, or scaled tau)."""
         return self.scene.times
@@ -102,11 +129,7 @@ class Result:
     @property
     def names(self) -> tuple:
         """The quantities this result holds."""
-        obs = self.scene.observe
-        out = [n for n in obs if n != "stop"]
-        if "stop" in obs:
-            out += [q for q, need in STOP_QUANTITIES.items() if need is None or need in obs]
-        return tuple(out)
+        return names_for(self.scene.observe)
 
     # -- statistics ---------------------------------------------------------------------
 
@@ -115,32 +138,28 @@ class Result:
             raise ValueError(
                 f"name: {name!r} is not in this result; it holds {', '.join(self.names)}"
             )
-        if name in _STOP_VARIABLE:
-            return self._stop, self._stop_raw, _STOP_VARIABLE[name], True
-        return self._moments, self._raw, _VARIABLE[name], False
+        q = quantity(name)
+        if q.at_stop:
+            return self._stop, self._stop_raw, q.variable, True
+        return self._moments, self._raw, q.variable, False
 
     def _factor(self, name: str) -> float:
-        base = name.replace("_at_stop", "")
-        if base == "dissipated_energy":
-            return self.scene.mass * self.scene.drift
-        if base == "kinetic_energy":
-            return 0.5 * self.scene.mass
-        return 1.0
+        return quantity(name).factor(self.scene)
 
     def _stats(self, name: str):
         acc, raw, v, scalar = self._source(name)
         n = acc.counts
         f = self._factor(name)
         with np.errstate(invalid="ignore", divide="ignore"):
-            if name == "kinetic_energy":
+            q = quantity(name)
+            if q.power == 2:
                 m2, m4 = raw[:, _e(v, 2)], raw[:, _e(v, 4)]
                 mean = f * m2
                 spread = (m4 - m2 * m2) * n
             else:
                 mean = f * acc.means[:, v]
-                if name == "stop_time":
-                    # The core keeps the time from the switch-off to the stop (exact at any t0).
-                    mean = mean + self.scene.t0
+                if q.offset is not None:
+                    mean = mean + q.offset(self.scene)
                 spread = acc.central[:, _e(v, 2)]
             # An extrapolated second moment may be negative with few paths: truncated at 0
             # (see the class docstring). Fewer than 2 paths: undefined (NaN).
@@ -196,8 +215,9 @@ class Result:
         scene: the combination of the grids is then no distribution's moments); or fourth
         moments that overflow doubles. Never 0 unless the quantity is constant (m2 = m4 = 0).
         """
-        if name == "kinetic_energy":
-            raise ValueError("name: the variance of kinetic_energy has no standard error "
+        known = find(name)
+        if known is not None and not known.has_var_stderr:
+            raise ValueError(f"name: the variance of {name} has no standard error "
                              "here (needs moments of order 8)")
         acc, _, v, scalar = self._source(name)
         n = acc.counts
@@ -235,10 +255,10 @@ class Result:
                 raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
         if j + k + l > 4:
             raise ValueError(f"j + k + l must be <= 4 (moments are kept to order 4), got {j + k + l}")
-        obs = self.scene.observe
-        if k and "displacement" not in obs:
+        recorded = core_flags(self.scene.observe)
+        if k and not recorded["displacement"]:
             raise ValueError("k: the displacement (U2) was not observed in this scene")
-        if l and not ({"distance", "dissipated_energy"} & set(obs)):
+        if l and not recorded["distance"]:
             raise ValueError("l: the distance (U3) was not observed in this scene")
         value = self._raw[:, _INDEX[(j, k, l)]].copy()
         if self.scene.units == "SI":
@@ -246,11 +266,7 @@ class Result:
             if s is None:
                 raise ValueError("moment: scaled units need mu > 0 and h > 0 with scales "
                                  "that fit in doubles (eq8; Scene.scaling is None)")
-            # One factor at a time: the product of the scales may overflow where the moment
-            # itself does not.
-            for scale, power in ((s.velocity_scale, j), (s.length_scale, k + l)):
-                for _ in range(power):
-                    value /= scale
+            value = s.to_scaled(s.to_scaled(value, "velocity", j), "length", k + l)
         return value
 
     # -- presentation -------------------------------------------------------------------
@@ -266,7 +282,7 @@ class Result:
         ]
         if self.paths < 2:
             lines.append("  (n/a: a variance needs at least 2 paths)")
-        time_names = [n for n in self.names if n not in STOP_QUANTITIES]
+        time_names = [n for n in self.names if not quantity(n).at_stop]
         if time_names and self.times.size:
             # One block per quantity: time, mean ± standard error, variance, standard deviation.
             for n in time_names:
@@ -279,7 +295,7 @@ class Result:
                     lines.append(f"    {t:>10.4g}  {mean[i]:>13.6g}  "
                                  f"{_fmt(_sqrt(var[i] / cnt[i]), '10.2g')}  "
                                  f"{_fmt(var[i], '12.6g')}  {_fmt(_sqrt(var[i]), '12.6g')}")
-        stop_names = [n for n in self.names if n in STOP_QUANTITIES]
+        stop_names = [n for n in self.names if quantity(n).at_stop]
         if stop_names:
             lines.append("  at the stop:")
             for n in stop_names:
@@ -308,9 +324,7 @@ class Result:
             JSON and one ``scene_*`` attribute per parameter), paths, seed (a string: it may
             not fit a netCDF-3 integer), dt, method, crandall version.
         """
-        from . import io
-
-        return io.to_xarray(self)
+        return _dataset.to_xarray(self)
 
     def to_pandas(self):
         """The statistics as a ``pandas.DataFrame``, one row per quantity and time.
@@ -322,9 +336,7 @@ class Result:
             ``units``, ``mean``, ``var``, ``std``, ``stderr``, ``var_stderr`` (NaN for the
             kinetic energy).
         """
-        from . import io
-
-        return io.to_pandas(self)
+        return _dataset.to_pandas(self)
 
     def save(self, path) -> None:
         """Write the result to a netCDF file (replaced atomically); read it with
@@ -335,9 +347,7 @@ class Result:
         path : str or os.PathLike
             Conventionally ending in ``.nc``.
         """
-        from . import io
-
-        io.save(self, path)
+        _dataset.save(self, path)
 
     def __repr__(self) -> str:
         return (f"<crandall.Result {self.scene!r} paths={self.paths} seed={self.seed} "

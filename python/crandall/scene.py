@@ -5,54 +5,32 @@ from __future__ import annotations
 import math
 import numbers
 import os
-import sys
 from typing import Any, Dict, Iterable, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
-from .methods import METHODS
+from . import scene_file
+from .errors import ParameterError
+from .quantities import OBSERVABLES, STOP_QUANTITIES, quantity
+from .scene_file import MAX_RANGE_TIMES, RUN_SETTINGS
+from .scene_file import SCALED_KEYS as _SCALED_KEYS
+from .scene_file import SI_KEYS as _SI_KEYS
 from .units import Scaling
 
-__all__ = ["Scene", "OBSERVABLES", "STOP_QUANTITIES", "RUN_SETTINGS", "MAX_RANGE_TIMES"]
-
-#: Everything a scene can observe. "stop" is the stop time; with displacement, distance or
-#: dissipated energy also observed, their values at the stop as well.
-OBSERVABLES = (
-    "velocity",
-    "displacement",
-    "distance",
-    "kinetic_energy",
-    "dissipated_energy",
-    "stop",
-)
-
-#: Scalar quantities at the stop, and the observable each needs besides "stop".
-STOP_QUANTITIES = {
-    "stop_time": None,
-    "displacement_at_stop": "displacement",
-    "distance_at_stop": "distance",
-    "dissipated_energy_at_stop": "dissipated_energy",
-}
-
-
-#: Keys of a scene file's [run] table, as ``simulate`` takes them.
-RUN_SETTINGS = ("paths", "seed", "method", "dt")
-
-#: Most output times a scene file's range may give (either form, {start, stop, num} or
-#: {start, stop, step}); checked before the times are built.
-MAX_RANGE_TIMES = 10_000_000
+__all__ = ["Scene", "OBSERVABLES", "STOP_QUANTITIES", "RUN_SETTINGS", "MAX_RANGE_TIMES",
+           "ParameterError"]
 
 
 def _number(name: str, value, *, positive: bool = False, allow_inf: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name} must be a real number, got {value!r}")
+        raise ParameterError(name, f"{name} must be a real number, got {value!r}")
     value = float(value)
     if math.isnan(value):
-        raise ValueError(f"{name} must not be NaN")
+        raise ParameterError(name, f"{name} must not be NaN")
     if math.isinf(value) and not (allow_inf and value > 0):
-        raise ValueError(f"{name} must be finite, got {value!r}")
+        raise ParameterError(name, f"{name} must be finite, got {value!r}")
     if value < 0 or (positive and value == 0):
-        raise ValueError(f"{name} must be {'> 0' if positive else '>= 0'}, got {value!r}")
+        raise ParameterError(name, f"{name} must be {'> 0' if positive else '>= 0'}, got {value!r}")
     return value
 
 
@@ -64,14 +42,14 @@ def _check_real(items) -> None:
             kind = ("booleans" if isinstance(v, (bool, np.bool_)) else
                     "complex numbers" if isinstance(v, numbers.Complex) else
                     "strings" if isinstance(v, (str, bytes)) else type(v).__name__)
-            raise ValueError(f"times must be real numbers, got {kind} (times[{i}] = {v!r})")
+            raise ParameterError("times", f"times must be real numbers, got {kind} (times[{i}] = {v!r})")
 
 
 def _times(times, t0: float, observe: Sequence[str]) -> np.ndarray:
     if times is None:
         times = []
     if isinstance(times, (str, bytes)):
-        raise ValueError(f"times must be a sequence of numbers, got a string {times!r}")
+        raise ParameterError("times", f"times must be a sequence of numbers, got a string {times!r}")
     if not isinstance(times, np.ndarray):
         # Element by element: NumPy would turn [True, 2.0] into [1.0, 2.0] silently.
         try:
@@ -82,30 +60,30 @@ def _times(times, t0: float, observe: Sequence[str]) -> np.ndarray:
     try:
         raw = np.asarray(times)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"times must be a sequence of numbers: {exc}") from None
+        raise ParameterError("times", f"times must be a sequence of numbers: {exc}") from None
     if raw.dtype.kind == "O":
         _check_real(raw.ravel())  # an object array would convert "1" to 1.0
     elif raw.dtype.kind not in "iuf":
         what = {"b": "booleans", "c": "complex numbers", "U": "strings", "S": "bytes",
                 "M": "datetimes", "m": "timedeltas"}.get(raw.dtype.kind, str(raw.dtype))
-        raise ValueError(f"times must be real numbers, got {what}")
+        raise ParameterError("times", f"times must be real numbers, got {what}")
     try:
         arr = np.array(np.atleast_1d(raw), dtype=float, copy=True)
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"times must be a sequence of numbers: {exc}") from None
+        raise ParameterError("times", f"times must be a sequence of numbers: {exc}") from None
     # ``arr`` is a copy: the scene's times are made read-only, the caller's array stays as it was.
     if arr.ndim != 1:
-        raise ValueError(f"times must be one-dimensional, got shape {arr.shape}")
+        raise ParameterError("times", f"times must be one-dimensional, got shape {arr.shape}")
     if np.isnan(arr).any():
-        raise ValueError("times must not contain NaN")
+        raise ParameterError("times", "times must not contain NaN")
     if not np.isfinite(arr).all():
-        raise ValueError("times must be finite")
+        raise ParameterError("times", "times must be finite")
     if (arr < 0).any():
-        raise ValueError(f"times must be >= 0, got {arr[arr < 0][0]!r}")
+        raise ParameterError("times", f"times must be >= 0, got {arr[arr < 0][0]!r}")
     if arr.size > 1 and not (np.diff(arr) > 0).all():
-        raise ValueError("times must be strictly increasing (sorted, no repeats)")
+        raise ParameterError("times", "times must be strictly increasing (sorted, no repeats)")
     if arr.size == 0 and tuple(observe) != ("stop",):
-        raise ValueError("times must not be empty (only a scene observing just 'stop' may omit them)")
+        raise ParameterError("times", "times must not be empty (only a scene observing just 'stop' may omit them)")
     return arr
 
 
@@ -113,21 +91,21 @@ def _observe(observe) -> tuple:
     if isinstance(observe, str):
         observe = (observe,)
     if isinstance(observe, (bytes, bytearray, dict)):
-        raise ValueError(f"observe must be a name or a list of names, got {observe!r}")
+        raise ParameterError("observe", f"observe must be a name or a list of names, got {observe!r}")
     try:
         names = list(observe)
     except TypeError:
-        raise ValueError(f"observe must be a name or a list of names, got {observe!r}") from None
+        raise ParameterError("observe", f"observe must be a name or a list of names, got {observe!r}") from None
     for n in names:
         if not isinstance(n, str):
-            raise ValueError(f"observe: names must be strings, got {n!r}")
+            raise ParameterError("observe", f"observe: names must be strings, got {n!r}")
     unknown = [n for n in names if n not in OBSERVABLES]
     if unknown:
-        raise ValueError(
+        raise ParameterError("observe", 
             f"observe: unknown observable {unknown[0]!r}; choose from {', '.join(OBSERVABLES)}"
         )
     if not names:
-        raise ValueError("observe must name at least one observable")
+        raise ParameterError("observe", "observe must name at least one observable")
     return tuple(n for n in OBSERVABLES if n in names)
 
 
@@ -204,7 +182,7 @@ class Scene:
         g = _number("g", g, positive=True)
         mass = _number("mass", mass, positive=True)
         if not math.isfinite(mu * g):
-            raise ValueError(f"mu, g: the friction deceleration mu g = {mu!r} * {g!r} overflows "
+            raise ParameterError("mu, g", f"mu, g: the friction deceleration mu g = {mu!r} * {g!r} overflows "
                              "doubles")
         self._setup(
             units="SI",
@@ -257,13 +235,13 @@ class Scene:
     def _setup(self, *, units, drift, noise, t0, times, observe, mass, params, scaling):
         can_stop = math.isfinite(t0) and (drift > 0 or noise == 0)
         if observe is None:
-            observe = OBSERVABLES if can_stop else OBSERVABLES[:-1]
+            observe = OBSERVABLES if can_stop else tuple(n for n in OBSERVABLES if n != "stop")
         observe = _observe(observe)
         if "stop" in observe and not math.isfinite(t0):
             name = "t0" if units == "SI" else "tau0"
-            raise ValueError(f"observe: 'stop' needs a finite {name}: the excitation never ends")
+            raise ParameterError("observe", f"observe: 'stop' needs a finite {name}: the excitation never ends")
         if "stop" in observe and not can_stop:
-            raise ValueError("observe: 'stop' needs mu > 0: without friction the body never stops")
+            raise ParameterError("observe", "observe: 'stop' needs mu > 0: without friction the body never stops")
         self.units = units
         self.drift = float(drift)
         self.noise = float(noise)
@@ -362,7 +340,13 @@ class Scene:
             If the file cannot be read or parsed, or a key is missing, unknown or has a bad
             value: the message names the file, the key and what is wrong.
         """
-        return _scene_from_toml(path)
+        parsed = scene_file.read(path)
+        try:
+            scene = cls(**parsed.kwargs) if parsed.units == "SI" else cls.scaled(**parsed.kwargs)
+        except ValueError as exc:
+            raise parsed.error_of(exc) from None
+        scene.run_settings = parsed.run_settings()
+        return scene
 
     @property
     def time_name(self) -> str:
@@ -372,150 +356,9 @@ class Scene:
         """Units of an observable or stop quantity in this scene ("" in scaled units)."""
         if self.units == "scaled":
             return ""
-        base = name.replace("_at_stop", "")
-        return {"velocity": "m/s", "displacement": "m", "distance": "m", "kinetic_energy": "J",
-                "dissipated_energy": "J", "stop_time": "s"}[base]
+        return quantity(name).si_unit
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
         ctor = "Scene" if self.units == "SI" else "Scene.scaled"
         return f"{ctor}({args}, times=<{self.times.size} times>, observe={list(self.observe)!r})"
-
-
-# -- scene files ---------------------------------------------------------------------------
-
-if sys.version_info >= (3, 11):
-    import tomllib as _toml
-else:  # pragma: no cover - Python < 3.11
-    import tomli as _toml
-
-_SI_KEYS = ("mu", "h", "t0", "g", "mass")
-_SCALED_KEYS = ("tau0",)
-_RANGE_KEYS = ("start", "stop", "num", "step")
-
-
-def _file_error(path, key: str, what: str) -> ValueError:
-    return ValueError(f"{os.fspath(path)}: {key}: {what}")
-
-
-def _real(path, key, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise _file_error(path, key, f"must be a number, got {value!r}")
-    return float(value)
-
-
-def _times_from_file(path, value):
-    key = "scene.times"
-    if isinstance(value, list):
-        return [_real(path, f"{key}[{i}]", v) for i, v in enumerate(value)]
-    if not isinstance(value, dict):
-        raise _file_error(path, key, "must be a list of times or a table {start, stop, num} "
-                                     f"or {{start, stop, step}}, got {value!r}")
-    unknown = sorted(set(value) - set(_RANGE_KEYS))
-    if unknown:
-        raise _file_error(path, f"{key}.{unknown[0]}",
-                          f"unknown key; a range has {', '.join(_RANGE_KEYS)}")
-    for k in ("start", "stop"):
-        if k not in value:
-            raise _file_error(path, f"{key}.{k}", "missing (a range needs start and stop)")
-    start = _real(path, f"{key}.start", value["start"])
-    stop = _real(path, f"{key}.stop", value["stop"])
-    if not math.isfinite(start) or not math.isfinite(stop) or stop < start:
-        raise _file_error(path, f"{key}.stop",
-                          f"need finite start <= stop, got start={start!r}, stop={stop!r}")
-    if ("num" in value) == ("step" in value):
-        raise _file_error(path, key, "a range needs exactly one of num or step")
-    if "num" in value:
-        num = value["num"]
-        if isinstance(num, bool) or not isinstance(num, int) or num < 1:
-            raise _file_error(path, f"{key}.num", f"must be an integer >= 1, got {num!r}")
-        if num == 1 and stop != start:
-            raise _file_error(path, f"{key}.num", "num = 1 needs start == stop")
-        if num > MAX_RANGE_TIMES:
-            raise _file_error(path, f"{key}.num",
-                              f"gives {num} times; at most {MAX_RANGE_TIMES} are allowed")
-        return np.linspace(start, stop, num).tolist()
-    step = _real(path, f"{key}.step", value["step"])
-    if not math.isfinite(step) or step <= 0:
-        raise _file_error(path, f"{key}.step", f"must be finite and > 0, got {step!r}")
-    # The stop is included when it lies on the grid (up to rounding).
-    count = (stop - start) / step * (1 + 1e-12) + 1e-9 + 1.0
-    if not count <= MAX_RANGE_TIMES:  # compared as a float: (stop - start) / step may be inf
-        raise _file_error(path, f"{key}.step",
-                          f"gives {count:.3g} times; at most {MAX_RANGE_TIMES} are allowed")
-    n = int(math.floor(count))
-    return (start + step * np.arange(n)).tolist()
-
-
-def _scene_from_toml(path) -> Scene:
-    try:
-        with open(path, "rb") as f:
-            data = _toml.load(f)
-    except OSError as exc:
-        raise ValueError(f"{os.fspath(path)}: cannot read the scene file: {exc.strerror}") from None
-    except _toml.TOMLDecodeError as exc:
-        raise ValueError(f"{os.fspath(path)}: not valid TOML: {exc}") from None
-    unknown = sorted(set(data) - {"title", "description", "scene", "run"})
-    if unknown:
-        raise _file_error(path, unknown[0], "unknown key; a scene file has title, description, "
-                                            "[scene] and [run]")
-    if "scene" not in data or not isinstance(data["scene"], dict):
-        raise _file_error(path, "scene", "missing: a scene file needs a [scene] table")
-    sc = dict(data["scene"])
-    units = sc.pop("units", "SI")
-    if units not in ("SI", "scaled"):
-        raise _file_error(path, "scene.units", f"must be 'SI' or 'scaled', got {units!r}")
-    allowed = (_SI_KEYS if units == "SI" else _SCALED_KEYS) + ("times", "observe")
-    for k in sc:
-        if k not in allowed:
-            other = "SI" if units == "scaled" else "scaled"
-            hint = (f" (it belongs to units = '{other}')"
-                    if k in (_SI_KEYS if units == "scaled" else _SCALED_KEYS) else "")
-            raise _file_error(path, f"scene.{k}", f"unknown key for units = '{units}'{hint}; "
-                                                  f"allowed: {', '.join(allowed)}")
-    required = ("mu", "h", "t0", "times") if units == "SI" else ("tau0", "times")
-    for k in required:
-        if k not in sc:
-            raise _file_error(path, f"scene.{k}", "missing")
-    kwargs: Dict[str, Any] = {}
-    for k, v in sc.items():
-        if k == "times":
-            kwargs[k] = _times_from_file(path, v)
-        elif k == "observe":
-            if isinstance(v, str):
-                v = [v]
-            if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
-                raise _file_error(path, "scene.observe", f"must be a list of names, got {v!r}")
-            kwargs[k] = v
-        else:
-            kwargs[k] = _real(path, f"scene.{k}", v)
-    try:
-        scene = Scene(**kwargs) if units == "SI" else Scene.scaled(**kwargs)
-    except ValueError as exc:
-        # The constructor's message starts with the parameter's name.
-        msg = str(exc)
-        word = msg.split()[0].rstrip(":") if msg else ""
-        key = f"scene.{word}" if word in allowed else "scene"
-        raise _file_error(path, key, msg) from None
-    run = data.get("run", {})
-    if not isinstance(run, dict):
-        raise _file_error(path, "run", "must be a table")
-    settings: Dict[str, Any] = {}
-    for k, v in run.items():
-        if k not in RUN_SETTINGS:
-            raise _file_error(path, f"run.{k}", f"unknown key; allowed: {', '.join(RUN_SETTINGS)}")
-        if k in ("paths", "seed"):
-            low = 1 if k == "paths" else 0
-            if isinstance(v, bool) or not isinstance(v, int) or v < low or v >= 1 << 64:
-                raise _file_error(path, f"run.{k}", f"must be an integer >= {low}, got {v!r}")
-        elif k == "dt":
-            v = _real(path, "run.dt", v)
-            if not math.isfinite(v) or v <= 0:
-                raise _file_error(path, "run.dt", f"must be finite and > 0, got {v!r}")
-        elif k == "method":
-            if v not in METHODS:
-                raise _file_error(path, "run.method", f"must be one of {', '.join(METHODS)}, "
-                                                      f"got {v!r}")
-        settings[k] = v
-    scene.run_settings = settings
-    return scene

@@ -1,4 +1,10 @@
-"""Running a scene: validation, the default step, the chunk loop."""
+"""Running scenes: the public entry points and the orchestration of a run's chunks.
+
+:func:`simulate` and :func:`simulate_many` check their arguments into a
+:class:`~crandall.spec.RunSpec`, then run its chunks locally or as Dask tasks
+(:func:`crandall.engine.run_chunks`), merge them in chunk order, keep the checkpoint and show
+the progress bar. The chunks themselves come from :mod:`crandall.engine`.
+"""
 
 from __future__ import annotations
 
@@ -9,51 +15,15 @@ from typing import Any, List, Optional, Sequence, Union
 
 import numpy as np
 
-from . import _core
 from . import checkpoint as _ckpt
-from .methods import (DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE,
-                      METHODS)
-from .results import Result
+from . import engine
+from .methods import DEFAULT_METHOD, GRIDS, METHODS
+from .quantities import simulated_variables
+from .results import MONOMIALS, Result
 from .scene import Scene
+from .spec import MAX_PATHS, RunSpec, check_int, default_dt
 
 __all__ = ["simulate", "simulate_many", "default_dt", "METHODS", "MAX_PATHS"]
-
-#: Most paths one run may have: path indices and chunk counts stay well inside 64 bits.
-MAX_PATHS = 1 << 63
-
-
-def default_dt(scene: Scene) -> float:
-    """The longest internal step that ``simulate(dt=None)`` uses for this scene, in its units.
-
-    Scaled scenes: ``DEFAULT_DT_TAU`` (0.01). Physical scenes with friction and excitation: the
-    same step in scaled time, ``0.01 * 2 h^2 / (mu g)^2`` seconds. Without friction (mu = 0),
-    or when that time scale is beyond doubles (``Scene.scaling`` is None): the horizon (the
-    last output time or t0) over ``DEFAULT_STEPS_FREE``. Without excitation
-    (h = 0) the body stays at rest and the step does not matter.
-
-    With ``dt=None`` the grid is also graded (``DEFAULT_MIN_STEPS``): before an output time or
-    the switch-off t the step is at most ``t / DEFAULT_MIN_STEPS``, so horizons far shorter
-    than this step are still resolved.
-    """
-    if scene.units == "scaled":
-        return DEFAULT_DT_TAU
-    if scene.scaling is not None:
-        return DEFAULT_DT_TAU * scene.scaling.time_scale
-    horizon = max([t for t in (scene.times[-1] if scene.times.size else 0.0, scene.t0)
-                   if math.isfinite(t)] + [0.0])
-    return horizon / DEFAULT_STEPS_FREE if horizon > 0 else 1.0
-
-
-def _check_int(name: str, value, minimum: int, maximum: Optional[int] = None) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"{name} must be an integer, got {value!r}")
-    value = int(value)
-    if value < minimum:
-        raise ValueError(f"{name} must be >= {minimum}, got {value}")
-    if maximum is not None and value > maximum:
-        raise ValueError(f"{name} must be <= {maximum}, got {value}")
-    return value
-
 
 def _read_int(path: str) -> Optional[int]:
     try:
@@ -143,7 +113,7 @@ def _memory_need(scene: Scene, threads: int, method: str) -> int:
     # the chunk's sums; then the combined chunk, the total, and raw moments and copies in
     # Python. Nothing grows with the number of paths. Each OpenMP thread also maps a stack.
     per_slot = 39 * 8
-    grids = {"richardson": 3, "richardson2": 2}.get(method, 1)
+    grids = GRIDS[method]
     slots = scene.times.size
     return slots * per_slot * (grids * (2 * threads + 1) + 5) + threads * (16 << 20)
 
@@ -162,56 +132,30 @@ def _check_memory(scene: Scene, threads: int, method: str = DEFAULT_METHOD) -> N
 
 def make_plan(scene: Scene, *, paths: int, seed: int, dt: float, method: str,
               min_steps: int = 0) -> "_core.Plan":
-    """The core's validated plan for a scene (used by simulate and by distributed runs)."""
-    o = _core.Options()
-    o.drift = scene.drift
-    o.noise = scene.noise
-    o.switch_off = scene.t0
-    o.times = scene.times.tolist()
-    o.dt = dt
-    o.min_steps = min_steps
-    o.method = method
-    obs = set(scene.observe)
-    o.velocity = bool(obs & {"velocity", "kinetic_energy"}) or not (
-        obs & {"displacement", "distance", "dissipated_energy"})
-    o.displacement = "displacement" in obs
-    o.distance = bool(obs & {"distance", "dissipated_energy"})
-    o.stop = "stop" in obs
-    o.seed = seed
-    o.paths = paths
-    return _core.Plan(o)
+    """The core's validated plan for a scene (see :func:`crandall.engine.make_plan`)."""
+    return engine.make_plan(RunSpec(scene, paths, seed, dt, method, min_steps))
 
 
 def validate_run(scene, paths, seed, dt, method, threads):
     """Check simulate's arguments; return them normalised (seed drawn if None), and the
-    graded grid's ``min_steps`` (``DEFAULT_MIN_STEPS`` with the default dt, else 0)."""
-    if not isinstance(scene, Scene):
-        raise ValueError(f"scene must be a crandall.Scene, got {type(scene).__name__}")
-    paths = _check_int("paths", paths, 1, MAX_PATHS)
-    if seed is None:
-        # Recorded on the result so the run can be repeated.
-        seed = int(np.random.SeedSequence().entropy % (1 << 64))
-    seed = _check_int("seed", seed, 0, (1 << 64) - 1)
-    min_steps = 0
-    if dt is None:
-        dt = default_dt(scene)
-        min_steps = DEFAULT_MIN_STEPS
-        if not (math.isfinite(dt) and dt > 0):
-            raise ValueError(f"dt: the scene's default step {dt!r} is not a usable number "
-                             "(times or t0 out of range); give dt")
-    else:
-        if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
-            raise ValueError(f"dt must be a number, got {dt!r}")
-        dt = float(dt)
-        if not math.isfinite(dt) or dt <= 0:
-            raise ValueError(f"dt must be finite and > 0, got {dt!r}")
-    if method not in METHODS:
-        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    graded grid's ``min_steps`` (``DEFAULT_MIN_STEPS`` with the default dt, else 0).
+
+    See :meth:`RunSpec.create` (where the checks live) and :func:`run_spec`.
+    """
+    spec, threads = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
+                             threads=threads)
+    return spec.paths, spec.seed, spec.dt, spec.method, threads, spec.min_steps
+
+
+def run_spec(scene, *, paths, seed, dt, method, threads):
+    """simulate's arguments checked: the run's spec, and the thread count (not part of it:
+    results do not depend on it) checked against the memory the accumulators need."""
+    spec = RunSpec.create(scene, paths=paths, seed=seed, dt=dt, method=method)
     if threads is None:
         threads = os.cpu_count() or 1
-    threads = _check_int("threads", threads, 1, 1024)
-    _check_memory(scene, threads, method)
-    return paths, seed, dt, method, threads, min_steps
+    threads = check_int("threads", threads, 1, 1024)
+    _check_memory(scene, threads, spec.method)
+    return spec, threads
 
 
 def _check_client(client) -> None:
@@ -223,31 +167,13 @@ def _check_client(client) -> None:
                              f"it has no {attr}()")
 
 
-def _plan_from_fields(scene_dict, paths, seed, dt, method, min_steps=0):
-    return make_plan(Scene.from_dict(scene_dict), paths=paths, seed=seed, dt=dt, method=method,
-                     min_steps=min_steps)
-
-
 def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads, min_steps=0,
                random_stream=None):
-    """Chunks ``first..last-1`` of a run, as a list of ``(times, stop)`` accumulators.
-
-    The task a Dask worker runs: plain data in, picklable accumulators out. The caller merges
-    the lists of all tasks in chunk order, which makes the result bitwise that of a local run.
-    ``random_stream``: the caller's random-stream version; a worker whose crandall draws
-    another stream refuses the task, so that a cluster never mixes two streams' numbers.
-    """
-    if random_stream is not None and random_stream != _core.RANDOM_STREAM:
-        raise ValueError(
-            f"random_stream: this worker's crandall draws random stream {_core.RANDOM_STREAM}, "
-            f"the client's draws stream {random_stream}; install the same crandall version on "
-            "every worker")
-    plan = _plan_from_fields(scene_dict, paths, seed, dt, method, min_steps)
-    out = []
-    for chunk in range(first, last):
-        part = _core.run_chunk(plan, chunk, threads)
-        out.append((part.times, part.stop))
-    return out
+    """The Dask task with the run's fields as positional arguments, as before run
+    specifications; :func:`crandall.engine.run_chunks` takes the spec itself."""
+    spec = RunSpec.from_dict({"scene": scene_dict, "paths": paths, "seed": seed, "dt": dt,
+                              "method": method, "min_steps": min_steps})
+    return engine.run_chunks(spec, first, last, threads, random_stream)
 
 
 def _interactive() -> bool:
@@ -278,17 +204,16 @@ def _progress_bar(progress, *, total: int, initial: int):
 class _Run:
     """One scene's run: the plan, the merge in chunk order, the checkpoint, the result."""
 
-    def __init__(self, scene, *, paths, seed, dt, method, threads, checkpoint, min_steps=0):
-        self.scene = scene
-        self.paths, self.seed, self.dt, self.method, self.threads = paths, seed, dt, method, threads
-        self.min_steps = min_steps
-        self.plan = make_plan(scene, paths=paths, seed=seed, dt=dt, method=method,
-                              min_steps=min_steps)
+    def __init__(self, spec: RunSpec, *, threads: int, checkpoint):
+        self.spec = spec
+        self.scene = spec.scene
+        self.paths = spec.paths
+        self.threads = threads
+        self.plan = engine.make_plan(spec)
         self.checkpoint = checkpoint
         self.done, self.times_acc, self.stop_acc = 0, None, None
         if checkpoint is not None:
-            self.ident = _ckpt.identity(scene, paths=paths, seed=seed, dt=dt, method=method,
-                                        min_steps=min_steps)
+            self.ident = _ckpt.identity(spec)
             self.done, self.times_acc, self.stop_acc = _ckpt.load(checkpoint, self.ident,
                                                                  self.plan.chunks)
             if self.done < self.plan.chunks:  # fail now, not after the first chunk
@@ -315,26 +240,22 @@ class _Run:
         bounds = [self.done + (left * i) // tasks for i in range(tasks + 1)]
         return [(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
 
-    def task_args(self):
-        return (self.scene.to_dict(), self.paths, self.seed, self.dt, self.method)
-
     def result(self):
         self._check_finite()
-        return Result(scene=self.scene, paths=self.paths, seed=self.seed, dt=self.dt,
-                      method=self.method, moments=self.times_acc,
+        spec = self.spec
+        return Result(scene=spec.scene, paths=spec.paths, seed=spec.seed, dt=spec.dt,
+                      method=spec.method, moments=self.times_acc,
                       stop_moments=self.stop_acc if "stop" in self.scene.observe else None,
-                      steps_per_path=self.plan.steps_per_path, min_steps=self.min_steps,
-                      random_stream=_core.RANDOM_STREAM)
+                      steps_per_path=self.plan.steps_per_path, min_steps=spec.min_steps,
+                      random_stream=engine.RANDOM_STREAM)
 
     def _check_finite(self):
         # Means and variances must be numbers; only fourth moments may overflow (var_stderr
         # then says so). Non-finite values come from scenes whose values exceed doubles.
         obs = set(self.scene.observe)
-        integrals = [v for v, names in ((1, {"displacement"}),
-                                        (2, {"distance", "dissipated_energy"})) if names & obs]
-        at_times = ([0] if obs & {"velocity", "kinetic_energy"} else []) + integrals
-        at_stop = [0] + integrals  # the stop time, and the integrals at the stop
-        exps = _core.monomial_exponents()
+        at_times = list(simulated_variables(obs, at_stop=False))
+        at_stop = list(simulated_variables(obs, at_stop=True))
+        exps = MONOMIALS
         for acc, variables, what in ((self.times_acc, at_times, "at the output times"),
                                      (self.stop_acc if "stop" in obs else None, at_stop,
                                       "at the stop")):
@@ -370,8 +291,8 @@ def _run_distributed(runs, client, threads, bar):
     pending = []  # (run index, first, last, future)
     for i, run in enumerate(runs):
         for first, last in run.ranges(tasks):
-            fut = client.submit(run_chunks, *run.task_args(), first, last, per_task,
-                                run.min_steps, _core.RANDOM_STREAM, pure=False)
+            fut = client.submit(engine.run_chunks, run.spec.to_dict(), first, last, per_task,
+                                engine.RANDOM_STREAM, pure=False)
             pending.append((i, first, last, fut))
     by_future = {fut: (i, first, last) for i, first, last, fut in pending}
     waiting = [dict() for _ in runs]  # per run: first chunk -> (last, parts)
@@ -395,8 +316,7 @@ def _run_distributed(runs, client, threads, bar):
 
 def _run_local(run, bar):
     for chunk in range(run.done, run.plan.chunks):
-        part = _core.run_chunk(run.plan, chunk, run.threads)
-        run.add(part.times, part.stop)
+        run.add(*engine.run_chunk(run.plan, chunk, run.threads))
         if bar is not None:
             bar.update(run.plan.chunk_paths(chunk))
 
@@ -465,7 +385,7 @@ def simulate(
         On any bad argument (the message names it); when the output times' accumulators would
         not fit in the memory this process may still allocate (free memory, its rlimits and
         its memory cgroup), before allocating them; when a scene's values overflow doubles.
-        KeyboardInterrupt (Ctrl-C) stops the run within a fraction of a second.
+        KeyboardInterrupt (Ctrl-C) interrupts the run within a fraction of a second.
 
     See Also
     --------
@@ -478,10 +398,9 @@ def simulate(
             seed = _ckpt.stored_seed(checkpoint)
     task_threads = threads
     _check_client(client)
-    paths, seed, dt, method, threads, min_steps = validate_run(scene, paths, seed, dt, method,
-                                                               threads)
-    run = _Run(scene, paths=paths, seed=seed, dt=dt, method=method, threads=threads,
-               checkpoint=checkpoint, min_steps=min_steps)
+    spec, threads = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
+                             threads=threads)
+    run = _Run(spec, threads=threads, checkpoint=checkpoint)
     bar = None
     if run.done < run.plan.chunks:
         bar = _progress_bar(progress, total=paths, initial=run.paths_in(0, run.done))
@@ -559,10 +478,10 @@ def simulate_many(
     for i, scene in enumerate(scenes):
         if not isinstance(scene, Scene):
             raise ValueError(f"scenes[{i}] must be a crandall.Scene, got {type(scene).__name__}")
-        p, s, d, m, t, n = validate_run(scene, paths, seed, dt, method, threads)
-        seed = s  # a drawn seed is shared by the following scenes
-        runs.append(_Run(scene, paths=p, seed=s, dt=d, method=m, threads=t, checkpoint=files[i],
-                         min_steps=n))
+        spec, t = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
+                           threads=threads)
+        seed = spec.seed  # a drawn seed is shared by the following scenes
+        runs.append(_Run(spec, threads=t, checkpoint=files[i]))
     bar = _progress_bar(progress, total=sum(r.paths for r in runs),
                         initial=sum(r.paths_in(0, r.done) for r in runs))
     try:

@@ -10,7 +10,9 @@ to the dimensionless form (eq3) with
     tau = mu^2 g^2 t / (2 h^2).
 
 Each scale below is the physical size of one scaled unit, so that ``t = tau * time_scale``,
-``V = U1 * velocity_scale``, ``U = U2 * length_scale`` and ``S = U3 * length_scale``.
+``V = U1 * velocity_scale``, ``U = U2 * length_scale`` and ``S = U3 * length_scale``. This
+is the one convention: :meth:`Scaling.to_si` multiplies by a scale, :meth:`Scaling.to_scaled`
+divides by it, and every conversion in crandall goes through them.
 Energies per unit mass: kinetic ``V^2/2 = velocity_scale^2 * U1^2/2`` and dissipated
 ``mu g S = 2 velocity_scale^2 * U3`` (eq4).
 
@@ -28,15 +30,20 @@ import math
 import sys
 from dataclasses import dataclass
 
-__all__ = ["Scaling"]
+from .errors import ParameterError
+
+__all__ = ["Scaling", "KINDS"]
+
+#: The kinds of value that have a scaled unit: time (tau), velocity (U1), length (U2, U3),
+#: energy per unit mass (U1^2).
+KINDS = ("time", "velocity", "length", "energy")
 
 
 def _check_positive_finite(name: str, value: float) -> float:
     value = float(value)
     if not math.isfinite(value) or value <= 0.0:
-        raise ValueError(
-            f"{name} must be positive and finite for the scaled units of eq8, got {value!r}"
-        )
+        raise ParameterError(
+            name, f"{name} must be positive and finite for the scaled units of eq8, got {value!r}")
     return value
 
 
@@ -107,10 +114,37 @@ class Scaling:
         v = self.velocity_scale
         return v * v
 
+    # -- the conversions: every SI <-> scaled conversion in crandall goes through these ----
+
+    def scale(self, kind: str) -> float:
+        """The physical size of one scaled unit of ``kind`` (one of ``KINDS``)."""
+        if kind not in KINDS:
+            raise ValueError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
+        return getattr(self, kind + "_scale")
+
+    def to_scaled(self, value, kind: str, power: int = 1):
+        """A physical value of ``kind ** power`` (e.g. a variance of lengths: power 2) in
+        scaled units: divided by the scale ``power`` times.
+
+        One factor at a time: the power of a scale may overflow where the value does not.
+        """
+        scale = self.scale(kind)
+        for _ in range(power):
+            value = value / scale
+        return value
+
+    def to_si(self, value, kind: str, power: int = 1):
+        """A scaled value of ``kind ** power`` in physical units: times the scale ``power``
+        times (one factor at a time, as :meth:`to_scaled`)."""
+        scale = self.scale(kind)
+        for _ in range(power):
+            value = value * scale
+        return value
+
     def to_tau(self, t):
         """Physical time t (s) to scaled time tau."""
-        return t / self.time_scale
+        return self.to_scaled(t, "time")
 
     def to_t(self, tau):
         """Scaled time tau to physical time t (s)."""
-        return tau * self.time_scale
+        return self.to_si(tau, "time")

@@ -1,0 +1,260 @@
+"""The netCDF / xarray / pandas form of a result (the implementation of ``crandall.io``).
+
+Knows a result only through its public interface (statistics, ``accumulators``, scene and
+run fields), so that ``crandall.results`` can use it without an import cycle; ``crandall.io``
+adds :func:`~crandall.io.load`, which builds a ``Result`` from :func:`read`. Needs xarray
+and pandas (imported when used).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from typing import Any, Dict, Optional, Union
+
+import numpy as np
+
+from . import _core
+from ._version import __version__
+from ._files import check_moments, write_atomic
+from .methods import METHODS
+from .quantities import VARIABLES, quantity
+from .scene import Scene
+
+__all__ = ["to_xarray", "to_pandas", "save", "read", "STATISTICS"]
+
+#: The statistics a table holds, per quantity and time.
+STATISTICS = ("mean", "var", "std", "stderr", "var_stderr")
+
+_FORMAT = "crandall-result"
+
+
+def _require(module: str):
+    try:
+        return __import__(module)
+    except ImportError:  # pragma: no cover - depends on the environment
+        raise ImportError(f"this needs {module}: pip install 'crandall[io]'") from None
+
+
+def _stats(result, name):
+    out = [result.mean(name), result.var(name), result.std(name), result.stderr(name)]
+    if not quantity(name).has_var_stderr:
+        out.append(np.full_like(np.asarray(out[0], dtype=float), np.nan))
+    else:
+        out.append(result.var_stderr(name))
+    return np.stack([np.asarray(x, dtype=float) for x in out], axis=-1)
+
+
+def _long_name(result, name):
+    return quantity(name).long_name_in(result.scene.units)
+
+
+def _count_attr(n: int):
+    # netCDF-3 integers have 32 bits: a larger count is written as its decimal text (exact),
+    # as the seed always is.
+    n = int(n)
+    return n if n < 2**31 else str(n)
+
+
+def to_xarray(result):
+    """The result as an ``xarray.Dataset``; see :meth:`crandall.Result.to_xarray`."""
+    xr = _require("xarray")
+    sc = result.scene
+    time_names = [n for n in result.names if not quantity(n).at_stop]
+    stop_names = [n for n in result.names if quantity(n).at_stop]
+    exps = [tuple(e) for e in _core.monomial_exponents()]
+    data_vars = {}
+    coords = {
+        "statistic": ("statistic", list(STATISTICS)),
+        "variable": ("variable", list(VARIABLES)),
+        "monomial": ("monomial", np.arange(len(exps), dtype=np.int32)),
+        "exponents": (("monomial", "variable"), np.array(exps, dtype=np.int32),
+                      {"long_name": "powers of (velocity, displacement, distance) of each "
+                                    "central sum"}),
+    }
+    time_attrs = {"long_name": "scaled time tau" if sc.units == "scaled" else "time",
+                  "units": "1" if sc.units == "scaled" else "s"}
+    if time_names:
+        coords["time"] = ("time", np.asarray(result.times, dtype=float), time_attrs)
+        coords["observable"] = ("observable", time_names)
+        coords["units"] = ("observable", [sc.units_of(n) or "1" for n in time_names])
+        coords["long_name"] = ("observable", [_long_name(result, n) for n in time_names])
+        table = np.stack([_stats(result, n) for n in time_names], axis=1)
+        data_vars["statistics"] = (("time", "observable", "statistic"), table,
+                                   {"long_name": "statistics over paths at each output time "
+                                                 "(var: unbiased; stderr: of the mean; "
+                                                 "var_stderr: of the variance)"})
+    if stop_names:
+        coords["stop_quantity"] = ("stop_quantity", stop_names)
+        coords["stop_units"] = ("stop_quantity", [sc.units_of(n) or "1" for n in stop_names])
+        table = np.stack([_stats(result, n) for n in stop_names], axis=0)
+        data_vars["stop_statistics"] = (("stop_quantity", "statistic"), table,
+                                        {"long_name": "statistics over paths at the stop"})
+    acc_times, acc_stop = result.accumulators
+    accs = [("", acc_times, "slot")]
+    if acc_stop is not None:
+        accs.append(("stop_", acc_stop, "stop_slot"))
+    for prefix, acc, dim in accs:
+        if acc.slots == 0:
+            continue
+        data_vars[prefix + "counts"] = ((dim,), acc.counts, {"long_name": "paths per slot"})
+        data_vars[prefix + "means"] = ((dim, "variable"), acc.means,
+                                       {"long_name": "means of (velocity, displacement, "
+                                                     "distance), SI or scaled as the scene"})
+        data_vars[prefix + "central"] = ((dim, "monomial"), acc.central,
+                                         {"long_name": "central sums, powers as in exponents"})
+    spec = result.spec  # the run's fields, checked
+    attrs = {
+        "title": f"crandall result: {sc!r}",
+        "format": _FORMAT,
+        "crandall_version": __version__,
+        "scene": json.dumps(sc.to_dict()),
+        "units_system": sc.units,
+        "paths": _count_attr(spec.paths),
+        "seed": str(spec.seed),  # up to 2**64 - 1: more than netCDF-3 integers hold
+        "dt": spec.dt,
+        "method": spec.method,
+        "steps_per_path": _count_attr(result.steps_per_path),
+        "min_steps": _count_attr(spec.min_steps),
+        "random_stream": int(result.random_stream),
+        "slots": int(acc_times.slots),
+    }
+    for k, v in sc.params.items():
+        attrs["scene_" + k] = float(v)
+    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+
+def to_pandas(result):
+    """The result as a ``pandas.DataFrame``; see :meth:`crandall.Result.to_pandas`."""
+    pd = _require("pandas")
+    rows = []
+    sc = result.scene
+    for name in result.names:
+        table = _stats(result, name)
+        if quantity(name).at_stop:
+            rows.append((name, math.nan, sc.units_of(name), *table.tolist()))
+        else:
+            for t, stats in zip(result.times, table):
+                rows.append((name, float(t), sc.units_of(name), *stats.tolist()))
+    return pd.DataFrame(rows, columns=["quantity", sc.time_name, "units", *STATISTICS])
+
+
+def save(result, path: Union[str, "os.PathLike[str]"]) -> None:
+    """Write a result to a netCDF file, replaced atomically; see :meth:`crandall.Result.save`."""
+    data = bytes(to_xarray(result).to_netcdf(engine="scipy", format="NETCDF3_64BIT"))
+    write_atomic(path, lambda f: f.write(data))
+
+
+class _Invalid(ValueError):
+    pass
+
+
+def _integer(value, field: str, minimum: int, maximum: Optional[int] = None) -> int:
+    """An integer attribute: a netCDF integer, or its decimal text (for large values)."""
+    if isinstance(value, str):
+        text = value.strip()
+        if not text.isdigit():
+            raise _Invalid(f"{field} is {value!r}, not a whole number")
+        n = int(text)
+    elif isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_)):
+        n = int(value)
+    else:
+        raise _Invalid(f"{field} is {value!r}, not a whole number")
+    if n < minimum or (maximum is not None and n > maximum):
+        bounds = f">= {minimum}" + ("" if maximum is None else f" and <= {maximum}")
+        raise _Invalid(f"{field} is {n}, must be {bounds}")
+    return n
+
+
+def _attr(ds, field: str):
+    if field not in ds.attrs:
+        raise _Invalid(f"attribute {field} is missing")
+    return ds.attrs[field]
+
+
+def _check_fields(ds, where: str) -> Dict[str, Any]:
+    """Every field load needs, checked; raises _Invalid naming the field."""
+    text = _attr(ds, "scene")
+    if not isinstance(text, str):
+        raise _Invalid(f"scene is {text!r}, not JSON text")
+    try:
+        scene = Scene.from_dict(json.loads(text))
+    except (ValueError, TypeError, AttributeError) as exc:
+        raise _Invalid(f"scene is not a valid scene ({exc})") from None
+    out: Dict[str, Any] = {"scene": scene}
+    out["paths"] = _integer(_attr(ds, "paths"), "paths", 1)
+    out["seed"] = _integer(_attr(ds, "seed"), "seed", 0, 2**64 - 1)
+    dt = _attr(ds, "dt")
+    if (isinstance(dt, (bool, np.bool_)) or not isinstance(dt, (float, int, np.floating,
+                                                                   np.integer))
+            or not math.isfinite(dt) or dt <= 0):
+        raise _Invalid(f"dt is {dt!r}, must be a finite number > 0")
+    out["dt"] = float(dt)
+    method = _attr(ds, "method")
+    if method not in METHODS:
+        raise _Invalid(f"method is {method!r}, not one of {', '.join(METHODS)}")
+    out["method"] = str(method)
+    out["steps_per_path"] = _integer(_attr(ds, "steps_per_path"), "steps_per_path", 0)
+    out["min_steps"] = _integer(_attr(ds, "min_steps"), "min_steps", 0)
+    slots = _integer(_attr(ds, "slots"), "slots", 0)
+    if slots != scene.times.size:
+        raise _Invalid(f"slots is {slots}, but the scene has {scene.times.size} output times")
+    if "time" in ds.coords:
+        stored = np.asarray(ds["time"].values)
+        if stored.shape != scene.times.shape or not np.array_equal(stored, scene.times):
+            raise _Invalid("time does not match the scene's output times")
+    for prefix, n, needed in (("", slots, slots > 0),
+                              ("stop_", 1, "stop" in scene.observe)):
+        names = [prefix + k for k in ("counts", "means", "central")]
+        if not needed:
+            extra = [k for k in names if k in ds]
+            if extra:
+                raise _Invalid(f"{extra[0]} is present, but the scene has no such slots")
+            out[prefix + "moments"] = _core.Moments(n) if prefix == "" else None
+            continue
+        arrays = {k: ds[prefix + k].values for k in ("counts", "means", "central")
+                  if prefix + k in ds}
+        check_moments(where, prefix, arrays, slots=n, paths=float(out["paths"]),
+                      method=out["method"], counted=" of the attribute paths")
+        out[prefix + "moments"] = _core.Moments(n, arrays["counts"], arrays["means"],
+                                                arrays["central"])
+    return out
+
+
+def read(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
+    """The fields of a saved result, checked: the keyword arguments of ``Result``.
+
+    See :func:`crandall.io.load`, which builds the result from them.
+    """
+    xr = _require("xarray")
+    name = os.fspath(path)
+    try:
+        # The file object is ours, so that a damaged file cannot leave it open.
+        with open(path, "rb") as f, xr.open_dataset(f, engine="scipy") as opened:
+            ds = opened.load()
+    except MemoryError:  # pragma: no cover
+        raise
+    except Exception as exc:  # noqa: BLE001 - whatever a damaged file makes the reader raise
+        raise ValueError(f"path: cannot read {name} as netCDF: {exc}") from None
+    if ds.attrs.get("format") != _FORMAT:
+        why = ("attribute format is missing" if "format" not in ds.attrs
+               else f"attribute format is {ds.attrs['format']!r}, not {_FORMAT!r}")
+        raise ValueError(f"path: {name} is not a saved crandall result ({why})")
+    stream = ds.attrs.get("random_stream")
+    if stream != _core.RANDOM_STREAM:
+        # Another stream's numbers (or a file from before streams were recorded, whose stop
+        # statistics are laid out differently) are never read as this version's.
+        raise ValueError(
+            f"path: {name} was written by crandall {ds.attrs.get('crandall_version', '?')} with "
+            f"random stream {stream if stream is not None else 'unknown (before version 2)'}; "
+            f"this crandall reads stream {_core.RANDOM_STREAM} only: load it with that version")
+    where = f"path: {name} is not a valid saved crandall result"
+    try:
+        f = _check_fields(ds, where)
+    except _Invalid as exc:
+        raise ValueError(f"{where}: {exc}") from None
+    return dict(scene=f["scene"], paths=f["paths"], seed=f["seed"], dt=f["dt"],
+                method=f["method"], moments=f["moments"], stop_moments=f["stop_moments"],
+                steps_per_path=f["steps_per_path"], min_steps=f["min_steps"],
+                random_stream=_core.RANDOM_STREAM)

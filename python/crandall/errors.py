@@ -1,0 +1,25 @@
+"""The error a bad parameter raises: a ValueError that carries the parameter's name."""
+
+from __future__ import annotations
+
+__all__ = ["ParameterError"]
+
+
+class ParameterError(ValueError):
+    """A bad value of one parameter (or of a few, named together).
+
+    A ``ValueError`` (callers that catch ValueError are unchanged) whose message names the
+    parameter, and whose :attr:`name` says which one, so that a caller can map it to where
+    the value came from (a scene file's key) without reading the message.
+
+    Parameters
+    ----------
+    name : str
+        The parameter ("times", "mu"), or several separated by ", " ("mu, g").
+    message : str
+        The whole message, starting with the parameter's name.
+    """
+
+    def __init__(self, name: str, message: str) -> None:
+        super().__init__(message)
+        self.name = name

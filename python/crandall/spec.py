@@ -1,0 +1,170 @@
+"""A run's specification: what makes two runs the same run.
+
+A :class:`RunSpec` (scene, paths, seed, dt, method, min_steps) is checked once, when it is
+made; everything downstream (the core's plan, the checkpoint's identity, a saved file's
+attributes, a Dask task) takes a spec and trusts it. The result of a run is a pure function of
+its spec (and the crandall version): the thread count, the chunking and the machine do not
+enter it. A new run option is a new field here (docs/architecture.md).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Dict, Optional
+
+import numpy as np
+
+from .methods import DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, METHODS
+from .scene import Scene
+
+__all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int"]
+
+#: Most paths one run may have: path indices and chunk counts stay well inside 64 bits.
+MAX_PATHS = 1 << 63
+#: Seeds are 64-bit.
+MAX_SEED = (1 << 64) - 1
+
+
+def check_int(name: str, value, minimum: int, maximum: Optional[int] = None) -> int:
+    """``value`` as an int within [minimum, maximum]; else a ValueError naming ``name``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    value = int(value)
+    if value < minimum:
+        raise ValueError(f"{name} must be >= {minimum}, got {value}")
+    if maximum is not None and value > maximum:
+        raise ValueError(f"{name} must be <= {maximum}, got {value}")
+    return value
+
+
+def default_dt(scene: Scene) -> float:
+    """The longest internal step that ``simulate(dt=None)`` uses for this scene, in its units.
+
+    Scaled scenes: ``DEFAULT_DT_TAU`` (0.01). Physical scenes with friction and excitation: the
+    same step in scaled time, ``0.01 * 2 h^2 / (mu g)^2`` seconds. Without friction (mu = 0),
+    or when that time scale is beyond doubles (``Scene.scaling`` is None): the horizon (the
+    last output time or t0) over ``DEFAULT_STEPS_FREE``. Without excitation
+    (h = 0) the body stays at rest and the step does not matter.
+
+    With ``dt=None`` the grid is also graded (``DEFAULT_MIN_STEPS``): before an output time or
+    the switch-off t the step is at most ``t / DEFAULT_MIN_STEPS``, so horizons far shorter
+    than this step are still resolved.
+    """
+    if scene.units == "scaled":
+        return DEFAULT_DT_TAU
+    if scene.scaling is not None:
+        return scene.scaling.to_t(DEFAULT_DT_TAU)
+    horizon = max([t for t in (scene.times[-1] if scene.times.size else 0.0, scene.t0)
+                   if math.isfinite(t)] + [0.0])
+    return horizon / DEFAULT_STEPS_FREE if horizon > 0 else 1.0
+
+
+def _check_scene(scene) -> Scene:
+    if not isinstance(scene, Scene):
+        raise ValueError(f"scene must be a crandall.Scene, got {type(scene).__name__}")
+    return scene
+
+
+def _check_dt(dt) -> float:
+    if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
+        raise ValueError(f"dt must be a number, got {dt!r}")
+    dt = float(dt)
+    if not math.isfinite(dt) or dt <= 0:
+        raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+    return dt
+
+
+def check_method(method) -> str:
+    """``method`` if it is one of ``METHODS``; else a ValueError naming ``method``."""
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    return method
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """What to run: a scene, the number of paths, the seed, the step and the method.
+
+    Checked when made (a ValueError names the field); use :meth:`create` to fill in the
+    defaults ``simulate`` uses (a drawn seed, :func:`default_dt` on a graded grid).
+
+    Attributes
+    ----------
+    scene : Scene
+    paths : int
+        1 <= paths <= ``MAX_PATHS``.
+    seed : int
+        0 <= seed < 2**64.
+    dt : float
+        Longest internal step, in the scene's time units, finite and > 0.
+    method : str
+        One of ``crandall.METHODS``.
+    min_steps : int
+        The graded grid's resolution: the step before an output time or the switch-off t is
+        at most t / min_steps (0: steps of dt only).
+    """
+
+    scene: Scene
+    paths: int
+    seed: int
+    dt: float
+    method: str
+    min_steps: int = 0
+
+    def __post_init__(self) -> None:
+        _check_scene(self.scene)
+        fields = {"paths": check_int("paths", self.paths, 1, MAX_PATHS),
+                  "seed": check_int("seed", self.seed, 0, MAX_SEED),
+                  "dt": _check_dt(self.dt),
+                  "method": check_method(self.method),
+                  "min_steps": check_int("min_steps", self.min_steps, 0)}
+        for name, value in fields.items():
+            object.__setattr__(self, name, value)
+
+    @classmethod
+    def create(cls, scene: Scene, *, paths: int, seed: Optional[int] = None,
+               dt: Optional[float] = None, method: str = DEFAULT_METHOD) -> "RunSpec":
+        """The spec of ``simulate(scene, paths=..., seed=..., dt=..., method=...)``.
+
+        ``seed=None`` draws one from the operating system (recorded in the spec, so the run
+        can be repeated); ``dt=None`` takes :func:`default_dt` on the graded grid
+        (``min_steps = DEFAULT_MIN_STEPS``); an explicit dt gives a uniform grid.
+
+        Raises
+        ------
+        ValueError
+            Naming the first bad argument, in the order scene, paths, seed, dt, method.
+        """
+        _check_scene(scene)
+        check_int("paths", paths, 1, MAX_PATHS)  # before any default is worked out
+        if seed is None:
+            seed = int(np.random.SeedSequence().entropy % (1 << 64))
+        check_int("seed", seed, 0, MAX_SEED)
+        min_steps = 0
+        if dt is None:
+            dt = default_dt(scene)
+            min_steps = DEFAULT_MIN_STEPS
+            if not (math.isfinite(dt) and dt > 0):
+                raise ValueError(f"dt: the scene's default step {dt!r} is not a usable number "
+                                 "(times or t0 out of range); give dt")
+        return cls(scene, paths, seed, dt, method, min_steps)
+
+    # -- plain data: checkpoints, saved files, Dask tasks -----------------------------------
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The spec as plain data (JSON-able); :meth:`from_dict` rebuilds an equal spec.
+
+        The identity of a checkpoint (``crandall.checkpoint.identity``), the run attributes
+        of a saved result and the argument of a Dask task are this dictionary.
+        """
+        return {"scene": self.scene.to_dict(), "paths": self.paths, "seed": self.seed,
+                "dt": self.dt, "method": self.method, "min_steps": self.min_steps}
+
+    @classmethod
+    def from_dict(cls, data: Dict[str, Any]) -> "RunSpec":
+        """Rebuild a spec from :meth:`to_dict`'s output (checked as any spec)."""
+        fields = dict(data)
+        scene = fields.pop("scene")
+        return cls(scene if isinstance(scene, Scene) else Scene.from_dict(scene), **fields)
+

@@ -1,0 +1,107 @@
+"""The package's layout: no import cycles, no crandall import hidden inside a function."""
+
+import ast
+import pathlib
+
+PACKAGE = pathlib.Path(__file__).resolve().parents[1] / "python" / "crandall"
+# Modules another part of the project owns and still imports lazily.
+ALLOWED_LAZY = {"analytic.physical"}
+
+
+def _module_name(path: pathlib.Path) -> str:
+    rel = path.relative_to(PACKAGE).with_suffix("")
+    parts = [p for p in rel.parts if p != "__init__"]
+    return ".".join(parts)
+
+
+def _is_module(name: str) -> bool:
+    base = PACKAGE.joinpath(*name.split(".")) if name else PACKAGE
+    return base.with_suffix(".py").exists() or base.with_suffix(".pyi").exists() or base.is_dir()
+
+
+def _imports(path: pathlib.Path, node) -> set:
+    """The crandall modules an import statement names (relative to the package)."""
+    name = _module_name(path)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = set()
+    if isinstance(node, ast.ImportFrom):
+        if node.level == 0:
+            if not (node.module or "").startswith("crandall"):
+                return out
+            base = node.module[len("crandall"):].lstrip(".")
+        else:
+            base = package
+            for _ in range(node.level - 1):
+                base = base.rpartition(".")[0]
+            if node.module:
+                base = f"{base}.{node.module}" if base else node.module
+        for alias in node.names:
+            sub = f"{base}.{alias.name}" if base else alias.name
+            out.add(sub if _is_module(sub) else base)
+    else:
+        for alias in node.names:
+            if alias.name.startswith("crandall"):
+                out.add(alias.name[len("crandall"):].lstrip("."))
+    return out
+
+
+def _graph():
+    graph, lazy = {}, []
+    for path in PACKAGE.rglob("*.py"):
+        tree = ast.parse(path.read_text())
+        name = _module_name(path)
+        deps = set()
+        for node in tree.body:
+            for n in ast.walk(node) if isinstance(node, (ast.If, ast.Try)) else [node]:
+                if isinstance(n, (ast.Import, ast.ImportFrom)):
+                    deps |= _imports(path, n)
+        graph[name] = deps - {name}
+        for f in ast.walk(tree):
+            if isinstance(f, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                for n in ast.walk(f):
+                    if isinstance(n, (ast.Import, ast.ImportFrom)) and _imports(path, n):
+                        lazy.append((name, f.name))
+    return graph, lazy
+
+
+def test_no_import_cycles():
+    graph, _ = _graph()
+    # A package imports its modules and they import siblings: only module-to-module edges
+    # that do not go through a package's own __init__ can close a cycle.
+    packages = {"", "analytic"}
+    edges = {m: {d for d in deps if d in graph and d not in packages}
+             for m, deps in graph.items() if m not in packages}
+    state = {}
+
+    def visit(m, stack):
+        state[m] = "open"
+        for d in edges.get(m, ()):
+            assert state.get(d) != "open", f"import cycle: {' -> '.join(stack + [d])}"
+            if d not in state:
+                visit(d, stack + [d])
+        state[m] = "done"
+
+    for m in edges:
+        if m not in state:
+            visit(m, [m])
+
+
+def test_no_crandall_import_inside_a_function():
+    _, lazy = _graph()
+    assert [x for x in lazy if x[0] not in ALLOWED_LAZY] == []
+
+
+def test_presentation_never_calls_the_core():
+    graph, _ = _graph()
+    for m in ("plots", "cli", "paper", "__main__"):
+        assert "_core" not in graph[m], m
+
+
+def test_the_check_resolves_the_imports_it_must_see():
+    # So that the tests above can fail: relative, absolute and compiled-module imports.
+    src = PACKAGE / "results.py"
+    for text, want in (("from . import io", {"io"}), ("from .io import load", {"io"}),
+                       ("import crandall.io", {"io"}), ("from . import _core", {"_core"}),
+                       ("from .analytic import laws", {"analytic.laws"}),
+                       ("import numpy", set())):
+        assert _imports(src, ast.parse(text).body[0]) == want, text
