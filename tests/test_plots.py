@@ -49,10 +49,7 @@ def test_moment_figures_show_the_curve_and_the_points(result, func, name, kind, 
     curve = ax.get_lines()[0]
     x, y = curve.get_data()
     np.testing.assert_allclose(y, ref(x, 2.0), rtol=1e-12)
-    if kind == "var" and name != "velocity":
-        assert x.max() == pytest.approx(2.0)  # closed form only while the noise is on
-    else:
-        assert x.max() >= 3.0
+    assert x.max() >= 3.0  # every curve goes on past the switch-off (tau0 = 2)
     # The simulated points: the result's statistics at its times.
     points = [c for c in ax.containers if hasattr(c, "lines")][0]
     px, py = points.lines[0].get_data()

@@ -297,7 +297,7 @@ def _analytic_table(scene: Scene) -> str:
         title = f"{'E' if power == 1 else 'Var'} {c.quantity}" + (f" [{unit}]" if unit else "")
 
         def value(t):
-            return si(c.analytic(t, tau0), q.kind, power) if c.in_domain(t, tau0) else math.nan
+            return si(c.analytic(t, tau0), q.kind, power)
         return title, value
 
     cols = [column(c) for c in paper.CURVES]
@@ -309,7 +309,7 @@ def _analytic_table(scene: Scene) -> str:
         row = f"{t_out:>10.4g}"
         for _, f in cols:
             v = float(f(float(t)))
-            row += f"  {'(noise off)' if math.isnan(v) else format(v, '.8g'):>24}"
+            row += f"  {format(v, '.8g'):>24}"
         lines.append(row)
     if math.isfinite(tau0) and tau0 > 0:
         tu = "" if sc.units == "scaled" else " s"

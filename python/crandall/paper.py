@@ -82,8 +82,6 @@ class Curve:
         The simulated quantity (``distance``).
     statistic : str
         "mean" or "var".
-    noise_on_only : bool
-        The closed form is known only while the noise is on (tau <= tau0).
     label : str
         Its short label in tables ("E U3").
     figure : str
@@ -95,7 +93,6 @@ class Curve:
     name: str
     quantity: str
     statistic: str
-    noise_on_only: bool
     label: str
     figure: str
     ylabel: str
@@ -104,10 +101,6 @@ class Curve:
     def analytic(self, tau, tau0=math.inf):
         """The analytic value at scaled time(s) tau for switch-off tau0."""
         return getattr(analytic, self.name)(tau, tau0)
-
-    def in_domain(self, tau: float, tau0: float) -> bool:
-        """Whether the analytic value is known at tau (always, or while the noise is on)."""
-        return not self.noise_on_only or tau <= tau0
 
     def simulated(self, result: Result):
         """(value, standard error) of the statistic over the result's times, its units."""
@@ -124,13 +117,13 @@ class Curve:
 
 #: The paper's four curves (Figs. 2-5), in the order tables and figures show them.
 CURVES = (
-    Curve("distance_mean", "distance", "mean", False, "E U3", "fig2_distance_mean",
+    Curve("distance_mean", "distance", "mean", "E U3", "fig2_distance_mean",
           r"$E\,U_3$", "Mean scaled distance travelled (Fig. 2)"),
-    Curve("velocity_var", "velocity", "var", False, "Var U1", "fig3_velocity_var",
+    Curve("velocity_var", "velocity", "var", "Var U1", "fig3_velocity_var",
           r"Var $U_1$", "Variance of the scaled velocity (Fig. 3)"),
-    Curve("displacement_var", "displacement", "var", True, "Var U2", "fig4_displacement_var",
+    Curve("displacement_var", "displacement", "var", "Var U2", "fig4_displacement_var",
           r"Var $U_2$", "Variance of the scaled displacement (Fig. 4)"),
-    Curve("distance_var", "distance", "var", True, "Var U3", "fig5_distance_var",
+    Curve("distance_var", "distance", "var", "Var U3", "fig5_distance_var",
           r"Var $U_3$", "Variance of the scaled distance (Fig. 5)"),
 )
 
@@ -160,8 +153,8 @@ def comparison(result: Result) -> str:
     """Simulated statistics beside the analytic layer, in scaled units.
 
     Columns per quantity: simulated value, its standard error, the analytic value and the
-    difference in standard errors (z). Variances of displacement and distance have analytic
-    values only while the noise is on (tau <= tau0). The simulated numbers carry the method's
+    difference in standard errors (z), at every output time, before and after the switch-off.
+    The simulated numbers carry the method's
     bias (bench/bias.py) on top of the statistical error.
     """
     tau, tau0, *_ = scaled_factors(result)
@@ -178,7 +171,7 @@ def comparison(result: Result) -> str:
         row = f"{t:>6.3g}"
         for c in cols:
             sim, se = stats[c.name]
-            ref = float(c.analytic(float(t), tau0)) if c.in_domain(float(t), tau0) else None
+            ref = float(c.analytic(float(t), tau0))
             row += " | " + _cell(sim[i], se[i], ref)
         lines.append(row)
 

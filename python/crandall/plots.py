@@ -51,12 +51,16 @@ def _figure(width: float = 6.4, height: float = 4.4):
     return fig
 
 
-def _curve_grid(tau, tau0, *, noise_on_only=False):
+def _curve_grid(tau, tau0):
     top = float(np.max(tau)) if np.size(tau) else 1.0
     if math.isfinite(tau0):
-        top = max(top, tau0) if not noise_on_only else tau0
-    top = top * (1.0 if noise_on_only else 1.04)
-    return np.linspace(0.0, top, 400)
+        top = max(top, tau0)
+    top *= 1.04
+    if not (math.isfinite(tau0) and 0.0 < tau0 < top):
+        return np.linspace(0.0, top, 400)
+    # After the switch-off the variances of displacement and distance cost 10-25 ms a point
+    # (quadratures, docs/analytic.md) and the curves are smooth there: fewer points.
+    return np.concatenate([np.linspace(0.0, tau0, 360), np.linspace(tau0, top, 41)[1:]])
 
 
 def _switch_off_line(ax, tau0, right):
@@ -75,7 +79,7 @@ def _moment_figure(result: Result, c: Curve):
     sim, se = c.simulated_scaled(result)
     fig = _figure()
     ax = fig.add_subplot()
-    grid = _curve_grid(tau, tau0, noise_on_only=c.noise_on_only)
+    grid = _curve_grid(tau, tau0)
     ax.plot(grid, c.analytic(grid, tau0), label="analytic", **_CURVE)
     ax.errorbar(tau, sim, yerr=Z95 * se, label=f"simulated, ±{Z95} stderr ({result.paths:,} paths)",
                 **_SIM)
