@@ -6,7 +6,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <fstream>
 #include <limits>
+#include <sstream>
+#include <string>
 #include <numeric>
 #include <random>
 #include <stdexcept>
@@ -314,6 +318,44 @@ TEST(Histogram, MemoryDoesNotGrow) {
   EXPECT_EQ(h.counts().size(), cells);
   EXPECT_EQ(h.counts().data(), before);
   EXPECT_EQ(h.underflow(2) + h.overflow(2) + h.nan(2) > 0, true);
+}
+
+// tests/data/histogram_cells.txt holds edges and cells computed by the NumPy reference
+// (tests/histogram_reference.py, itself checked against the file and against numpy.histogram
+// by tests/test_histogram_reference.py): the core agrees with it on every value.
+TEST(Histogram, AgreesWithTheNumpyReference) {
+  std::string root = __FILE__;
+  root = root.substr(0, root.rfind("cpp/tests/"));
+  std::ifstream in(root + "tests/data/histogram_cells.txt");
+  ASSERT_TRUE(in.good()) << "cannot read " << root << "tests/data/histogram_cells.txt";
+  auto number = [](const std::string& text) { return std::strtod(text.c_str(), nullptr); };
+  std::string line;
+  int axes = 0;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream head(line);
+    std::string word, scale, reach;
+    int per_octave = 0, symmetric = 0;
+    std::size_t n_edges = 0, n_values = 0;
+    head >> word >> scale >> per_octave >> reach >> symmetric >> n_edges >> n_values;
+    ASSERT_EQ(word, "axis");
+    const BinEdges e = BinEdges::log_linear(number(scale), per_octave, number(reach), symmetric != 0);
+    ASSERT_EQ(e.edges().size(), n_edges);
+    for (std::size_t i = 0; i < n_edges; ++i) {
+      ASSERT_TRUE(std::getline(in, line));
+      ASSERT_EQ(e.edges()[i], number(line)) << "edge " << i << " of axis " << axes;
+    }
+    for (std::size_t i = 0; i < n_values; ++i) {
+      ASSERT_TRUE(std::getline(in, line));
+      std::istringstream row(line);
+      std::string value;
+      std::size_t cell = 0;
+      row >> value >> cell;
+      EXPECT_EQ(e.cell(number(value)), cell) << "value " << value << " of axis " << axes;
+    }
+    ++axes;
+  }
+  EXPECT_EQ(axes, 4);
 }
 
 }  // namespace
