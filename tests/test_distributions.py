@@ -7,6 +7,8 @@ import sys
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy import optimize, special, stats
 
 import histogram_reference as ref
@@ -92,6 +94,37 @@ def test_exceedance_interpolates_within_a_bin():
     assert on.value == pytest.approx(30 / 60, abs=1e-15)
     assert on.low == 0.0
     assert on.high == pytest.approx(stats.beta.ppf(0.975, 31, 30), rel=1e-12)
+
+
+# ---------------------------------------------------------------- properties
+
+@st.composite
+def histograms(draw):
+    n = draw(st.integers(1, 8))
+    steps = draw(st.lists(st.floats(1e-3, 10.0), min_size=n, max_size=n))
+    edges = np.cumsum([draw(st.floats(-5.0, 5.0))] + steps)
+    counts = draw(st.lists(st.integers(0, 50), min_size=n, max_size=n))
+    under, over = draw(st.integers(0, 20)), draw(st.integers(0, 20))
+    if sum(counts) + under + over == 0:
+        counts[0] = 1
+    return edges, counts, under, over
+
+
+@settings(max_examples=60, derandomize=True, deadline=None, database=None)
+@given(histograms(), st.lists(st.floats(0.0, 1.0), min_size=2, max_size=5),
+       st.lists(st.floats(-20.0, 20.0), min_size=2, max_size=5))
+def test_estimates_inside_intervals_and_monotone(h, qs, levels):
+    quants = [dist.quantile(*h, q) for q in sorted(qs)]
+    for est in quants:
+        assert est.low <= est.value <= est.high
+    # A larger probability never gives a smaller quantile, estimate or bound.
+    for a, b in zip(quants, quants[1:]):
+        assert a.value <= b.value and a.low <= b.low and a.high <= b.high
+    excs = [dist.exceedance(*h, level) for level in sorted(levels)]
+    for est in excs:
+        assert 0.0 <= est.low <= est.value <= est.high <= 1.0
+    for a, b in zip(excs, excs[1:]):
+        assert a.value >= b.value and a.low >= b.low and a.high >= b.high
 
 
 # ---------------------------------------------------------------- edge cases
