@@ -184,6 +184,8 @@ BAD = [
     ("under", dict(under=-1)),
     ("under", dict(under=0.5)),
     ("over", dict(over=-3)),
+    ("over", dict(over=2**64)),
+    ("counts", dict(counts=np.array([2**63, 1], dtype=np.uint64))),
     ("counts", dict(counts=[0, 0], under=0, over=0)),  # empty
 ]
 

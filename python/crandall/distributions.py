@@ -46,8 +46,8 @@ def _count(value, name: str) -> int:
             value = int(value)
         else:
             raise ValueError(f"{name} must be a non-negative integer count, got {value!r}")
-    if value < 0:
-        raise ValueError(f"{name} must be a non-negative integer count, got {value!r}")
+    if not 0 <= value <= np.iinfo(np.int64).max:
+        raise ValueError(f"{name} must be a non-negative integer count below 2^63, got {value!r}")
     return int(value)
 
 
