@@ -285,6 +285,28 @@ TEST(Histogram, MergeIsExactForAnySplitAndOrder) {
   }
 }
 
+// Real threads: per-thread histograms over a dynamic schedule, merged in whatever order the
+// threads finish (a critical section), equal the serial counts for every thread count.
+TEST(Histogram, ThreadsMergeInAnyOrder) {
+  const std::vector<double> values = nasty_values(200000, 13);
+  const auto axes = three_axes();
+  Histograms serial(axes);
+  for (std::size_t s = 0; s < axes.size(); ++s) serial.add(s, values.data(), values.size());
+  for (int threads : {1, 2, 3, 8}) {
+    Histograms total(axes);
+#pragma omp parallel num_threads(threads)
+    {
+      Histograms mine(axes);
+#pragma omp for schedule(dynamic, 997)
+      for (std::ptrdiff_t i = 0; i < static_cast<std::ptrdiff_t>(values.size()); ++i)
+        for (std::size_t s = 0; s < axes.size(); ++s) mine.add(s, values[static_cast<std::size_t>(i)]);
+#pragma omp critical
+      total.merge(mine);
+    }
+    EXPECT_EQ(total.counts(), serial.counts()) << threads << " threads";
+  }
+}
+
 TEST(Histogram, MergeRefusesOtherEdgesAndClearKeepsThem) {
   Histograms a(three_axes());
   auto other = three_axes();
