@@ -43,7 +43,7 @@ $(VENV)/.dev-installed: $(VPY) Makefile
 venv: $(VENV)/.dev-installed
 
 install: deps venv
-	$(VPY) -m pip install -q --no-build-isolation ".[test,plots,io,distributed]"
+	$(VPY) -m pip install -q --no-build-isolation ".[test,plots,io,distributed,hist]"
 
 ctest: deps venv
 	cmake -S . -B build/cpp -G Ninja -DCRANDALL_BUILD_TESTS=ON -DCMAKE_BUILD_TYPE=Release >/dev/null
