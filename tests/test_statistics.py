@@ -138,7 +138,7 @@ def test_physical_scene_against_analytic_in_si():
 
 def test_euler_is_biased_and_the_tests_would_see_it():
     # The baseline's bias at a coarse step is far beyond the tolerance used above: a check that
-    # these comparisons can fail (DESIGN: Euler's bias in E U3(5) is about +4.7 dt).
+    # these comparisons can fail (Euler's bias in E U3(5) is about +4.7 dt: bench/results/bias.json).
     scene = crandall.Scene.scaled(tau0=5.0, times=[5.0], observe=["distance"])
     r = crandall.simulate(scene, paths=200_000, seed=3, dt=0.05, method="euler")
     diff = r.mean("distance")[0] - float(analytic.distance_mean(5.0))
