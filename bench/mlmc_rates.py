@@ -80,15 +80,20 @@ STATS = {
     "distance_at_stop_mean": ("U3s", "mean", 5.0),
     "distance_at_stop_var": ("U3s", "var", 5.0),
     "displacement_at_stop_var": ("U2s", "var", 5.0),
+    # Ito identities (d(U1^2) = -4 |U1| dtau + 2 sqrt 2 U1 dW + 2 dtau): the same statistics
+    # from other path functionals with the same expectation
+    "distance_mean@1 (ito)": ("Id@1", "mean", 1.0),
+    "distance_mean@5 (ito)": ("Id@5", "mean", 5.0),
+    "distance_at_stop_var (ito)": ("IS", "mean", 5.0),
 }
-EXACT_IN_LAW = {"X@1", "X@5", "Ts"}
+EXACT_IN_LAW = {"X@1", "X@5", "Ts", "Id@1", "Id@5"}
 
 
 def analytic_means() -> dict:
     t = np.array(TIMES)
     d = analytic.distance_mean(t, TAU0)
     return {"U3@1": float(d[0]), "U3@5": float(d[1]), "U2@1": 0.0, "U2@5": 0.0, "X@1": 0.0, "X@5": 0.0,
-            "U3s": TAU0 / 2, "U2s": 0.0, "Ts": float(analytic.stop_time_mean(TAU0))}
+            "U3s": TAU0 / 2, "U2s": 0.0, "Ts": float(analytic.stop_time_mean(TAU0)), "Id@1": 0.0, "Id@5": 0.0, "IS": 0.0}
 
 
 def analytic_values() -> dict:
@@ -103,6 +108,9 @@ def analytic_values() -> dict:
     out["distance_at_stop_mean"] = float(analytic.distance_at_stop_mean(TAU0))
     out["distance_at_stop_var"] = float(analytic.distance_at_stop_var(TAU0))
     out["displacement_at_stop_var"] = float(analytic.displacement_at_stop_var(TAU0))
+    out["distance_mean@1 (ito)"] = out["distance_mean@1"]
+    out["distance_mean@5 (ito)"] = out["distance_mean@5"]
+    out["distance_at_stop_var (ito)"] = out["distance_at_stop_var"]
     return out
 
 
@@ -153,6 +161,7 @@ def simulate(rng: np.random.Generator, n: int, L: int, with_controls: bool):
     X = np.zeros(n)
     sx = np.zeros((L + 1, n))  # per level: sum of X at its grid points after 0
     sa = np.zeros((L + 1, n))
+    sq = np.zeros((L + 1, n))
     snap = {}
     if with_controls:
         ctl = np.zeros((L + 1, 2, N_CONTROLS, n))
@@ -189,6 +198,7 @@ def simulate(rng: np.random.Generator, n: int, L: int, with_controls: bool):
                 Xs[l] = X
             sx[l] += X
             sa[l] += aX
+            sq[l] += X * X
         if k == k1:
             snap["X@1"] = X.copy()
             snap["U2@1"] = (2.0 ** -np.arange(L + 1))[:, None] * (sx - 0.5 * X)
@@ -204,6 +214,11 @@ def simulate(rng: np.random.Generator, n: int, L: int, with_controls: bool):
         "Ts": np.broadcast_to(TAU0 + 0.5 * aX, (L + 1, n)),
         "U3s": U3 + 0.25 * X * X,
         "U2s": U2 + 0.25 * X * aX,
+        # E U3(tau) = tau/2 - E U1(tau)^2/4: exact in law, no integral needed
+        "Id@1": np.broadcast_to(0.5 - 0.25 * snap["X@1"] ** 2, (L + 1, n)),
+        "Id@5": np.broadcast_to(0.5 * TAU0 - 0.25 * X * X, (L + 1, n)),
+        # U3(tau_s) - tau0/2 = (sqrt 2/2) int_0^tau0 U1 dW, so Var U3(tau_s) = E[(1/2) int U1^2]
+        "IS": 0.5 * hs * (sq - 0.5 * X * X),
     }
     return q, (ctl if with_controls else None)
 
@@ -292,7 +307,11 @@ def rates(levels: list[int], summ: list[dict], exact: bool) -> dict:
     ml = [(l, s["mean"], s["mean_se"]) for l, s in rows if abs(s["mean"]) > 3 * s["mean_se"]]
     beta = fit_power(*zip(*vl)) if len(vl) >= 2 else None
     alpha = fit_power(*zip(*ml)) if len(ml) >= 2 else None
-    return {"alpha": alpha, "beta": beta, "resolved_mean_levels": [l for l, _, _ in ml]}
+    # the finest five levels alone (closer to the asymptotic rate), and the local slopes
+    beta_fine = fit_power(*zip(*vl[-5:])) if len(vl) >= 5 else None
+    local = [math.log2(a[1] / b[1]) for a, b in zip(vl, vl[1:])]
+    return {"alpha": alpha, "beta": beta, "beta_finest_5": beta_fine, "beta_local": local,
+            "resolved_mean_levels": [l for l, _, _ in ml]}
 
 
 def level_table(levels, summ, r, single=None, tail_to=40):
@@ -340,6 +359,29 @@ def mlmc_cost(tab, alpha, eps, exact):
     return None
 
 
+def mlmc_cost_best_base(tab, alpha, eps, exact):
+    """MLMC whose base level j is chosen too: the base uses its single-level variance (with the
+    controls, the single-level variance falls with the level), the levels above it their
+    difference variances."""
+    if exact:
+        return None
+    for i in range(1, len(tab)):
+        b = bias_after(tab, i, alpha)
+        if b <= eps / math.sqrt(2):
+            best = None
+            for j in range(0, i + 1):
+                rows = tab[j: i + 1]
+                Vs = [tab[j]["Vsingle"]] + [r["V"] for r in rows[1:]]
+                ssum = sum(math.sqrt(V * r["cost"]) for V, r in zip(Vs, rows))
+                N = [math.ceil(2 / eps**2 * math.sqrt(V / r["cost"]) * ssum) if V > 0 else 1 for V, r in zip(Vs, rows)]
+                c = float(sum(n * r["cost"] for n, r in zip(N, rows)))
+                if best is None or c < best["cost_path_steps"]:
+                    best = {"base_level": rows[0]["l"], "finest_level": rows[-1]["l"], "cost_path_steps": c,
+                            "paths": N, "bias": b}
+            return best
+    return None
+
+
 def single_level_cost(tab, alpha, eps, exact):
     """The best fixed step h = 2^-l: paths for the mean square error left after the bias."""
     if exact:
@@ -373,6 +415,14 @@ def today_default(tab, alpha, eps, exact):
     return {"reachable": True, "cost_path_steps": n * 500.0, "paths": n, "bias": b}
 
 
+def today_default_noise_only(tab, eps, exact):
+    """The same, counting the statistical error only (the bias of richardson at dt = 0.01 is not
+    resolved here): a lower bound on today's cost, which favours today's default."""
+    r = tab[0] if exact else next(t for t in tab if t["l"] == 7)
+    n = math.ceil(r["Vsingle"] / eps**2)
+    return {"cost_path_steps": n * (2.0 if exact else 500.0), "paths": n}
+
+
 def rhee_glynn(tab, exact):
     """Single-term randomised truncation: P(N = l) = p_l, estimator Delta_N / p_N, unbiased.
     Optimal p_l proportional to sqrt(E[Delta_l^2] / C_l); variance x expected cost = (sum
@@ -393,8 +443,8 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=20261121)
     args = ap.parse_args()
     L = args.levels or (5 if args.quick else 8)
-    n_main = args.paths or (4_000 if args.quick else 120_000)
-    n_pilot = args.pilot or (2_000 if args.quick else 20_000)
+    n_main = args.paths or (4_000 if args.quick else 300_000)
+    n_pilot = args.pilot or (2_000 if args.quick else 30_000)
     batch = 10_000
     started = time.perf_counter()
     load_before = os.getloadavg()
@@ -470,10 +520,12 @@ def main() -> None:
             if fam == "richardson" and L >= 7:
                 for eps in EPS:
                     costs.setdefault(f"{eps:g}", {})["today_default"] = today_default(tab, r.get("alpha"), eps, exact)
+                    costs[f"{eps:g}"]["today_default_noise_only"] = today_default_noise_only(tab, eps, exact)
             for eps in EPS:
                 costs.setdefault(f"{eps:g}", {}).update({
                     "mlmc": mlmc_cost(tab, r.get("alpha"), eps, exact),
                     "mlmc_cv": mlmc_cost(tab_cv, r.get("alpha"), eps, exact),
+                    "mlmc_cv_best_base": mlmc_cost_best_base(tab_cv, r.get("alpha"), eps, exact),
                     "single_level_best": single_level_cost(tab, r.get("alpha"), eps, exact),
                     "single_level_best_cv": single_level_cost(tab_cv, r.get("alpha"), eps, exact),
                 })
