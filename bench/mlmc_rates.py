@@ -606,8 +606,8 @@ def plot(data: dict, path: Path) -> None:
                 axes[1, col].plot([], [], "o-", color=cmap(k % 10), label=lab)
             if munr:
                 axes[1, col].plot(*zip(*[(l, math.log2(m)) for l, m in munr]), "v", color=cmap(k % 10), ms=4, alpha=0.5)
-        axes[0, col].set_title(f"{fam} levels: log2 Var[P_l - P_(l-1)]")
-        axes[1, col].set_title(f"{fam} levels: log2 |E[P_l - P_(l-1)]| (triangles: bound |m| + 2 se, unresolved)")
+        axes[0, col].set_title(f"{fam}: log2 Var[P_l - P_(l-1)]", fontsize=9)
+        axes[1, col].set_title(f"{fam}: log2 |E[P_l - P_(l-1)]| (triangles: unresolved, |m| + 2 se)", fontsize=9)
         axes[1, col].set_xlabel("level l (h = 2^-l)")
         for r in (0, 1):
             axes[r, col].legend(fontsize=6)
