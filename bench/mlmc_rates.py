@@ -130,7 +130,9 @@ def cond_mean(x: np.ndarray, h: float) -> np.ndarray:
     return np.sign(x) * e
 
 
-N_CONTROLS = 15
+N_CONTROLS = 22
+# the controls without dM: no transcendental function per step (dM needs exp and erfcx)
+DB_ONLY = list(range(8)) + list(range(15, 22))
 
 
 def controls_increment(dB, dM, X0, U2, U3, r):
@@ -139,12 +141,16 @@ def controls_increment(dB, dM, X0, U2, U3, r):
     g is chosen from the Ito representations: U3 + U1^2/4 - tau/2 = (sqrt 2/2) int |U1| dB'
     (so g = |X| for the distance, min(|X|/2, r) for its finite-horizon form, r the time left to
     the output), U2 = int (t - s) dU1 + drift terms (g = r, min(|X|/2, r) against dM), and the
-    products with the running integrals for the second moments.
+    products with the running integrals for the second moments. The last seven use
+    sign(X) dB, the increment of W = int sign(X) dB' away from the zeros, in place of dM: the
+    same weights without the conditional mean's exp and erfcx.
     """
     a = np.abs(X0)
     k = np.minimum(0.5 * a, r)
+    sB = np.sign(X0) * dB
     return (dB, a * dB, r * dB, k * dB, U3 * a * dB, U3 * k * dB, a * a * k * dB, U3 * dB,
-            dM, r * dM, k * dM, U2 * dM, U2 * k * dM, X0 * a * k * dM, U2 * r * dM)
+            dM, r * dM, k * dM, U2 * dM, U2 * k * dM, X0 * a * k * dM, U2 * r * dM,
+            sB, r * sB, k * sB, U2 * sB, U2 * k * sB, X0 * a * k * sB, U2 * r * sB)
 
 
 def simulate(rng: np.random.Generator, n: int, L: int, with_controls: bool):
@@ -466,7 +472,7 @@ def main() -> None:
         return out
 
     # Pilot: least-squares control coefficients per estimator row (fitted on these paths only).
-    coef = {}
+    coef, coef_db = {}, {}
     n_done = 0
     gram = {}
     while n_done < n_pilot:
@@ -484,9 +490,13 @@ def main() -> None:
         # ridge-free solve with a tiny jitter: unused controls (e.g. all-zero rows) get 0
         sol = np.linalg.lstsq(G + 1e-12 * np.trace(G) / len(G) * np.eye(len(G)), b, rcond=None)[0]
         coef[(key, i)] = sol[:-1]
+        sub = DB_ONLY + [len(G) - 1]
+        Gs = G[np.ix_(sub, sub)]
+        sol = np.linalg.lstsq(Gs + 1e-12 * np.trace(Gs) / len(Gs) * np.eye(len(Gs)), b[sub], rcond=None)[0]
+        coef_db[(key, i)] = sol[:-1]
     print(f"pilot {n_pilot} paths done in {time.perf_counter() - started:.0f} s", flush=True)
 
-    accs, accs_cv = {}, {}
+    accs, accs_cv, accs_db = {}, {}, {}
     n_done = 0
     while n_done < n_main:
         m = min(batch, n_main - n_done)
@@ -495,6 +505,8 @@ def main() -> None:
             accs.setdefault(key, Acc()).add(Y)
             Ycv = np.stack([Y[i] - coef[(key, i)] @ C[i] for i in range(Y.shape[0])])
             accs_cv.setdefault(key, Acc()).add(Ycv)
+            Ydb = np.stack([Y[i] - coef_db[(key, i)] @ C[i][DB_ONLY] for i in range(Y.shape[0])])
+            accs_db.setdefault(key, Acc()).add(Ydb)
         n_done += m
         print(f"main {n_done}/{n_main} paths, {time.perf_counter() - started:.0f} s", flush=True)
 
@@ -508,11 +520,14 @@ def main() -> None:
             summ_cv = accs_cv[(fam, st)].summary()
             single = accs[("single_" + fam, st)].summary()
             single_cv = accs_cv[("single_" + fam, st)].summary()
+            summ_db = accs_db[(fam, st)].summary()
+            single_db = accs_db[("single_" + fam, st)].summary()
             levels = list(range(base, L + 1))
             r = rates(levels, summ, exact)
             r_cv = rates(levels, summ_cv, exact)
             tab = level_table(levels, summ, r, single)
             tab_cv = level_table(levels, summ_cv, r, single_cv)  # the bias is that of the plain levels
+            tab_db = level_table(levels, summ_db, r, single_db)
             # the level estimate of the statistic (telescoped) against the analytic value
             est = sum(s["mean"] for s in summ)
             est_se = math.sqrt(sum(s["mean_se"] ** 2 for s in summ))
@@ -526,6 +541,8 @@ def main() -> None:
                     "mlmc": mlmc_cost(tab, r.get("alpha"), eps, exact),
                     "mlmc_cv": mlmc_cost(tab_cv, r.get("alpha"), eps, exact),
                     "mlmc_cv_best_base": mlmc_cost_best_base(tab_cv, r.get("alpha"), eps, exact),
+                    "mlmc_cv_dB_best_base": mlmc_cost_best_base(tab_db, r.get("alpha"), eps, exact),
+                    "single_level_best_cv_dB": single_level_cost(tab_db, r.get("alpha"), eps, exact),
                     "single_level_best": single_level_cost(tab, r.get("alpha"), eps, exact),
                     "single_level_best_cv": single_level_cost(tab_cv, r.get("alpha"), eps, exact),
                 })
@@ -535,6 +552,8 @@ def main() -> None:
                 "level_stats_cv": summ_cv,
                 "single_level_stats": single,
                 "single_level_stats_cv": single_cv,
+                "level_stats_cv_dB": summ_db,
+                "single_level_stats_cv_dB": single_db,
                 "rates": r,
                 "rates_cv": r_cv,
                 "gamma": 1.0,
@@ -561,7 +580,10 @@ def main() -> None:
         "seed": args.seed, "richardson_weights": W_RICH.tolist(), "eps": EPS,
         "controls": ["dB", "|X| dB", "r dB", "min(|X|/2,r) dB", "U3 |X| dB", "U3 min(|X|/2,r) dB",
                      "|X|^2 min(|X|/2,r) dB", "U3 dB", "dM", "r dM", "min(|X|/2,r) dM", "U2 dM",
-                     "U2 min(|X|/2,r) dM", "X |X| min(|X|/2,r) dM", "U2 r dM"],
+                     "U2 min(|X|/2,r) dM", "X |X| min(|X|/2,r) dM", "U2 r dM",
+                     "sB", "r sB", "min(|X|/2,r) sB", "U2 sB", "U2 min(|X|/2,r) sB", "X |X| min(|X|/2,r) sB",
+                     "U2 r sB"],
+        "controls_without_dM": DB_ONLY,
         "statistics": result,
         "load": [round(x, 2) for x in load_before], "load_after": [round(x, 2) for x in os.getloadavg()],
         "total_seconds": time.perf_counter() - started,
