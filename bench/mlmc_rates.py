@@ -29,6 +29,17 @@ Variance reduction that keeps the estimator unbiased, measured on the same paths
 - antithetic pairs: the second path of each pair uses the negated normals and the same
   exponentials and coins (a measure-preserving map of the noise).
 
+Three more controls families are compared: sign(X) dB (the increment of W away from the zeros)
+and the subset without dM (JSON `*_cv_dB`, indices in `controls_without_dM`), which needs no
+transcendental function per step. Two Ito identities give other unbiased estimators of the
+same statistics: E U3(tau) = tau/2 - E U1(tau)^2/4 (exact in law) and
+Var U3(tau_s) = E[(1/2) int_0^tau0 U1^2] (statistics marked "(ito)").
+
+Costs: Giles' MLMC allocation per statistic for eps in {1e-2, 1e-3, 1e-4} on the measured
+levels (plain, with controls, with the base level chosen), the best single level, randomised
+truncation (work per unit variance), and today's default (richardson, dt = 0.01), all in
+path-steps. docs/methods/mlmc.md discusses the results.
+
 The skeleton is simulated with NumPy's generator and the project's exact step formula
 (tests/reference_rng.py): the law is what matters here, not the project's stream.
 
