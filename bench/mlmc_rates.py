@@ -29,8 +29,8 @@ Variance reduction that keeps the estimator unbiased, measured on the same paths
 - antithetic pairs: the second path of each pair uses the negated normals and the same
   exponentials and coins (a measure-preserving map of the noise).
 
-Three more controls families are compared: sign(X) dB (the increment of W away from the zeros)
-and the subset without dM (JSON `*_cv_dB`, indices in `controls_without_dM`), which needs no
+The controls include sign(X) dB (the increment of W away from the zeros); a second fit uses
+only the controls without dM (JSON `*_cv_dB`, indices in `controls_without_dM`), which need no
 transcendental function per step. Two Ito identities give other unbiased estimators of the
 same statistics: E U3(tau) = tau/2 - E U1(tau)^2/4 (exact in law) and
 Var U3(tau_s) = E[(1/2) int_0^tau0 U1^2] (statistics marked "(ito)").
