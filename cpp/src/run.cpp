@@ -42,10 +42,10 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   const std::uint64_t count = plan.chunk_paths(chunk);
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
   const BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance);
-  const int grids = o.integrals() ? richardson_levels(o.method) : 1;
+  const int coupled = o.grids();
   ChunkResult result{Moments(o.times.size()), Moments(o.stop ? 1 : 0)};
   std::vector<ChunkResult> coarse_result(
-      static_cast<std::size_t>(grids - 1), ChunkResult{Moments(o.times.size()), Moments(o.stop ? 1 : 0)});
+      static_cast<std::size_t>(coupled - 1), ChunkResult{Moments(o.times.size()), Moments(o.stop ? 1 : 0)});
   std::atomic<bool> stop_flag{false};
   std::atomic<long> next_claim{0}, finished{0};
   std::exception_ptr error;
@@ -139,7 +139,7 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   if (error) std::rethrow_exception(error);
   if (stop_flag.load()) throw Interrupted();
   if (next_block != blocks) throw std::logic_error("run_chunk: a block was not merged");
-  if (grids > 1) {
+  if (coupled > 1) {
     // Extrapolation to h = 0 over the coupled grids (docs/methods/richardson.md). Linear in
     // the raw sums, so extrapolated chunks still merge exactly.
     std::vector<const Moments*> times{&result.times}, stop{&result.stop};

@@ -33,11 +33,11 @@ TEST(GradedGrid, EveryOutputTimeGetsAtLeastMinSteps) {
   const double ends[] = {0.05, 0.1, 1.0};
   for (std::size_t i = 0; i < seg.size(); ++i) {
     before += seg[i].steps;
-    t += seg[i].h * static_cast<double>(seg[i].steps);
+    t += seg[i].step * static_cast<double>(seg[i].steps);
     EXPECT_NEAR(t, ends[i], 1e-12);
     EXPECT_GE(before, 64u) << "output " << i;
     // The step of a segment is at most its end over min_steps (up to rounding).
-    EXPECT_LE(seg[i].h, ends[i] / 64 * (1 + 1e-12));
+    EXPECT_LE(seg[i].step, ends[i] / 64 * (1 + 1e-12));
   }
   // Graded, not uniform: 64 steps to 0.05, steps of 0.1/64 to 0.1, then of 1/64 to 1.
   EXPECT_EQ(seg[0].steps, 64u);
@@ -59,7 +59,7 @@ TEST(GradedGrid, SwitchOffIsResolvedToo) {
   ASSERT_EQ(seg.size(), 2u);  // to 1e-6, then to the switch-off; 3.0 is in closed form
   EXPECT_EQ(seg[0].steps, 16u);
   EXPECT_GE(seg[0].steps + seg[1].steps, 16u);
-  EXPECT_LE(seg[1].h, 1e-3 / 16 * (1 + 1e-12));
+  EXPECT_LE(seg[1].step, 1e-3 / 16 * (1 + 1e-12));
 }
 
 TEST(GradedGrid, ScaleFreeInTime) {

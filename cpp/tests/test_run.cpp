@@ -308,7 +308,7 @@ TEST(Kernel, LanesEqualTheScalarExactStep) {
         crandall::draw_pair(seed, 0, 0, z);
         double x = 0.0;
         for (int k = 0; k < 2; ++k) {
-          x = crandall::exact_step(x, plan.segments()[k].h, drift, noise, z[k].normal,
+          x = crandall::exact_step(x, plan.segments()[k].step, drift, noise, z[k].normal,
                                    z[k].exponential, z[k].coin)
                   .velocity;
           EXPECT_EQ(r.times.means()[k * crandall::kVariables], x)

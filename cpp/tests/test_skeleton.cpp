@@ -199,8 +199,9 @@ TEST(ExactStep, ScaledFormAgreesWithTheRegularForm) {
         const double a = std::abs(x);
         const double magnitude = crandall::step_regular_magnitude(a, d, q, root);
         const double m = crandall::step_regular_minimum(d, q, root);
-        const auto c = crandall::step_scaled_parts(a, h, 2.0, std::sqrt(2.0), s.normal,
-                                                   s.exponential);
+        const auto k = crandall::step_constants(h, 2.0, std::sqrt(2.0));
+        const auto c = crandall::step_scaled_parts(a, k, crandall::step_increment(k.mean, k.scale, s.normal),
+                                                   s.normal, s.exponential);
         EXPECT_NEAR(magnitude, c.magnitude, 1e-14 * std::max(1.0, magnitude))
             << "h=" << h << " x=" << x;
         EXPECT_NEAR(m, c.minimum, 1e-14 * std::max(1.0, -m)) << "h=" << h << " x=" << x;

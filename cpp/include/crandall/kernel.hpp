@@ -104,7 +104,7 @@ struct Workspace {
       : times(plan.options().times.size()),
         stop(plan.options().stop ? 1 : 0),
         active(active_monomials(plan.options().displacement, plan.options().distance)) {
-    for (int j = 1; j < richardson_levels(plan.options().method); ++j) {
+    for (int j = 1; j < plan.options().grids(); ++j) {
       coarse_times.emplace_back(plan.options().times.size());
       coarse_stop.emplace_back(plan.options().stop ? 1 : 0);
     }
@@ -130,10 +130,14 @@ struct Workspace {
 
 constexpr std::uint64_t kPollSteps = 1u << 14;
 
-// The refine method (docs/methods/refine.md): a step of length h that starts with
-// |x| < kRefineWithin * noise * sqrt(h) is taken as kRefineSubsteps exact substeps, whose
+// The trapezoid rule over one step of length `step` between the values a and b
+// (docs/integrals.md): how every method integrates displacement and distance on its grid.
+inline double trapezoid(double step, double a, double b) { return 0.5 * step * (a + b); }
+
+// The refine method (docs/methods/refine.md): a step of length `step` that starts with
+// |x| < kRefineWithin * noise * sqrt(step) is taken as kRefineSubsteps exact substeps, whose
 // noise comes from the path's refinement stream (path index with the top bit set; one Philox
-// block per two substeps, pair index = step * kRefineSubsteps / 2 + j).
+// block per two substeps, pair index = k * kRefineSubsteps / 2 + j for the step of index k).
 constexpr int kRefineSubsteps = 8;
 constexpr double kRefineWithin = 2.0;
 constexpr std::uint64_t kRefineStream = 1ull << 63;
@@ -191,25 +195,26 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
 // Simulate paths [first, first + count) (count <= kBlockPaths) into ws (reset by the caller).
 template <Method M, bool kDisp, bool kDist>
 void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, Workspace& ws) {
-  constexpr int kGrids = M == Method::richardson ? 3 : M == Method::richardson2 ? 2 : 1;
-  constexpr bool kCoarse = kGrids > 1 && (kDisp || kDist);
+  constexpr int kGrids = grids(M, kDisp || kDist);
+  constexpr bool kCoarse = kGrids > 1;
   const Options& o = plan.options();
   const double drift = o.drift, noise = o.noise;
   for (std::uint64_t offset = 0; offset < count; offset += kLanes) {
     const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
     const std::uint64_t path0 = first + offset;
     double x[kLanes] = {}, u[kLanes] = {}, s[kLanes] = {};
-    // Richardson's coarse grids g = 1, 2 (step 2^g h): integrals, and x where their step began.
+    // Richardson's coarse grids g = 1, 2 (steps 2^g times the fine one): integrals, and x where
+    // their step began.
     double xc[kGrids][kLanes] = {}, uc[kGrids][kLanes] = {}, sc[kGrids][kLanes] = {};
     PairNoise<kLanes> z;
     std::uint64_t k = 0;  // step index along the path; selects the random numbers
     for (const Segment& seg : plan.segments()) {
-      const double h = seg.h;
-      const double near = kRefineWithin * noise * std::sqrt(h);
+      const double step = seg.step;
+      const double near = kRefineWithin * noise * std::sqrt(step);
       // The step's constants, rounded exactly as exact_step rounds them.
-      const double mean_d = -drift * h, scale_d = noise * std::sqrt(h);
-      const double twice_var = 2.0 * step_variance(noise, h);
-      const bool all_regular = segment_regular(mean_d, scale_d, twice_var);
+      const StepConstants c = step_constants(step, drift, noise);
+      const double mean_d = c.mean, scale_d = c.scale, twice_var = c.twice_variance;
+      const bool all_regular = segment_regular(c);
       for (std::uint64_t i = 0; i < seg.steps; ++i, ++k) {
         if ((k & (kPollSteps - 1)) == kPollSteps - 1 && ws.abandon && ws.abandon()) return;
         const int half = static_cast<int>(k & 1u);
@@ -220,9 +225,9 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
         if constexpr (M == Method::euler) {
           for (int l = 0; l < kLanes; ++l) {
             const double x0 = x[l];
-            if constexpr (kDisp) u[l] += h * x0;
-            if constexpr (kDist) s[l] += h * std::abs(x0);
-            x[l] = euler_step(x0, h, drift, noise, zn[l]);
+            if constexpr (kDisp) u[l] += step * x0;
+            if constexpr (kDist) s[l] += step * std::abs(x0);
+            x[l] = euler_step(x0, step, drift, noise, zn[l]);
           }
         } else if constexpr (M == Method::refine) {
           for (int l = 0; l < lanes; ++l) {
@@ -230,36 +235,37 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
             double x1;
             if (std::abs(x0) < near) {
               constexpr int kPairs = kRefineSubsteps / 2;
-              const double hs = h / kRefineSubsteps;
+              const double substep = step / kRefineSubsteps;
               double xa = x0;
               for (int j = 0; j < kPairs; ++j) {
                 StepNoise r[2];
                 draw_pair(o.seed, (path0 + l) | kRefineStream, k * kPairs + j, r);
                 for (const StepNoise& q : r) {
                   const double xb =
-                      exact_step(xa, hs, drift, noise, q.normal, q.exponential, q.coin).velocity;
-                  if constexpr (kDisp) u[l] += 0.5 * hs * (xa + xb);
-                  if constexpr (kDist) s[l] += 0.5 * hs * (std::abs(xa) + std::abs(xb));
+                      exact_step(xa, substep, drift, noise, q.normal, q.exponential, q.coin).velocity;
+                  if constexpr (kDisp) u[l] += trapezoid(substep, xa, xb);
+                  if constexpr (kDist) s[l] += trapezoid(substep, std::abs(xa), std::abs(xb));
                   xa = xb;
                 }
               }
               x1 = xa;
             } else {
-              x1 = exact_step(x0, h, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
-              if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1);
-              if constexpr (kDist) s[l] += 0.5 * h * (std::abs(x0) + std::abs(x1));
+              x1 = exact_step(x0, step, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
+              if constexpr (kDisp) u[l] += trapezoid(step, x0, x1);
+              if constexpr (kDist) s[l] += trapezoid(step, std::abs(x0), std::abs(x1));
             }
             x[l] = x1;
           }
         } else {
-          // exact_step (skeleton.hpp) written branch-free over all lanes so that it vectorises;
-          // the padding lanes of a partial group compute harmless values that are never read.
+          // exact_step (skeleton.hpp) over all lanes, its parts in separate loops so that they
+          // vectorise; the padding lanes of a partial group compute harmless values that are
+          // never read.
           alignas(32) double d[kLanes], q[kLanes], root[kLanes], x1[kLanes];
 #pragma omp simd
           for (int l = 0; l < kLanes; ++l) {
-            d[l] = mul_add(scale_d, zn[l], mean_d);
-            q[l] = twice_var * ze[l];
-            root[l] = mul_add(d[l], d[l], q[l]);
+            d[l] = step_increment(mean_d, scale_d, zn[l]);
+            q[l] = step_spread(twice_var, ze[l]);
+            root[l] = step_root_square(d[l], q[l]);
           }
           sqrt_lanes(root);
           int irregular = 0;
@@ -271,16 +277,10 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
 #pragma omp simd
             for (int l = 0; l < kLanes; ++l) {
               const double x0 = x[l];
-              // The same functions as exact_step's regular case, so the same bits.
-              const double a = std::abs(x0);
-              const double magnitude = step_regular_magnitude(a, d[l], q[l], root[l]);
-              // A touch of 0 takes the coin's sign, otherwise the sign is kept.
-              const bool touched = step_touched(a, step_regular_minimum(d[l], q[l], root[l]));
-              const bool positive = (touched & (zc[l] != 0.0)) | (!touched & (x0 > 0.0));
-              x1[l] = positive ? magnitude : -magnitude;
+              x1[l] = regular_step(x0, d[l], q[l], root[l], zc[l] != 0.0);
               // Trapezoid rule on the exact skeleton (docs/integrals.md).
-              if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1[l]);
-              if constexpr (kDist) s[l] += 0.5 * h * (a + std::abs(x1[l]));
+              if constexpr (kDisp) u[l] += trapezoid(step, x0, x1[l]);
+              if constexpr (kDist) s[l] += trapezoid(step, std::abs(x0), std::abs(x1[l]));
             }
           } else {
             // A step far outside the usual range in some lane (over- or underflow of d^2 + q):
@@ -288,9 +288,9 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
             // elsewhere; the integrals as above.
             for (int l = 0; l < kLanes; ++l) {
               const double x0 = x[l];
-              x1[l] = exact_step(x0, h, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
-              if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1[l]);
-              if constexpr (kDist) s[l] += 0.5 * h * (std::abs(x0) + std::abs(x1[l]));
+              x1[l] = exact_step(x0, step, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
+              if constexpr (kDisp) u[l] += trapezoid(step, x0, x1[l]);
+              if constexpr (kDist) s[l] += trapezoid(step, std::abs(x0), std::abs(x1[l]));
             }
           }
           if constexpr (kCoarse) {
@@ -301,11 +301,11 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
               if ((k & mask) == 0)
                 for (int l = 0; l < kLanes; ++l) xc[g][l] = x[l];
               if ((k & mask) == mask) {
-                const double hg = 0.5 * h * static_cast<double>(mask + 1);
+                const double coarse_half = 0.5 * step * static_cast<double>(mask + 1);
 #pragma omp simd
                 for (int l = 0; l < kLanes; ++l) {
-                  if constexpr (kDisp) uc[g][l] += hg * (xc[g][l] + x1[l]);
-                  if constexpr (kDist) sc[g][l] += hg * (std::abs(xc[g][l]) + std::abs(x1[l]));
+                  if constexpr (kDisp) uc[g][l] += coarse_half * (xc[g][l] + x1[l]);
+                  if constexpr (kDist) sc[g][l] += coarse_half * (std::abs(xc[g][l]) + std::abs(x1[l]));
                 }
               }
             }

@@ -19,9 +19,19 @@ namespace crandall {
 //   (docs/methods/refine.md).
 enum class Method { exact, euler, richardson, richardson2, refine };
 
-// Number of coupled grids (1 for a method without extrapolation) and the weights that combine
-// their moments; weights()[j] belongs to the grid of step 2^j h.
-int richardson_levels(Method m);
+// Number of coupled grids a method walks on one path (steps h, 2h, 4h, ...: the grid of step
+// 2^j h is every 2^j-th point of the finest): 1 for a method without extrapolation. The one
+// place this is decided; the plan, the kernel and the run all ask here.
+constexpr int grids(Method m) {
+  return m == Method::richardson ? 3 : m == Method::richardson2 ? 2 : 1;
+}
+
+// The grids a run keeps: with no time integral observed there is nothing to extrapolate (the
+// velocity step is exact at any length, and the plan does not even refine the grid), so one.
+constexpr int grids(Method m, bool integrals) { return integrals ? grids(m) : 1; }
+
+// The weights that combine the moments of the grids(m) grids; weights[j] belongs to the grid of
+// step 2^j h.
 std::vector<double> richardson_weights(Method m);
 
 // Name of a method as the Python layer spells it; parse_method throws std::invalid_argument.
@@ -51,11 +61,12 @@ struct Options {
   // Throws std::invalid_argument naming the offending field.
   void validate() const;
   bool integrals() const { return displacement || distance; }
+  int grids() const { return crandall::grids(method, integrals()); }
 };
 
-// A stretch of the grid: `steps` equal steps of length h, then (if slot >= 0) an output.
+// A stretch of the grid: `steps` equal steps of length `step`, then (if slot >= 0) an output.
 struct Segment {
-  double h;
+  double step;
   std::uint64_t steps;
   long slot;
 };
