@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "crandall/dispatch.hpp"
+#include "crandall/diagnostics.hpp"
 #include "crandall/run.hpp"
 
 namespace {

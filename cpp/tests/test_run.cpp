@@ -50,9 +50,9 @@ TEST(Run, SeedChangesResult) {
   EXPECT_NE(a.times.means(), b.times.means());
 }
 
-TEST(Run, InterruptAbandonsTheRun) {
+TEST(Run, CancelEndsTheRun) {
   const crandall::Plan plan(scene());
-  EXPECT_THROW(crandall::run_chunk(plan, 0, 2, [] { return true; }), crandall::Interrupted);
+  EXPECT_THROW(crandall::run_chunk(plan, 0, 2, [] { return true; }), crandall::Cancelled);
 }
 
 TEST(Rng, StreamsDependOnSeedPathAndStep) {
@@ -395,9 +395,9 @@ TEST(Run, ExceptionInTheCheckIsRethrownOnTheCaller) {
   EXPECT_THROW(crandall::run_chunk(plan, 0, 3, check), std::runtime_error);
 }
 
-TEST(Run, InterruptNoticedWhileAnotherThreadRunsTheOnlyBlock) {
+TEST(Run, CancelNoticedWhileAnotherThreadRunsTheOnlyBlock) {
   // One block (100 paths) of a long run on 4 threads: the calling thread may hold no block;
-  // it must keep checking, and the block's thread must stop within kPollSteps steps.
+  // it must keep checking, and the block's thread must quit within kPollSteps steps.
   auto o = scene();
   o.paths = 100;
   o.times = {5.0};
@@ -406,7 +406,7 @@ TEST(Run, InterruptNoticedWhileAnotherThreadRunsTheOnlyBlock) {
   const crandall::Plan plan(o);
   const auto start = std::chrono::steady_clock::now();
   auto check = [start]() { return std::chrono::steady_clock::now() - start > std::chrono::milliseconds(200); };
-  EXPECT_THROW(crandall::run_chunk(plan, 0, 4, check), crandall::Interrupted);
+  EXPECT_THROW(crandall::run_chunk(plan, 0, 4, check), crandall::Cancelled);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   EXPECT_LT(seconds, 5.0);

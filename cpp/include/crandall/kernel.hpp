@@ -119,9 +119,9 @@ struct Workspace {
   // Richardson's coarser grids (step 2h, 4h), empty for the other methods.
   std::vector<BlockSums> coarse_times, coarse_stop;
   std::vector<int> active;
-  // Returns true when the run is to be abandoned; polled every kPollSteps steps so that long
-  // paths stay interruptible. May be empty.
-  std::function<bool()> abandon;
+  // Returns true when the run is cancelled; polled every kPollSteps steps so that long paths
+  // can be cancelled. May be empty.
+  std::function<bool()> cancelled;
   // Diagnostics only (simulate_states): when set, the velocity at the end of the last segment
   // of path p is stored in states[p - states_first].
   double* states = nullptr;
@@ -216,7 +216,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
       const double mean_d = c.mean, scale_d = c.scale, twice_var = c.twice_variance;
       const bool all_regular = segment_regular(c);
       for (std::uint64_t i = 0; i < seg.steps; ++i, ++k) {
-        if ((k & (kPollSteps - 1)) == kPollSteps - 1 && ws.abandon && ws.abandon()) return;
+        if ((k & (kPollSteps - 1)) == kPollSteps - 1 && ws.cancelled && ws.cancelled()) return;
         const int half = static_cast<int>(k & 1u);
         if (half == 0) draw_pairs<kLanes>(o.seed, path0, k >> 1, lanes, z);
         const double* zn = z.normal[half];
