@@ -45,7 +45,6 @@ std::vector<double> simulate_states(const Plan& plan) {
   const BlockFn block_fn = active_kernel().block_fn(o.method, false, false);
   Workspace ws(plan);
   ws.states = out.data();
-  ws.states_first = 0;
   for (std::uint64_t start = 0; start < o.paths; start += kBlockPaths) {
     ws.reset();
     block_fn(plan, start, std::min<std::uint64_t>(kBlockPaths, o.paths - start), ws);

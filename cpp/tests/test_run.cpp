@@ -149,7 +149,7 @@ TEST(Rng, PhiloxKnownAnswers) {
 // A path's draws do not depend on the group it is drawn in.
 TEST(Rng, BatchedDrawsEqualSingleDraws) {
   crandall::PairNoise<16> z;
-  crandall::draw_pairs<16>(5, 1234, 77, 16, z);
+  crandall::draw_pairs<16>(5, 1234, 77, z);
   for (int l = 0; l < 16; ++l) {
     crandall::StepNoise one[2];
     crandall::draw_pair(5, 1234 + static_cast<std::uint64_t>(l), 77, one);
@@ -293,11 +293,11 @@ TEST(Kernel, LanesEqualTheScalarExactStep) {
   // draws (step k uses half k of pair 0), in the regular and in the scaled range of steps.
   for (const auto& [drift, noise] : std::vector<std::pair<double, double>>{
            {2.0, std::sqrt(2.0)}, {2.943, 1e-9}, {0.0, 1.0}, {2.0, 0.0}}) {
-    for (double h : {1e-300, 1e-200, 1e-12, 0.01, 1.0, 1e3, 1e15, 1e17, 1e100, 1e200, 1e300}) {
+    for (double step : {1e-300, 1e-200, 1e-12, 0.01, 1.0, 1e3, 1e15, 1e17, 1e100, 1e200, 1e300}) {
       crandall::Options o;
       o.drift = drift;
       o.noise = noise;
-      o.times = {h, 2.0 * h};
+      o.times = {step, 2.0 * step};
       o.paths = 1;
       for (std::uint64_t seed = 0; seed < 64; ++seed) {
         o.seed = seed;
@@ -312,7 +312,7 @@ TEST(Kernel, LanesEqualTheScalarExactStep) {
                                    z[k].exponential, z[k].coin)
                   .velocity;
           EXPECT_EQ(r.times.means()[k * crandall::kVariables], x)
-              << "drift=" << drift << " noise=" << noise << " h=" << h << " seed=" << seed;
+              << "drift=" << drift << " noise=" << noise << " step=" << step << " seed=" << seed;
         }
       }
     }

@@ -123,9 +123,8 @@ struct Workspace {
   // can be cancelled. May be empty.
   std::function<bool()> cancelled;
   // Diagnostics only (simulate_states): when set, the velocity at the end of the last segment
-  // of path p is stored in states[p - states_first].
+  // of path p is stored in states[p].
   double* states = nullptr;
-  std::uint64_t states_first = 0;
 };
 
 constexpr std::uint64_t kPollSteps = 1u << 14;
@@ -218,7 +217,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
       for (std::uint64_t i = 0; i < seg.steps; ++i, ++k) {
         if ((k & (kPollSteps - 1)) == kPollSteps - 1 && ws.cancelled && ws.cancelled()) return;
         const int half = static_cast<int>(k & 1u);
-        if (half == 0) draw_pairs<kLanes>(o.seed, path0, k >> 1, lanes, z);
+        if (half == 0) draw_pairs<kLanes>(o.seed, path0, k >> 1, z);
         const double* zn = z.normal[half];
         const double* ze = z.exponential[half];
         const double* zc = z.coin[half];
@@ -322,7 +321,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
       }
     }
     if (ws.states)
-      for (int l = 0; l < lanes; ++l) ws.states[path0 + l - ws.states_first] = x[l];
+      for (int l = 0; l < lanes; ++l) ws.states[path0 + l] = x[l];
     if (!plan.needs_switch_state()) continue;
     add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop);
     if constexpr (kCoarse)

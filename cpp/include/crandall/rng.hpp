@@ -172,12 +172,11 @@ inline void philox_paths(std::uint64_t seed, std::uint64_t path0, std::uint64_t 
 // detmath.hpp, so every variant and the NumPy reference (tests/reference_rng.py) give the same
 // bits. Layout documented in docs/random-numbers.md; changing it changes every result (and
 // kRandomStream above).
-// Lanes l >= lanes (padding of a partial group) hold the draws of paths that are not simulated;
-// they are never read.
+// All N lanes are drawn: in a partial group the lanes past its paths hold the draws of paths
+// that are not simulated, and are never read.
 template <int N>
-inline void draw_pairs(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair, int lanes,
+inline void draw_pairs(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair,
                        PairNoise<N>& out) {
-  (void)lanes;
   alignas(64) std::uint64_t w[4][N];
   philox_paths<N>(seed, path0, pair, N, w);
   alignas(64) double lg[3][N], sn[N], cs[N];
@@ -206,7 +205,7 @@ inline void draw_pairs(std::uint64_t seed, std::uint64_t path0, std::uint64_t pa
 inline void draw_pair(std::uint64_t seed, std::uint64_t path, std::uint64_t pair,
                       StepNoise out[2]) {
   PairNoise<1> z;
-  draw_pairs<1>(seed, path, pair, 1, z);
+  draw_pairs<1>(seed, path, pair, z);
   for (int j = 0; j < 2; ++j) out[j] = {z.normal[j][0], z.exponential[j][0], z.coin[j][0] != 0.0};
 }
 
