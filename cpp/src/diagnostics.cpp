@@ -9,7 +9,7 @@
 #include "crandall/dispatch.hpp"
 #include "crandall/kernel.hpp"
 #include "crandall/rng.hpp"
-#include "crandall/skeleton.hpp"
+#include "crandall/exact_step.hpp"
 
 namespace crandall {
 

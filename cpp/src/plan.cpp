@@ -3,7 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "crandall/skeleton.hpp"
+#include "crandall/exact_step.hpp"
 
 namespace crandall {
 namespace {
@@ -125,7 +125,7 @@ Plan::Plan(Options options) : options_(std::move(options)) {
   for (; slot < static_cast<long>(o.times.size()) && o.times[slot] <= end; ++slot)
     add(o.times[slot], slot);
   if (previous < end) add(end, -1);
-  // The step's arithmetic has a range (skeleton.hpp); beyond it a step would overflow.
+  // The step's arithmetic has a range (exact_step.hpp); beyond it a step would overflow.
   for (const Segment& seg : segments_)
     require(step_in_range(seg.step, o.drift, o.noise),
             "times and switch_off are too long for this drift and noise: a step would exceed "

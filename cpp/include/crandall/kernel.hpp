@@ -13,7 +13,7 @@
 #include "crandall/coast.hpp"
 #include "crandall/plan.hpp"
 #include "crandall/rng.hpp"
-#include "crandall/skeleton.hpp"
+#include "crandall/exact_step.hpp"
 #include "crandall/variant.hpp"
 
 namespace crandall {
@@ -256,7 +256,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
             x[l] = x1;
           }
         } else {
-          // exact_step (skeleton.hpp) over all lanes, its parts in separate loops so that they
+          // exact_step (exact_step.hpp) over all lanes, its parts in separate loops so that they
           // vectorise; the padding lanes of a partial group compute harmless values that are
           // never read.
           alignas(32) double d[kLanes], q[kLanes], root[kLanes], x1[kLanes];

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "crandall/rng.hpp"
-#include "crandall/skeleton.hpp"
+#include "crandall/exact_step.hpp"
 
 namespace {
 
