@@ -29,10 +29,8 @@ const char* method_name(Method m) {
 }
 
 Method parse_method(const std::string& name) {
-  const Method all[] = {Method::exact, Method::euler, Method::richardson, Method::richardson2,
-                        Method::refine};
   std::string names;
-  for (Method m : all) {
+  for (Method m : kMethods) {
     if (name == method_name(m)) return m;
     names += std::string(names.empty() ? "'" : ", '") + method_name(m) + "'";
   }

@@ -143,8 +143,7 @@ TEST(Options, RejectBadInput) {
 }
 
 TEST(Methods, NamesRoundTripAndUnknownNamesThrow) {
-  for (auto m : {crandall::Method::exact, crandall::Method::euler, crandall::Method::richardson,
-                 crandall::Method::richardson2, crandall::Method::refine})
+  for (auto m : crandall::kMethods)
     EXPECT_EQ(crandall::parse_method(crandall::method_name(m)), m);
   EXPECT_THROW(crandall::parse_method("milstein"), std::invalid_argument);
 }
@@ -173,8 +172,7 @@ TEST(Methods, GridCountMatchesTheWeightsAndTheGrid) {
   // multiple of the coarsest grid's stride (scene(): natural counts 5, 5, 10).
   static_assert(crandall::grids(crandall::Method::richardson) == 3);
   static_assert(crandall::grids(crandall::Method::richardson2) == 2);
-  for (auto m : {crandall::Method::exact, crandall::Method::euler, crandall::Method::richardson,
-                 crandall::Method::richardson2, crandall::Method::refine}) {
+  for (auto m : crandall::kMethods) {
     EXPECT_EQ(crandall::richardson_weights(m).size(), static_cast<std::size_t>(crandall::grids(m)))
         << crandall::method_name(m);
     EXPECT_EQ(crandall::grids(m, false), 1);

@@ -18,6 +18,9 @@ namespace crandall {
 // refine: exact skeleton; a step that starts near 0 is taken as kRefineSubsteps exact substeps
 //   (docs/methods/refine.md).
 enum class Method { exact, euler, richardson, richardson2, refine };
+// Every method, in the order of the enum (parse_method's list; the tests loop over it).
+constexpr Method kMethods[] = {Method::exact, Method::euler, Method::richardson,
+                               Method::richardson2, Method::refine};
 
 // Number of coupled grids a method walks on one path (steps h, 2h, 4h, ...: the grid of step
 // 2^j h is every 2^j-th point of the finest): 1 for a method without extrapolation. The one
