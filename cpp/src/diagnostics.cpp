@@ -65,8 +65,7 @@ std::vector<double> exact_steps(const std::vector<double>& start, double step, d
                                 double noise, std::uint64_t seed) {
   // `h` is the step's name in the Python signature (crandall._core.exact_steps).
   if (!(std::isfinite(step) && step > 0.0)) throw std::invalid_argument("h must be finite and > 0");
-  if (!(std::isfinite(drift) && drift >= 0.0)) throw std::invalid_argument("drift must be finite and >= 0");
-  if (!(std::isfinite(noise) && noise >= 0.0)) throw std::invalid_argument("noise must be finite and >= 0");
+  validate_model(drift, noise);
   if (!step_in_range(step, drift, noise))
     throw std::invalid_argument("h is too long for this drift and noise: the step would exceed the range of doubles");
   std::vector<double> out(start.size());

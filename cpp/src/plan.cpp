@@ -68,9 +68,13 @@ std::vector<double> richardson_weights(Method m) {
   return w;
 }
 
-void Options::validate() const {
+void validate_model(double drift, double noise) {
   require(std::isfinite(drift) && drift >= 0.0, "drift must be finite and >= 0");
   require(std::isfinite(noise) && noise >= 0.0, "noise must be finite and >= 0");
+}
+
+void Options::validate() const {
+  validate_model(drift, noise);
   require(!std::isnan(switch_off) && switch_off >= 0.0,
           "switch_off must be >= 0 (or +inf for never)");
   for (std::size_t i = 0; i < times.size(); ++i) {

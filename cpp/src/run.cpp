@@ -129,7 +129,7 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   if (cancelled.load()) throw Cancelled();
   if (next_block != blocks) throw std::logic_error("run_chunk: a block was not merged");
   if (coupled > 1) {
-    // Extrapolation to h = 0 over the coupled grids (docs/methods/richardson.md). Linear in
+    // Extrapolation to a zero step over the coupled grids (docs/methods/richardson.md). Linear in
     // the raw sums, so extrapolated chunks still merge exactly.
     std::vector<const Moments*> times{&result.times}, stop{&result.stop};
     for (const auto& c : coarse_result) {

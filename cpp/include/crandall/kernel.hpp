@@ -116,7 +116,8 @@ struct Workspace {
     for (auto& c : coarse_stop) c.reset();
   }
   BlockSums times, stop;
-  // Richardson's coarser grids (step 2h, 4h), empty for the other methods.
+  // Richardson's coarser grids (steps twice and four times the fine one), empty for the other
+  // methods.
   std::vector<BlockSums> coarse_times, coarse_stop;
   std::vector<int> active;
   // Returns true when the run is cancelled; polled every kPollSteps steps so that long paths
