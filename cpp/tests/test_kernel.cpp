@@ -15,9 +15,38 @@
 #include "crandall/exact_step.hpp"
 #include "crandall/rng.hpp"
 #include "crandall/run.hpp"
-#include "scenes.hpp"
+#include "support.hpp"
 
 namespace {
+
+// Two output times, step and 2 step, velocity only: two exact steps of length `step` per path.
+crandall::Options two_steps(double drift, double noise, double step, std::uint64_t paths,
+                            std::uint64_t seed) {
+  crandall::Options o;
+  o.drift = drift;
+  o.noise = noise;
+  o.times = {step, 2.0 * step};
+  o.paths = paths;
+  o.seed = seed;
+  return o;
+}
+
+// exact_step's velocity of path p after each of the plan's two steps, on the path's draws (step k
+// uses half k of pair 0).
+std::vector<double> scalar_velocities(const crandall::Plan& plan, std::uint64_t path) {
+  const crandall::Options& o = plan.options();
+  crandall::StepNoise z[2];
+  crandall::draw_pair(o.seed, path, 0, z);
+  std::vector<double> out;
+  double x = 0.0;
+  for (int k = 0; k < 2; ++k) {
+    x = crandall::exact_step(x, plan.segments()[k].step, o.drift, o.noise, z[k].normal,
+                             z[k].exponential, z[k].coin)
+            .velocity;
+    out.push_back(x);
+  }
+  return out;
+}
 
 TEST(Kernel, LanesEqualTheScalarExactStep) {
   // The kernel evaluates the exact step lane by lane in vector form; with one path, the mean of
@@ -26,26 +55,14 @@ TEST(Kernel, LanesEqualTheScalarExactStep) {
   for (const auto& [drift, noise] : std::vector<std::pair<double, double>>{
            {2.0, std::sqrt(2.0)}, {2.943, 1e-9}, {0.0, 1.0}, {2.0, 0.0}}) {
     for (double step : {1e-300, 1e-200, 1e-12, 0.01, 1.0, 1e3, 1e15, 1e17, 1e100, 1e200, 1e300}) {
-      crandall::Options o;
-      o.drift = drift;
-      o.noise = noise;
-      o.times = {step, 2.0 * step};
-      o.paths = 1;
       for (std::uint64_t seed = 0; seed < 64; ++seed) {
-        o.seed = seed;
-        const crandall::Plan plan(o);
+        const crandall::Plan plan(two_steps(drift, noise, step, 1, seed));
         ASSERT_EQ(plan.segments().size(), 2u);
         const auto r = crandall::run_chunk(plan, 0, 1);
-        crandall::StepNoise z[2];
-        crandall::draw_pair(seed, 0, 0, z);
-        double x = 0.0;
-        for (int k = 0; k < 2; ++k) {
-          x = crandall::exact_step(x, plan.segments()[k].step, drift, noise, z[k].normal,
-                                   z[k].exponential, z[k].coin)
-                  .velocity;
-          EXPECT_EQ(r.times.means()[k * crandall::kVariables], x)
+        const auto want = scalar_velocities(plan, 0);
+        for (int k = 0; k < 2; ++k)
+          EXPECT_EQ(r.times.means()[k * crandall::kVariables], want[k])
               << "drift=" << drift << " noise=" << noise << " step=" << step << " seed=" << seed;
-        }
       }
     }
   }
@@ -73,31 +90,19 @@ TEST(Kernel, EveryLaneOfEveryVariantEqualsTheScalarExactStep) {
   // Through simulate_states, the velocity of 37 paths after two exact steps: two full lane
   // groups and a partial one, so every lane position is checked, in every variant this host
   // supports, against exact_step (compiled here for the baseline) on the same draws.
-  const std::string kept = crandall::active_kernel().name;
+  KeepKernel keep;
   for (const crandall::KernelTable* kernel : crandall::compiled_kernels()) {
     if (!crandall::kernel_supported(*kernel)) continue;
     crandall::select_kernel(kernel->name);
     for (const auto& [drift, noise] : std::vector<std::pair<double, double>>{
              {2.0, std::sqrt(2.0)}, {2.943, 1e-9}, {0.0, 1.0}}) {
       for (double step : {1e-300, 1e-12, 0.01, 1.0, 1e17, 1e300}) {
-        crandall::Options o;
-        o.drift = drift;
-        o.noise = noise;
-        o.times = {step, 2.0 * step};
-        o.paths = 37;
-        o.seed = 5;
-        const crandall::Plan plan(o);
+        const crandall::Plan plan(two_steps(drift, noise, step, 37, 5));
         ASSERT_EQ(plan.segments().size(), 2u);
         const std::vector<double> got = crandall::simulate_states(plan);
         ASSERT_EQ(got.size(), 37u);
         for (std::uint64_t p = 0; p < 37; ++p) {
-          crandall::StepNoise z[2];
-          crandall::draw_pair(o.seed, p, 0, z);
-          double x = 0.0;
-          for (int k = 0; k < 2; ++k)
-            x = crandall::exact_step(x, plan.segments()[k].step, drift, noise, z[k].normal,
-                                     z[k].exponential, z[k].coin)
-                    .velocity;
+          const double x = scalar_velocities(plan, p)[1];
           EXPECT_EQ(std::memcmp(&got[p], &x, sizeof x), 0)
               << kernel->name << " drift=" << drift << " noise=" << noise << " step=" << step
               << " path=" << p;
@@ -105,7 +110,6 @@ TEST(Kernel, EveryLaneOfEveryVariantEqualsTheScalarExactStep) {
       }
     }
   }
-  crandall::select_kernel(kept);
 }
 
 }  // namespace

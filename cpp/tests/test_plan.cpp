@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "crandall/plan.hpp"
-#include "scenes.hpp"
+#include "support.hpp"
 
 namespace {
 

@@ -12,7 +12,7 @@
 #include "crandall/rng.hpp"
 #include "crandall/run.hpp"
 #include "crandall/exact_step.hpp"
-#include "scenes.hpp"
+#include "support.hpp"
 
 namespace {
 
