@@ -9,16 +9,17 @@
 #include "crandall/dispatch.hpp"
 #include "crandall/kernel.hpp"
 #include "crandall/rng.hpp"
+#include "crandall/run.hpp"
 #include "crandall/exact_step.hpp"
 
 namespace crandall {
 
 double random_floor(std::uint64_t paths, std::uint64_t steps, std::uint64_t seed, int threads) {
-  if (threads < 0) throw std::invalid_argument("threads must be >= 0");
+  const int team = thread_count(threads);
   const long groups = static_cast<long>((paths + kLanes - 1) / kLanes);
   const KernelTable& kernel = active_kernel();
   double total = 0.0;
-#pragma omp parallel for schedule(static) reduction(+ : total) num_threads(threads > 0 ? threads : omp_get_max_threads())
+#pragma omp parallel for schedule(static) reduction(+ : total) num_threads(team)
   for (long g = 0; g < groups; ++g)
     total += kernel.noise_checksum(seed, static_cast<std::uint64_t>(g) * kLanes, steps);
   return total;

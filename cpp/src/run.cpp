@@ -23,9 +23,14 @@ struct BlockOut {
 
 }  // namespace
 
+int thread_count(int threads) {
+  if (threads < 0) throw std::invalid_argument("threads must be >= 0");
+  return threads > 0 ? threads : omp_get_max_threads();
+}
+
 ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
                       const CancelCheck& cancel) {
-  if (threads < 0) throw std::invalid_argument("threads must be >= 0");
+  const int team = thread_count(threads);
   const Options& o = plan.options();
   const std::uint64_t first = chunk * kChunkPaths;
   const std::uint64_t count = plan.chunk_paths(chunk);
@@ -42,7 +47,6 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   std::condition_variable done;  // signalled when the last block finishes or the run fails
   std::map<long, BlockOut> pending;
   long next_block = 0;
-  const int team = threads > 0 ? threads : omp_get_max_threads();
   if (cancel && cancel()) throw Cancelled();  // a request already pending
 
   // No exception may leave an OpenMP region (that terminates the process): every one is

@@ -33,6 +33,10 @@ class Cancelled : public std::runtime_error {
   Cancelled() : std::runtime_error("run cancelled") {}
 };
 
+// The threads a parallel loop of the core uses for a `threads` argument: that many, or OpenMP's
+// default for 0. Throws std::invalid_argument for a negative count.
+int thread_count(int threads);
+
 // Simulate chunk `chunk` of the plan on `threads` threads (0: OpenMP's default). The result
 // is bitwise the same for any thread count. No exception escapes the threads: the first one
 // (std::bad_alloc included) is rethrown here.
