@@ -135,7 +135,7 @@ def draw_pairs(seed: int, paths, pair: int) -> np.ndarray:
 def exact_step(x0: np.ndarray, dt: float, drift: float, noise: float, normal: np.ndarray,
                exponential: np.ndarray, coin: np.ndarray) -> np.ndarray:
     """The exact velocity step as the kernel evaluates it (docs/exact-step.md), elementwise."""
-    # The regular case of skeleton.hpp (every step here has a normal root = sqrt(d^2 + q)):
+    # The regular case of exact_step.hpp (every step here has a normal root = sqrt(d^2 + q)):
     # with r = q / (2 (root + |d|)), the bridge minimum is min(d, 0) - r and d - m is
     # max(d, 0) + r, sums of terms of one sign (no cancellation for either sign of d).
     mean_d, scale_d = -drift * dt, noise * np.sqrt(dt)

@@ -18,7 +18,7 @@ def hexes(a):
 
 
 def test_reference_philox_matches_random123_known_answers():
-    # Random123's published kat_vectors for Philox4x32-10 (the same as cpp/tests/test_run.cpp).
+    # Random123's published kat_vectors for Philox4x32-10 (the same as cpp/tests/test_rng.cpp).
     kats = [((0, 0, 0, 0), (0, 0), (0x6627E8D5, 0xE169C58D, 0xBC57AC4C, 0x9B00DBD8)),
             ((0xFFFFFFFF,) * 4, (0xFFFFFFFF,) * 2, (0x408F276D, 0x41C83B0E, 0xA20BC7C6, 0x6D5451FD)),
             ((0x243F6A88, 0x85A308D3, 0x13198A2E, 0x03707344), (0xA4093822, 0x299F31D0),

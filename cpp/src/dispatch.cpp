@@ -43,9 +43,8 @@ CpuLevels detect() {
   const bool v3_1 = (c1 & (1u << 28)) && (c1 & (1u << 12)) && (c1 & (1u << 29)) &&
                     (c1 & (1u << 22));  // avx fma f16c movbe
   if (!osxsave || !v2 || !v3_1) return out;
-  unsigned xlo, xhi;
-  __asm__ volatile("xgetbv" : "=a"(xlo), "=d"(xhi) : "c"(0));
-  (void)xhi;
+  unsigned xlo;  // the low half of XCR0 holds every bit read here; edx gets the high half
+  __asm__ volatile("xgetbv" : "=a"(xlo) : "c"(0) : "edx");
   const bool os_avx = (xlo & 0x6u) == 0x6u;       // SSE and AVX state
   const bool os_avx512 = (xlo & 0xE6u) == 0xE6u;  // + opmask, upper ZMM0-15, ZMM16-31
   if (__get_cpuid_max(0, nullptr) < 7) return out;

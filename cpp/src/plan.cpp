@@ -3,7 +3,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "crandall/skeleton.hpp"
+#include "crandall/exact_step.hpp"
 
 namespace crandall {
 namespace {
@@ -29,24 +29,18 @@ const char* method_name(Method m) {
 }
 
 Method parse_method(const std::string& name) {
-  const Method all[] = {Method::exact, Method::euler, Method::richardson, Method::richardson2,
-                        Method::refine};
   std::string names;
-  for (Method m : all) {
+  for (Method m : kMethods) {
     if (name == method_name(m)) return m;
     names += std::string(names.empty() ? "'" : ", '") + method_name(m) + "'";
   }
   throw std::invalid_argument("method must be one of " + names + ", got '" + name + "'");
 }
 
-int richardson_levels(Method m) {
-  return m == Method::richardson ? 3 : m == Method::richardson2 ? 2 : 1;
-}
-
 std::vector<double> richardson_weights(Method m) {
   // Solve sum_j w_j = 1 and sum_j w_j (2^j)^p = 0 for each bias exponent p (Cramer's rule on
   // at most 3 unknowns); the bias exponents are derived in docs/methods/richardson.md.
-  const int levels = richardson_levels(m);
+  const int levels = grids(m);
   if (levels == 1) return {1.0};
   if (levels == 2) {
     const double r = std::pow(2.0, 1.5);
@@ -74,9 +68,13 @@ std::vector<double> richardson_weights(Method m) {
   return w;
 }
 
-void Options::validate() const {
+void validate_model(double drift, double noise) {
   require(std::isfinite(drift) && drift >= 0.0, "drift must be finite and >= 0");
   require(std::isfinite(noise) && noise >= 0.0, "noise must be finite and >= 0");
+}
+
+void Options::validate() const {
+  validate_model(drift, noise);
   require(!std::isnan(switch_off) && switch_off >= 0.0,
           "switch_off must be >= 0 (or +inf for never)");
   for (std::size_t i = 0; i < times.size(); ++i) {
@@ -119,8 +117,8 @@ Plan::Plan(Options options) : options_(std::move(options)) {
       n = want < 1.0 ? 1 : static_cast<std::uint64_t>(want);
       // Richardson's coarse grids are every 2nd (4th) point of the fine one, segment by
       // segment, so the step count is a multiple of 2 (4).
-      const std::uint64_t group = std::uint64_t{1} << (richardson_levels(o.method) - 1);
-      if (fine) n = (n + group - 1) / group * group;
+      const std::uint64_t group = std::uint64_t{1} << (o.grids() - 1);
+      n = (n + group - 1) / group * group;
     }
     segments_.push_back({n > 0 ? gap / static_cast<double>(n) : 0.0, n, s});
     steps_per_path_ += n;
@@ -129,9 +127,9 @@ Plan::Plan(Options options) : options_(std::move(options)) {
   for (; slot < static_cast<long>(o.times.size()) && o.times[slot] <= end; ++slot)
     add(o.times[slot], slot);
   if (previous < end) add(end, -1);
-  // The step's arithmetic has a range (skeleton.hpp); beyond it a step would overflow.
+  // The step's arithmetic has a range (exact_step.hpp); beyond it a step would overflow.
   for (const Segment& seg : segments_)
-    require(step_in_range(seg.h, o.drift, o.noise),
+    require(step_in_range(seg.step, o.drift, o.noise),
             "times and switch_off are too long for this drift and noise: a step would exceed "
             "the range of doubles");
   for (; slot < static_cast<long>(o.times.size()); ++slot) {

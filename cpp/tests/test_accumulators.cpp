@@ -6,7 +6,6 @@
 #include <vector>
 
 #include "crandall/accumulators.hpp"
-#include "crandall/kernel.hpp"
 
 namespace {
 

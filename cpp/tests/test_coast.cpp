@@ -26,13 +26,13 @@ TEST(Coast, MatchesIntegratedOde) {
     const crandall::State s0{v0, 0.3, 0.4};
     const double c = 1.7, t_end = 0.9 * std::abs(v0) / c;
     const int n = 200000;
-    const double h = t_end / n;
+    const double step = t_end / n;
     double v = v0, u = s0.displacement, s = s0.distance;
     for (int i = 0; i < n; ++i) {  // midpoint rule: exact for the quadratic integrands
-      const double vm = v - c * (v > 0 ? 1 : -1) * 0.5 * h;
-      u += h * vm;
-      s += h * std::abs(vm);
-      v -= c * (v > 0 ? 1 : -1) * h;
+      const double vm = v - c * (v > 0 ? 1 : -1) * 0.5 * step;
+      u += step * vm;
+      s += step * std::abs(vm);
+      v -= c * (v > 0 ? 1 : -1) * step;
     }
     const auto st = crandall::coast(s0, c, t_end);
     EXPECT_NEAR(st.velocity, v, 1e-9);

@@ -8,7 +8,9 @@
 #include <vector>
 
 #include "crandall/dispatch.hpp"
+#include "crandall/diagnostics.hpp"
 #include "crandall/run.hpp"
+#include "support.hpp"
 
 namespace {
 
@@ -18,12 +20,6 @@ std::vector<const crandall::KernelTable*> supported() {
     if (crandall::kernel_supported(*k)) out.push_back(k);
   return out;
 }
-
-// Restores the variant in use after a test that forces others.
-struct KeepKernel {
-  std::string name = crandall::active_kernel().name;
-  ~KeepKernel() { crandall::select_kernel(name); }
-};
 
 bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
   return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);

@@ -1,11 +1,15 @@
-// The graded grid (Options::min_steps): every output time and the switch-off are reached in at
-// least min_steps steps, and the longest step is still dt where that is finer.
+// The plan: the time grid (the graded grid of Options::min_steps reaches every output time and
+// the switch-off in at least min_steps steps, and the longest step is still dt where that is
+// finer; velocity-only scenes jump), validation of the options, methods and their grids.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <vector>
 
 #include "crandall/plan.hpp"
+#include "support.hpp"
 
 namespace {
 
@@ -33,11 +37,11 @@ TEST(GradedGrid, EveryOutputTimeGetsAtLeastMinSteps) {
   const double ends[] = {0.05, 0.1, 1.0};
   for (std::size_t i = 0; i < seg.size(); ++i) {
     before += seg[i].steps;
-    t += seg[i].h * static_cast<double>(seg[i].steps);
+    t += seg[i].step * static_cast<double>(seg[i].steps);
     EXPECT_NEAR(t, ends[i], 1e-12);
     EXPECT_GE(before, 64u) << "output " << i;
     // The step of a segment is at most its end over min_steps (up to rounding).
-    EXPECT_LE(seg[i].h, ends[i] / 64 * (1 + 1e-12));
+    EXPECT_LE(seg[i].step, ends[i] / 64 * (1 + 1e-12));
   }
   // Graded, not uniform: 64 steps to 0.05, steps of 0.1/64 to 0.1, then of 1/64 to 1.
   EXPECT_EQ(seg[0].steps, 64u);
@@ -59,7 +63,7 @@ TEST(GradedGrid, SwitchOffIsResolvedToo) {
   ASSERT_EQ(seg.size(), 2u);  // to 1e-6, then to the switch-off; 3.0 is in closed form
   EXPECT_EQ(seg[0].steps, 16u);
   EXPECT_GE(seg[0].steps + seg[1].steps, 16u);
-  EXPECT_LE(seg[1].h, 1e-3 / 16 * (1 + 1e-12));
+  EXPECT_LE(seg[1].step, 1e-3 / 16 * (1 + 1e-12));
 }
 
 TEST(GradedGrid, ScaleFreeInTime) {
@@ -96,6 +100,92 @@ TEST(GradedGrid, SubnormalTimes) {
 TEST(GradedGrid, AbsurdMinStepsIsRefused) {
   EXPECT_THROW(crandall::Plan(integrals({1.0}, 0.1, std::uint64_t{1} << 40)),
                std::invalid_argument);
+}
+
+TEST(Plan, VelocityOnlyStepsStraightToOutputs) {
+  crandall::Options o;
+  o.times = {1.0, 1000.0};
+  o.dt = 1e-3;
+  const crandall::Plan plan(o);
+  EXPECT_EQ(plan.steps_per_path(), 2u);  // no internal steps, whatever the horizon
+  o.distance = true;
+  EXPECT_EQ(crandall::Plan(o).steps_per_path(), 1000000u);
+}
+
+TEST(Plan, SwitchOffOffTheGrid) {
+  crandall::Options o;
+  o.times = {0.3, 0.9};
+  o.switch_off = 0.5;
+  o.dt = 0.2;
+  o.distance = true;
+  const crandall::Plan plan(o);
+  // Grid to 0.3 (2 steps), then to t0 = 0.5 (1 step); 0.9 is filled by the closed-form coast.
+  EXPECT_EQ(plan.steps_per_path(), 3u);
+  ASSERT_EQ(plan.coast_slots().size(), 1u);
+  EXPECT_DOUBLE_EQ(plan.coast_elapsed()[0], 0.4);
+}
+
+TEST(Options, RejectBadInput) {
+  auto bad = [](auto mutate) {
+    auto o = scene();
+    mutate(o);
+    EXPECT_THROW(crandall::Plan{o}, std::invalid_argument);
+  };
+  bad([](crandall::Options& o) { o.drift = -1; });
+  bad([](crandall::Options& o) { o.noise = std::nan(""); });
+  bad([](crandall::Options& o) { o.switch_off = -1; });
+  bad([](crandall::Options& o) { o.times = {0.5, 0.2}; });
+  bad([](crandall::Options& o) { o.times = {-0.1}; });
+  bad([](crandall::Options& o) { o.dt = 0; });
+  bad([](crandall::Options& o) { o.paths = 0; });
+  bad([](crandall::Options& o) { o.switch_off = std::numeric_limits<double>::infinity(); });  // stop
+  bad([](crandall::Options& o) { o.drift = 0; });  // stop without friction
+}
+
+TEST(Methods, NamesRoundTripAndUnknownNamesThrow) {
+  for (auto m : crandall::kMethods)
+    EXPECT_EQ(crandall::parse_method(crandall::method_name(m)), m);
+  EXPECT_THROW(crandall::parse_method("milstein"), std::invalid_argument);
+}
+
+TEST(Methods, RichardsonWeightsCancelTheBiasExponents) {
+  const auto w = crandall::richardson_weights(crandall::Method::richardson);
+  ASSERT_EQ(w.size(), 3u);
+  EXPECT_NEAR(w[0] + w[1] + w[2], 1.0, 1e-14);
+  for (double p : {1.5, 2.0})
+    EXPECT_NEAR(w[0] + w[1] * std::pow(2.0, p) + w[2] * std::pow(4.0, p), 0.0, 1e-13);
+  const auto w2 = crandall::richardson_weights(crandall::Method::richardson2);
+  EXPECT_NEAR(w2[0] + w2[1] * std::pow(2.0, 1.5), 0.0, 1e-14);
+  EXPECT_EQ(crandall::richardson_weights(crandall::Method::exact), std::vector<double>{1.0});
+}
+
+TEST(Methods, RichardsonGridsNestSegmentBySegment) {
+  auto o = scene();  // segments of 5, 5, 10 steps at dt = 0.05
+  o.method = crandall::Method::richardson;
+  const crandall::Plan plan(o);
+  for (const auto& seg : plan.segments()) EXPECT_EQ(seg.steps % 4, 0u);
+}
+
+TEST(Methods, GridCountMatchesTheWeightsAndTheGrid) {
+  // grids() is the one place the number of coupled grids is decided: the weights have one entry
+  // per grid, a run that observes no integral keeps one grid, and each segment's step count is a
+  // multiple of the coarsest grid's stride (scene(): natural counts 5, 5, 10).
+  static_assert(crandall::grids(crandall::Method::richardson) == 3);
+  static_assert(crandall::grids(crandall::Method::richardson2) == 2);
+  for (auto m : crandall::kMethods) {
+    EXPECT_EQ(crandall::richardson_weights(m).size(), static_cast<std::size_t>(crandall::grids(m)))
+        << crandall::method_name(m);
+    EXPECT_EQ(crandall::grids(m, false), 1);
+    auto o = scene();
+    o.method = m;
+    EXPECT_EQ(o.grids(), crandall::grids(m));
+    const std::uint64_t stride = std::uint64_t{1} << (crandall::grids(m) - 1);
+    const crandall::Plan plan(o);
+    for (const auto& seg : plan.segments())
+      EXPECT_EQ(seg.steps % stride, 0u) << crandall::method_name(m);
+    o.displacement = o.distance = false;
+    EXPECT_EQ(o.grids(), 1);
+  }
 }
 
 }  // namespace

@@ -13,98 +13,17 @@
 #include "crandall/coast.hpp"
 #include "crandall/plan.hpp"
 #include "crandall/rng.hpp"
-#include "crandall/skeleton.hpp"
+#include "crandall/exact_step.hpp"
 #include "crandall/variant.hpp"
 
 namespace crandall {
-
-// Raw sums of one block about a centre per slot (the first path's values), then merged into a
-// Moments in block order by the caller.
-struct BlockSums {
-  explicit BlockSums(std::size_t slots)
-      : centre(slots * kVariables), raw(slots * kMonomials), counts(slots) {}
-  void reset() {
-    std::fill(raw.begin(), raw.end(), 0.0);
-    std::fill(counts.begin(), counts.end(), 0.0);
-  }
-  void add(std::size_t slot, const double* a, const double* b, const double* c, int lanes,
-           const std::vector<int>& active);
-  void merge_into(Moments& out) const {
-    for (std::size_t s = 0; s < counts.size(); ++s)
-      out.merge_raw(s, counts[s], &centre[s * kVariables], &raw[s * kMonomials]);
-  }
-  std::vector<double> centre, raw, counts;
-};
-
-inline void BlockSums::add(std::size_t slot, const double* a, const double* b, const double* c,
-                           int lanes, const std::vector<int>& active) {
-  double* cen = &centre[slot * kVariables];
-  if (counts[slot] == 0.0) {
-    cen[0] = a[0];
-    cen[1] = b[0];
-    cen[2] = c[0];
-  }
-  const auto& exps = monomial_exponents();
-  double* r = &raw[slot * kMonomials];
-  // active is in graded order, so the first powers of the 2nd and 3rd variables (monomials 2
-  // and 3) come right after (0,0,0) and (1,0,0) when they are observed.
-  const bool only_first = active.size() < 3 || active[2] > 3;
-  if (only_first) {
-    // A velocity-only (or stop-time-only) slot: powers of the first variable alone; the
-    // products below would multiply by 1.0 exactly, so the sums are the same bits.
-    double pa[kMomentOrder + 1][kLanes];
-    for (int l = 0; l < lanes; ++l) {
-      pa[0][l] = 1.0;
-      pa[1][l] = a[l] - cen[0];
-    }
-    for (int p = 2; p <= kMomentOrder; ++p)
-      for (int l = 0; l < lanes; ++l) pa[p][l] = pa[p - 1][l] * pa[1][l];
-    for (int k : active) {
-      const int e = exps[k][0];
-      double sum = 0.0;
-      for (int l = 0; l < lanes; ++l) sum += pa[e][l];
-      r[k] += sum;
-    }
-    counts[slot] += lanes;
-    return;
-  }
-  double pa[kMomentOrder + 1][kLanes], pb[kMomentOrder + 1][kLanes], pc[kMomentOrder + 1][kLanes];
-  for (int l = 0; l < lanes; ++l) {
-    pa[0][l] = pb[0][l] = pc[0][l] = 1.0;
-    pa[1][l] = a[l] - cen[0];
-    pb[1][l] = b[l] - cen[1];
-    pc[1][l] = c[l] - cen[2];
-  }
-  for (int p = 2; p <= kMomentOrder; ++p)
-    for (int l = 0; l < lanes; ++l) {
-      pa[p][l] = pa[p - 1][l] * pa[1][l];
-      pb[p][l] = pb[p - 1][l] * pb[1][l];
-      pc[p][l] = pc[p - 1][l] * pc[1][l];
-    }
-  for (int k : active) {
-    const auto& e = exps[k];
-    double sum = 0.0;
-    for (int l = 0; l < lanes; ++l) sum += pa[e[0]][l] * pb[e[1]][l] * pc[e[2]][l];
-    r[k] += sum;
-  }
-  counts[slot] += lanes;
-}
-
-// Monomials whose exponents vanish on the variables that are not simulated.
-inline std::vector<int> active_monomials(bool second, bool third) {
-  std::vector<int> out;
-  const auto& exps = monomial_exponents();
-  for (int k = 0; k < kMonomials; ++k)
-    if ((second || exps[k][1] == 0) && (third || exps[k][2] == 0)) out.push_back(k);
-  return out;
-}
 
 struct Workspace {
   explicit Workspace(const Plan& plan)
       : times(plan.options().times.size()),
         stop(plan.options().stop ? 1 : 0),
         active(active_monomials(plan.options().displacement, plan.options().distance)) {
-    for (int j = 1; j < richardson_levels(plan.options().method); ++j) {
+    for (int j = 1; j < plan.options().grids(); ++j) {
       coarse_times.emplace_back(plan.options().times.size());
       coarse_stop.emplace_back(plan.options().stop ? 1 : 0);
     }
@@ -116,24 +35,28 @@ struct Workspace {
     for (auto& c : coarse_stop) c.reset();
   }
   BlockSums times, stop;
-  // Richardson's coarser grids (step 2h, 4h), empty for the other methods.
+  // Richardson's coarser grids (steps twice and four times the fine one), empty for the other
+  // methods.
   std::vector<BlockSums> coarse_times, coarse_stop;
   std::vector<int> active;
-  // Returns true when the run is to be abandoned; polled every kPollSteps steps so that long
-  // paths stay interruptible. May be empty.
-  std::function<bool()> abandon;
+  // Returns true when the run is cancelled; polled every kPollSteps steps so that long paths
+  // can be cancelled. May be empty.
+  std::function<bool()> cancelled;
   // Diagnostics only (simulate_states): when set, the velocity at the end of the last segment
-  // of path p is stored in states[p - states_first].
+  // of path p is stored in states[p].
   double* states = nullptr;
-  std::uint64_t states_first = 0;
 };
 
 constexpr std::uint64_t kPollSteps = 1u << 14;
 
-// The refine method (docs/methods/refine.md): a step of length h that starts with
-// |x| < kRefineWithin * noise * sqrt(h) is taken as kRefineSubsteps exact substeps, whose
+// The trapezoid rule over one step of length `step` between the values a and b
+// (docs/integrals.md): how every method integrates displacement and distance on its grid.
+inline double trapezoid(double step, double a, double b) { return 0.5 * step * (a + b); }
+
+// The refine method (docs/methods/refine.md): a step of length `step` that starts with
+// |x| < kRefineWithin * noise * sqrt(step) is taken as kRefineSubsteps exact substeps, whose
 // noise comes from the path's refinement stream (path index with the top bit set; one Philox
-// block per two substeps, pair index = step * kRefineSubsteps / 2 + j).
+// block per two substeps, pair index = k * kRefineSubsteps / 2 + j for the step of index k).
 constexpr int kRefineSubsteps = 8;
 constexpr double kRefineWithin = 2.0;
 constexpr std::uint64_t kRefineStream = 1ull << 63;
@@ -191,38 +114,39 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
 // Simulate paths [first, first + count) (count <= kBlockPaths) into ws (reset by the caller).
 template <Method M, bool kDisp, bool kDist>
 void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, Workspace& ws) {
-  constexpr int kGrids = M == Method::richardson ? 3 : M == Method::richardson2 ? 2 : 1;
-  constexpr bool kCoarse = kGrids > 1 && (kDisp || kDist);
+  constexpr int kGrids = grids(M, kDisp || kDist);
+  constexpr bool kCoarse = kGrids > 1;
   const Options& o = plan.options();
   const double drift = o.drift, noise = o.noise;
   for (std::uint64_t offset = 0; offset < count; offset += kLanes) {
     const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
     const std::uint64_t path0 = first + offset;
     double x[kLanes] = {}, u[kLanes] = {}, s[kLanes] = {};
-    // Richardson's coarse grids g = 1, 2 (step 2^g h): integrals, and x where their step began.
+    // Richardson's coarse grids g = 1, 2 (steps 2^g times the fine one): integrals, and x where
+    // their step began.
     double xc[kGrids][kLanes] = {}, uc[kGrids][kLanes] = {}, sc[kGrids][kLanes] = {};
     PairNoise<kLanes> z;
     std::uint64_t k = 0;  // step index along the path; selects the random numbers
     for (const Segment& seg : plan.segments()) {
-      const double h = seg.h;
-      const double near = kRefineWithin * noise * std::sqrt(h);
+      const double step = seg.step;
+      const double near = kRefineWithin * noise * std::sqrt(step);
       // The step's constants, rounded exactly as exact_step rounds them.
-      const double mean_d = -drift * h, scale_d = noise * std::sqrt(h);
-      const double twice_var = 2.0 * step_variance(noise, h);
-      const bool all_regular = segment_regular(mean_d, scale_d, twice_var);
+      const StepConstants c = step_constants(step, drift, noise);
+      const double mean_d = c.mean, scale_d = c.scale, twice_var = c.twice_variance;
+      const bool all_regular = segment_regular(c);
       for (std::uint64_t i = 0; i < seg.steps; ++i, ++k) {
-        if ((k & (kPollSteps - 1)) == kPollSteps - 1 && ws.abandon && ws.abandon()) return;
+        if ((k & (kPollSteps - 1)) == kPollSteps - 1 && ws.cancelled && ws.cancelled()) return;
         const int half = static_cast<int>(k & 1u);
-        if (half == 0) draw_pairs<kLanes>(o.seed, path0, k >> 1, lanes, z);
+        if (half == 0) draw_pairs<kLanes>(o.seed, path0, k >> 1, z);
         const double* zn = z.normal[half];
         const double* ze = z.exponential[half];
         const double* zc = z.coin[half];
         if constexpr (M == Method::euler) {
           for (int l = 0; l < kLanes; ++l) {
             const double x0 = x[l];
-            if constexpr (kDisp) u[l] += h * x0;
-            if constexpr (kDist) s[l] += h * std::abs(x0);
-            x[l] = euler_step(x0, h, drift, noise, zn[l]);
+            if constexpr (kDisp) u[l] += step * x0;
+            if constexpr (kDist) s[l] += step * std::abs(x0);
+            x[l] = euler_step(x0, step, drift, noise, zn[l]);
           }
         } else if constexpr (M == Method::refine) {
           for (int l = 0; l < lanes; ++l) {
@@ -230,36 +154,37 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
             double x1;
             if (std::abs(x0) < near) {
               constexpr int kPairs = kRefineSubsteps / 2;
-              const double hs = h / kRefineSubsteps;
+              const double substep = step / kRefineSubsteps;
               double xa = x0;
               for (int j = 0; j < kPairs; ++j) {
                 StepNoise r[2];
                 draw_pair(o.seed, (path0 + l) | kRefineStream, k * kPairs + j, r);
                 for (const StepNoise& q : r) {
                   const double xb =
-                      exact_step(xa, hs, drift, noise, q.normal, q.exponential, q.coin).velocity;
-                  if constexpr (kDisp) u[l] += 0.5 * hs * (xa + xb);
-                  if constexpr (kDist) s[l] += 0.5 * hs * (std::abs(xa) + std::abs(xb));
+                      exact_step(xa, substep, drift, noise, q.normal, q.exponential, q.coin).velocity;
+                  if constexpr (kDisp) u[l] += trapezoid(substep, xa, xb);
+                  if constexpr (kDist) s[l] += trapezoid(substep, std::abs(xa), std::abs(xb));
                   xa = xb;
                 }
               }
               x1 = xa;
             } else {
-              x1 = exact_step(x0, h, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
-              if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1);
-              if constexpr (kDist) s[l] += 0.5 * h * (std::abs(x0) + std::abs(x1));
+              x1 = exact_step(x0, step, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
+              if constexpr (kDisp) u[l] += trapezoid(step, x0, x1);
+              if constexpr (kDist) s[l] += trapezoid(step, std::abs(x0), std::abs(x1));
             }
             x[l] = x1;
           }
         } else {
-          // exact_step (skeleton.hpp) written branch-free over all lanes so that it vectorises;
-          // the padding lanes of a partial group compute harmless values that are never read.
+          // exact_step (exact_step.hpp) over all lanes, its parts in separate loops so that they
+          // vectorise; the padding lanes of a partial group compute harmless values that are
+          // never read.
           alignas(32) double d[kLanes], q[kLanes], root[kLanes], x1[kLanes];
 #pragma omp simd
           for (int l = 0; l < kLanes; ++l) {
-            d[l] = mul_add(scale_d, zn[l], mean_d);
-            q[l] = twice_var * ze[l];
-            root[l] = mul_add(d[l], d[l], q[l]);
+            d[l] = step_increment(mean_d, scale_d, zn[l]);
+            q[l] = step_spread(twice_var, ze[l]);
+            root[l] = step_root_square(d[l], q[l]);
           }
           sqrt_lanes(root);
           int irregular = 0;
@@ -271,16 +196,10 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
 #pragma omp simd
             for (int l = 0; l < kLanes; ++l) {
               const double x0 = x[l];
-              // The same functions as exact_step's regular case, so the same bits.
-              const double a = std::abs(x0);
-              const double magnitude = step_regular_magnitude(a, d[l], q[l], root[l]);
-              // A touch of 0 takes the coin's sign, otherwise the sign is kept.
-              const bool touched = step_touched(a, step_regular_minimum(d[l], q[l], root[l]));
-              const bool positive = (touched & (zc[l] != 0.0)) | (!touched & (x0 > 0.0));
-              x1[l] = positive ? magnitude : -magnitude;
+              x1[l] = regular_step(x0, d[l], q[l], root[l], zc[l] != 0.0);
               // Trapezoid rule on the exact skeleton (docs/integrals.md).
-              if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1[l]);
-              if constexpr (kDist) s[l] += 0.5 * h * (a + std::abs(x1[l]));
+              if constexpr (kDisp) u[l] += trapezoid(step, x0, x1[l]);
+              if constexpr (kDist) s[l] += trapezoid(step, std::abs(x0), std::abs(x1[l]));
             }
           } else {
             // A step far outside the usual range in some lane (over- or underflow of d^2 + q):
@@ -288,9 +207,9 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
             // elsewhere; the integrals as above.
             for (int l = 0; l < kLanes; ++l) {
               const double x0 = x[l];
-              x1[l] = exact_step(x0, h, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
-              if constexpr (kDisp) u[l] += 0.5 * h * (x0 + x1[l]);
-              if constexpr (kDist) s[l] += 0.5 * h * (std::abs(x0) + std::abs(x1[l]));
+              x1[l] = exact_step(x0, step, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
+              if constexpr (kDisp) u[l] += trapezoid(step, x0, x1[l]);
+              if constexpr (kDist) s[l] += trapezoid(step, std::abs(x0), std::abs(x1[l]));
             }
           }
           if constexpr (kCoarse) {
@@ -301,11 +220,11 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
               if ((k & mask) == 0)
                 for (int l = 0; l < kLanes; ++l) xc[g][l] = x[l];
               if ((k & mask) == mask) {
-                const double hg = 0.5 * h * static_cast<double>(mask + 1);
+                const double coarse_half = 0.5 * step * static_cast<double>(mask + 1);
 #pragma omp simd
                 for (int l = 0; l < kLanes; ++l) {
-                  if constexpr (kDisp) uc[g][l] += hg * (xc[g][l] + x1[l]);
-                  if constexpr (kDist) sc[g][l] += hg * (std::abs(xc[g][l]) + std::abs(x1[l]));
+                  if constexpr (kDisp) uc[g][l] += coarse_half * (xc[g][l] + x1[l]);
+                  if constexpr (kDist) sc[g][l] += coarse_half * (std::abs(xc[g][l]) + std::abs(x1[l]));
                 }
               }
             }
@@ -322,7 +241,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
       }
     }
     if (ws.states)
-      for (int l = 0; l < lanes; ++l) ws.states[path0 + l - ws.states_first] = x[l];
+      for (int l = 0; l < lanes; ++l) ws.states[path0 + l] = x[l];
     if (!plan.needs_switch_state()) continue;
     add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop);
     if constexpr (kCoarse)

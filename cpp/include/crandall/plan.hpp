@@ -12,26 +12,43 @@ namespace crandall {
 // exact: exact skeleton, trapezoid integrals (docs/integrals.md).
 // euler: Euler-Maruyama, the baseline.
 // richardson: exact skeleton, trapezoid integrals on the grid and on the grids of every 2nd
-//   and every 4th point (the same path), moments extrapolated to h = 0 assuming a bias
-//   c1 h^1.5 + c2 h^2 (docs/methods/richardson.md).
-// richardson2: the same with the grid and every 2nd point only, assuming c h^1.5.
+//   and every 4th point (the same path), moments extrapolated to a zero step assuming a
+//   bias c1 dt^1.5 + c2 dt^2 (docs/methods/richardson.md).
+// richardson2: the same with the grid and every 2nd point only, assuming c dt^1.5.
 // refine: exact skeleton; a step that starts near 0 is taken as kRefineSubsteps exact substeps
 //   (docs/methods/refine.md).
 enum class Method { exact, euler, richardson, richardson2, refine };
+// Every method, in the order of the enum (parse_method's list; the tests loop over it).
+constexpr Method kMethods[] = {Method::exact, Method::euler, Method::richardson,
+                               Method::richardson2, Method::refine};
 
-// Number of coupled grids (1 for a method without extrapolation) and the weights that combine
-// their moments; weights()[j] belongs to the grid of step 2^j h.
-int richardson_levels(Method m);
+// Number of coupled grids a method walks on one path (steps dt, 2 dt, 4 dt, ...: the grid of
+// step 2^j dt is every 2^j-th point of the finest): 1 for a method without extrapolation. The one
+// place this is decided; the plan, the kernel and the run all ask here.
+constexpr int grids(Method m) {
+  return m == Method::richardson ? 3 : m == Method::richardson2 ? 2 : 1;
+}
+
+// The grids a run keeps: with no time integral observed there is nothing to extrapolate (the
+// velocity step is exact at any length, and the plan does not even refine the grid), so one.
+constexpr int grids(Method m, bool integrals) { return integrals ? grids(m) : 1; }
+
+// The weights that combine the moments of the grids(m) grids; weights[j] belongs to the grid of
+// step 2^j dt.
 std::vector<double> richardson_weights(Method m);
 
 // Name of a method as the Python layer spells it; parse_method throws std::invalid_argument.
 const char* method_name(Method m);
 Method parse_method(const std::string& name);
 
+// The model's two constants: finite and >= 0 (throws std::invalid_argument naming the one that
+// is not). Options::validate and every entry point that takes them on their own check here.
+void validate_model(double drift, double noise);
+
 struct Options {
   // dX = -drift sign(X) dt + noise dW for t < switch_off; no noise afterwards.
   double drift = 2.0;        // friction deceleration (mu g; 2 in the paper's scaled units)
-  double noise = 1.4142135623730951;  // white-noise intensity (h; sqrt 2 in scaled units)
+  double noise = 1.4142135623730951;  // white-noise intensity (the paper's h; sqrt 2 in scaled units)
   double switch_off = std::numeric_limits<double>::infinity();  // t0; may be +inf
   std::vector<double> times;  // output times, strictly increasing, >= 0
   double dt = 0.01;           // longest internal step where integrals are observed
@@ -51,11 +68,12 @@ struct Options {
   // Throws std::invalid_argument naming the offending field.
   void validate() const;
   bool integrals() const { return displacement || distance; }
+  int grids() const { return crandall::grids(method, integrals()); }
 };
 
-// A stretch of the grid: `steps` equal steps of length h, then (if slot >= 0) an output.
+// A stretch of the grid: `steps` equal steps of length `step`, then (if slot >= 0) an output.
 struct Segment {
-  double h;
+  double step;
   std::uint64_t steps;
   long slot;
 };

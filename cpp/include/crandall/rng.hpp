@@ -30,7 +30,7 @@ struct StepNoise {
 // Bounds of every draw, from the uniforms' range [2^-33, 1 - 2^-33] (draw_pairs): exponentials
 // lie in [-log(1 - 2^-33), 33 log 2] = [1.16e-10, 22.88], normals in
 // [-sqrt(66 log 2), sqrt(66 log 2)] = +-6.77. The kernel relies on them to know a segment's
-// steps need no range check (skeleton.hpp); cpp/tests/test_run.cpp checks them.
+// steps need no range check (exact_step.hpp); cpp/tests/test_rng.cpp checks them.
 constexpr double kMinExponential = 1.1e-10;
 constexpr double kMaxExponential = 22.9;
 constexpr double kMaxAbsNormal = 6.8;
@@ -54,7 +54,7 @@ CRANDALL_BEGIN_VARIANT
 // w[j][l] (the high bits are garbage). With AVX-512 or AVX2, 8 or 4 paths per register, one
 // path per 64-bit lane, since the 32x32->64 multiply (vpmuludq) works on 64-bit lanes;
 // otherwise Random123's scalar generator. The three give bitwise the same words (checked in
-// cpp/tests/test_run.cpp against Random123, and across variants in cpp/tests/test_dispatch.cpp).
+// cpp/tests/test_rng.cpp against Random123, and across variants in cpp/tests/test_dispatch.cpp).
 namespace detail {
 constexpr std::uint32_t kPhiloxM0 = 0xD2511F53u, kPhiloxM1 = 0xCD9E8D57u;
 constexpr std::uint32_t kPhiloxW0 = 0x9E3779B9u, kPhiloxW1 = 0xBB67AE85u;
@@ -172,12 +172,11 @@ inline void philox_paths(std::uint64_t seed, std::uint64_t path0, std::uint64_t 
 // detmath.hpp, so every variant and the NumPy reference (tests/reference_rng.py) give the same
 // bits. Layout documented in docs/random-numbers.md; changing it changes every result (and
 // kRandomStream above).
-// Lanes l >= lanes (padding of a partial group) hold the draws of paths that are not simulated;
-// they are never read.
+// All N lanes are drawn: in a partial group the lanes past its paths hold the draws of paths
+// that are not simulated, and are never read.
 template <int N>
-inline void draw_pairs(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair, int lanes,
+inline void draw_pairs(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair,
                        PairNoise<N>& out) {
-  (void)lanes;
   alignas(64) std::uint64_t w[4][N];
   philox_paths<N>(seed, path0, pair, N, w);
   alignas(64) double lg[3][N], sn[N], cs[N];
@@ -206,7 +205,7 @@ inline void draw_pairs(std::uint64_t seed, std::uint64_t path0, std::uint64_t pa
 inline void draw_pair(std::uint64_t seed, std::uint64_t path, std::uint64_t pair,
                       StepNoise out[2]) {
   PairNoise<1> z;
-  draw_pairs<1>(seed, path, pair, 1, z);
+  draw_pairs<1>(seed, path, pair, z);
   for (int j = 0; j < 2; ++j) out[j] = {z.normal[j][0], z.exponential[j][0], z.coin[j][0] != 0.0};
 }
 

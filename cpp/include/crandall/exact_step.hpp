@@ -2,14 +2,17 @@
 //
 // The velocity X obeys dX = -c sign(X) dt + sigma dW (the paper's eq3 has c = 2, sigma = sqrt 2).
 // |X| is the Skorokhod reflection at 0 of Y(s) = |x| + sigma B(s) - c s, and the sign of each
-// excursion away from 0 is an independent fair coin. A step of any length h from X = x:
+// excursion away from 0 is an independent fair coin. A step of any length h (`step` in the
+// code; the noise intensity is sigma, Options::noise) from X = x:
 //   D = -c h + sigma sqrt(h) Z                         (increment of Y)
 //   m = (D - sqrt(D^2 + 2 sigma^2 h E)) / 2, E ~ Exp(1) (exact minimum of the bridge of Y - |x|)
 //   |X(h)| = max(|x| + D, D - m)                       (Skorokhod map)
 //   a touch of 0 (|x| + m <= 0) draws a fresh sign; otherwise the sign is kept.
-// Every quantity is evaluated in a form free of cancellation for any D, h and draws; the kernel
-// (kernel.hpp) calls the same functions (step_regular_magnitude, step_regular_minimum) lane by
-// lane and exact_step itself outside their range, so the two give the same bits.
+// Every quantity is evaluated in a form free of cancellation for any D, h and draws. The step is
+// written once: exact_step below is made of the functions the kernel's lanes call
+// (step_constants, step_increment, step_spread, step_root_square, regular_step), and the kernel
+// calls exact_step itself outside the regular range, so the two give the same bits
+// (Kernel.LanesEqualTheScalarExactStep).
 #pragma once
 
 #include <algorithm>
@@ -30,16 +33,17 @@ struct StepResult {
 // same order), far from overflow; in scaled units this allows steps up to 5e300.
 constexpr double kStepScaleLimit = 1e301;
 
-inline bool step_in_range(double h, double drift, double noise) {
-  return h >= 0.0 && drift * h <= kStepScaleLimit && noise * std::sqrt(h) <= kStepScaleLimit;
+inline bool step_in_range(double step, double drift, double noise) {
+  return step >= 0.0 && drift * step <= kStepScaleLimit &&
+         noise * std::sqrt(step) <= kStepScaleLimit;
 }
 
 // sigma^2 h, the variance of D. (noise * noise) * h is kept where noise^2 is a normal number
 // (every realistic intensity; these bits are the kernel's); below that, noise^2 alone would lose
 // precision to underflow while sigma^2 h itself may well be representable.
-inline double step_variance(double noise, double h) {
-  if (noise >= 0x1p-500) return noise * noise * h;
-  const double s = noise * std::sqrt(h);
+inline double step_variance(double noise, double step) {
+  if (noise >= 0x1p-500) return noise * noise * step;
+  const double s = noise * std::sqrt(step);
   return s * s;
 }
 
@@ -56,13 +60,38 @@ inline bool step_regular(double root) {
 // bits. (A fused form where the CPU has FMA would make the variants differ.)
 inline double mul_add(double a, double b, double c) { return a * b + c; }
 
+// The constants of every step of one length: the mean -c h and the standard deviation
+// sigma sqrt(h) of the increment D, and 2 sigma^2 h (q = 2 sigma^2 h E). Computed once per
+// segment by the kernel and once per step by exact_step, by this one function, so the two round
+// them alike.
+struct StepConstants {
+  double mean;
+  double scale;
+  double twice_variance;
+};
+
+inline StepConstants step_constants(double step, double drift, double noise) {
+  return {-drift * step, noise * std::sqrt(step), 2.0 * step_variance(noise, step)};
+}
+
+// D = sigma sqrt(h) Z - c h, and q = 2 sigma^2 h E; root = sqrt(D^2 + q) is step_root_square's
+// square root (a separate step, so that the kernel takes the square roots of all its lanes at
+// once).
+inline double step_increment(double mean, double scale, double normal) {
+  return mul_add(scale, normal, mean);
+}
+inline double step_spread(double twice_variance, double exponential) {
+  return twice_variance * exponential;
+}
+inline double step_root_square(double d, double q) { return mul_add(d, d, q); }
+
 // Whether every step of a segment is regular whatever the draws (rng.hpp bounds them), from the
-// step's constants mean_d = -c h, scale_d = sigma sqrt(h) and twice_var = 2 sigma^2 h: then
-// the kernel skips the per-lane range check.
-inline bool segment_regular(double mean_d, double scale_d, double twice_var) {
-  const double lowest = twice_var > 0.0 ? std::sqrt(twice_var * kMinExponential) : std::abs(mean_d);
-  const double d = std::abs(mean_d) + kMaxAbsNormal * scale_d;
-  const double highest = std::sqrt(d * d + twice_var * kMaxExponential);
+// step's constants: then the kernel skips the per-lane range check.
+inline bool segment_regular(const StepConstants& c) {
+  const double lowest =
+      c.twice_variance > 0.0 ? std::sqrt(c.twice_variance * kMinExponential) : std::abs(c.mean);
+  const double d = std::abs(c.mean) + kMaxAbsNormal * c.scale;
+  const double highest = std::sqrt(d * d + c.twice_variance * kMaxExponential);
   return lowest >= 0x1p-449 && highest <= 1e300;
 }
 
@@ -92,6 +121,21 @@ inline double step_regular_magnitude(double a, double d, double q, double root) 
 
 inline bool step_touched(double a, double minimum) { return a <= -minimum; }
 
+// The velocity at the end of a step of magnitude |X(h)| from x: a touch of 0 takes the coin's
+// sign, otherwise the sign is kept. Branch-free, for the kernel's loop.
+inline double step_signed(double x, double magnitude, bool touched, bool coin) {
+  const bool positive = (touched & coin) | (!touched & (x > 0.0));
+  return positive ? magnitude : -magnitude;
+}
+
+// The regular step (step_regular(root)) from x, given d, q and root: what the kernel's lanes
+// compute, and what exact_step computes in the regular case.
+inline double regular_step(double x, double d, double q, double root, bool coin) {
+  const double a = std::abs(x);
+  return step_signed(x, step_regular_magnitude(a, d, q, root),
+                     step_touched(a, step_regular_minimum(d, q, root)), coin);
+}
+
 struct StepParts {
   double magnitude;  // |X(h)|
   double minimum;    // m (<= 0)
@@ -103,10 +147,9 @@ struct StepParts {
 // s = sigma sqrt(h), the standard deviation of D: delta = D / s = Z - c h / s and, with q / s^2
 // = 2E, rho = sqrt(delta^2 + 2E) by hypot (no overflow), m / s and (D - m) / s in the
 // quotient forms above.
-inline StepParts step_scaled_parts(double a, double h, double drift, double noise,
-                                   double normal, double exponential) {
-  const double s = noise * std::sqrt(h);
-  const double d = mul_add(s, normal, -drift * h);
+inline StepParts step_scaled_parts(double a, const StepConstants& c, double d, double normal,
+                                   double exponential) {
+  const double s = c.scale;
   if (!(s > 0.0)) {
     // No noise (or noise below the smallest double): the deterministic Skorokhod map.
     const double m = std::min(0.0, d);
@@ -114,7 +157,7 @@ inline StepParts step_scaled_parts(double a, double h, double drift, double nois
   }
   // c h / s may overflow to +inf when s is tiny; delta = -inf then gives m = -inf (a certain
   // touch) and D - m = 0, both right to the last representable digit.
-  const double delta = normal - drift * h / s;
+  const double delta = normal - -c.mean / s;
   const double rho = std::hypot(delta, std::sqrt(2.0 * exponential));
   const double e = exponential;
   double m_s, down_s;
@@ -143,25 +186,30 @@ inline double bridge_minimum(double d, double variance, double exponential) {
   return d <= 0.0 ? 0.5 * (d - root) : -0.5 * q / (d + root);
 }
 
-inline StepResult exact_step(double x, double h, double drift, double noise, double normal,
+// One exact step of length `step` from x, with the step's draws. The kernel computes the same
+// number with the same functions (step_constants, step_increment, step_spread,
+// step_root_square, regular_step) lane by lane, and calls this function where a lane's step is
+// not regular.
+inline StepResult exact_step(double x, double step, double drift, double noise, double normal,
                              double exponential, bool coin) {
+  const StepConstants c = step_constants(step, drift, noise);
+  const double d = step_increment(c.mean, c.scale, normal);
+  const double q = step_spread(c.twice_variance, exponential);
+  const double root = std::sqrt(step_root_square(d, q));
+  if (step_regular(root)) {
+    const double a = std::abs(x);
+    return {regular_step(x, d, q, root, coin), step_touched(a, step_regular_minimum(d, q, root))};
+  }
   const double a = std::abs(x);
-  const double d = mul_add(noise * std::sqrt(h), normal, -drift * h);
-  const double q = 2.0 * step_variance(noise, h) * exponential;
-  const double root = std::sqrt(mul_add(d, d, q));
-  const StepParts p = step_regular(root)
-                          ? StepParts{step_regular_magnitude(a, d, q, root),
-                                      step_regular_minimum(d, q, root)}
-                          : step_scaled_parts(a, h, drift, noise, normal, exponential);
+  const StepParts p = step_scaled_parts(a, c, d, normal, exponential);
   const bool touched = step_touched(a, p.minimum);
-  const bool positive = touched ? coin : x > 0.0;
-  return {positive ? p.magnitude : -p.magnitude, touched};
+  return {step_signed(x, p.magnitude, touched, coin), touched};
 }
 
 // Euler-Maruyama, the baseline: weak order 1, kept for comparison (sign(0) = 0).
-inline double euler_step(double x, double h, double drift, double noise, double normal) {
+inline double euler_step(double x, double step, double drift, double noise, double normal) {
   const double s = x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0);
-  return x - drift * s * h + noise * std::sqrt(h) * normal;
+  return x - drift * s * step + noise * std::sqrt(step) * normal;
 }
 
 }  // namespace crandall

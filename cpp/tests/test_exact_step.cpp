@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "crandall/rng.hpp"
-#include "crandall/skeleton.hpp"
+#include "crandall/exact_step.hpp"
 
 namespace {
 
@@ -189,21 +189,22 @@ TEST(ExactStep, ScaledFormAgreesWithTheRegularForm) {
   // and touch to a few ulps: the scaled form is the same formula, not an approximation.
   const auto z = noise(20000, 17);
   int touched = 0;
-  for (double h : {1e-6, 0.01, 1.0, 100.0, 1e8}) {
+  for (double step : {1e-6, 0.01, 1.0, 100.0, 1e8}) {
     for (double x : {0.0, 0.3, -2.0, 40.0}) {
       for (const auto& s : z) {
-        const double d = -2.0 * h + std::sqrt(2.0) * std::sqrt(h) * s.normal;
-        const double q = 2.0 * crandall::step_variance(std::sqrt(2.0), h) * s.exponential;
+        const double d = -2.0 * step + std::sqrt(2.0) * std::sqrt(step) * s.normal;
+        const double q = 2.0 * crandall::step_variance(std::sqrt(2.0), step) * s.exponential;
         const double root = std::sqrt(d * d + q);
         ASSERT_TRUE(crandall::step_regular(root));
         const double a = std::abs(x);
         const double magnitude = crandall::step_regular_magnitude(a, d, q, root);
         const double m = crandall::step_regular_minimum(d, q, root);
-        const auto c = crandall::step_scaled_parts(a, h, 2.0, std::sqrt(2.0), s.normal,
-                                                   s.exponential);
+        const auto k = crandall::step_constants(step, 2.0, std::sqrt(2.0));
+        const auto c = crandall::step_scaled_parts(a, k, crandall::step_increment(k.mean, k.scale, s.normal),
+                                                   s.normal, s.exponential);
         EXPECT_NEAR(magnitude, c.magnitude, 1e-14 * std::max(1.0, magnitude))
-            << "h=" << h << " x=" << x;
-        EXPECT_NEAR(m, c.minimum, 1e-14 * std::max(1.0, -m)) << "h=" << h << " x=" << x;
+            << "step=" << step << " x=" << x;
+        EXPECT_NEAR(m, c.minimum, 1e-14 * std::max(1.0, -m)) << "step=" << step << " x=" << x;
         touched += crandall::step_touched(a, m);
       }
     }
@@ -216,13 +217,13 @@ TEST(ExactStep, LongStepsReachTheStationaryLaw) {
   // density e^{-2|y|}: |X| is exponential with mean 1/2 (KS), and the sign a fair coin. The
   // textbook d - m lost every digit here (Var U1 was 1.26 at 1e16 and 0 from 1e17).
   const std::size_t n = 100000;
-  for (double h : {1e15, 1e16, 1e17, 1e150, 1e160, 1e300}) {
+  for (double step : {1e15, 1e16, 1e17, 1e150, 1e160, 1e300}) {
     for (double x : {0.0, -3.0}) {
       const auto z = noise(n, 23);
       std::vector<double> a(n);
       int positive = 0;
       for (std::size_t i = 0; i < n; ++i) {
-        const auto r = crandall::exact_step(x, h, 2.0, std::sqrt(2.0), z[i].normal,
+        const auto r = crandall::exact_step(x, step, 2.0, std::sqrt(2.0), z[i].normal,
                                             z[i].exponential, z[i].coin);
         ASSERT_TRUE(std::isfinite(r.velocity));
         ASSERT_TRUE(r.touched);
@@ -230,7 +231,7 @@ TEST(ExactStep, LongStepsReachTheStationaryLaw) {
         positive += r.velocity > 0.0;
       }
       EXPECT_LT(ks_statistic(a, [](double v) { return 1.0 - std::exp(-2.0 * v); }), ks_critical(n))
-          << "h=" << h;
+          << "step=" << step;
       EXPECT_NEAR(static_cast<double>(positive) / n, 0.5, 5.0 * 0.5 / std::sqrt(n));
     }
   }
@@ -239,12 +240,12 @@ TEST(ExactStep, LongStepsReachTheStationaryLaw) {
 TEST(ExactStep, NoNoiseAndTinySteps) {
   // Deterministic steps below the regular range (d^2 underflows): the body decelerates by
   // c h and stops at 0; the textbook form returned a negative magnitude here.
-  for (double h : {1e-300, 1e-320, 1.0}) {
-    const auto r = crandall::exact_step(-1e-310, h, 2.0, 0.0, 0.3, 1.0, true);
-    EXPECT_EQ(r.velocity, h * 2.0 >= 1e-310 ? 0.0 : -(1e-310 - 2.0 * h));
+  for (double step : {1e-300, 1e-320, 1.0}) {
+    const auto r = crandall::exact_step(-1e-310, step, 2.0, 0.0, 0.3, 1.0, true);
+    EXPECT_EQ(r.velocity, step * 2.0 >= 1e-310 ? 0.0 : -(1e-310 - 2.0 * step));
     EXPECT_GE(std::abs(r.velocity), 0.0);
-    const auto s = crandall::exact_step(0.5, h, 2.0, 0.0, 0.3, 1.0, false);
-    EXPECT_EQ(s.velocity, std::max(0.0, 0.5 - 2.0 * h));
+    const auto s = crandall::exact_step(0.5, step, 2.0, 0.0, 0.3, 1.0, false);
+    EXPECT_EQ(s.velocity, std::max(0.0, 0.5 - 2.0 * step));
   }
   // Without friction and noise nothing moves.
   const auto r = crandall::exact_step(-0.7, 3.0, 0.0, 0.0, 0.3, 1.0, true);

@@ -1,0 +1,79 @@
+#include <cstdint>
+#include <vector>
+
+#include "common.hpp"
+#include "crandall/diagnostics.hpp"
+#include "crandall/rng.hpp"
+
+using bindings::to_array;
+using bindings::without_gil;
+
+void register_diagnostics(py::module_& m) {
+  m.attr("RANDOM_STREAM") = crandall::kRandomStream;
+
+  m.def(
+      "exact_steps",
+      [](const std::vector<double>& start, double step, double drift, double noise,
+         std::uint64_t seed) {
+        const std::vector<double> out =
+            without_gil([&] { return crandall::exact_steps(start, step, drift, noise, seed); });
+        return to_array(out, out.size(), 0);
+      },
+      py::arg("start"), py::arg("h"), py::arg("drift"), py::arg("noise"), py::arg("seed"),
+      "One exact velocity step of length h from each start value (path i uses stream i).");
+
+  m.def(
+      "random_floor",
+      [](std::uint64_t paths, std::uint64_t steps, std::uint64_t seed, int threads) {
+        // Pure C++ on its own locals.
+        return without_gil([&] { return crandall::random_floor(paths, steps, seed, threads); });
+      },
+      py::arg("paths"), py::arg("steps"), py::arg("seed"), py::arg("threads") = 0,
+      "Generate the kernel's noise for paths x steps with no physics (a throughput floor).");
+
+  m.def(
+      "build_info",
+      [] {
+        const crandall::BuildInfo b = crandall::build_info();
+        py::dict d;
+        d["isa"] = b.isa;
+        d["isa_compiled"] = b.isa_compiled;
+        d["isa_available"] = b.isa_available;
+        d["philox_paths_per_register"] = b.philox_paths_per_register;
+        d["doubles_per_register"] = b.doubles_per_register;
+        d["random_stream"] = b.random_stream;
+        d["compiler"] = b.compiler;
+        return d;
+      },
+      "What runs: the kernel variant in use (isa: CRANDALL_ISA or the best the CPU supports), "
+      "the variants compiled in and those supported here, Philox paths and doubles per "
+      "register, the random-stream version, the compiler. Every variant gives the same numbers.");
+
+  m.def(
+      "draw_noise",
+      [](std::uint64_t seed, std::uint64_t path0, std::uint64_t count, std::uint64_t pair) {
+        std::vector<double> out;
+        {
+          py::gil_scoped_release release;
+          out = crandall::draw_noise(seed, path0, count, pair);
+        }
+        return to_array(out, 6, static_cast<std::size_t>(count));
+      },
+      py::arg("seed"), py::arg("path0"), py::arg("count"), py::arg("pair"),
+      "Diagnostics: the kernel's draws of step pair `pair` for paths path0 .. path0 + count - 1, "
+      "shape (6, count): normals of steps 2 pair and 2 pair + 1, their exponentials, their coins.");
+
+  m.def(
+      "simulate_states",
+      [](const crandall::Plan& plan) {
+        std::vector<double> out;
+        {
+          py::gil_scoped_release release;
+          out = crandall::simulate_states(plan);
+        }
+        return to_array(out, out.size(), 0);
+      },
+      py::arg("plan"),
+      "Diagnostics: every path's velocity at the end of the plan's last segment, velocity only, "
+      "exact or Euler method, one thread, through the kernel in use.");
+}

@@ -1,0 +1,37 @@
+#include <string>
+
+#include "common.hpp"
+#include "crandall/plan.hpp"
+
+void register_plan(py::module_& m) {
+  m.attr("CHUNK_PATHS") = crandall::kChunkPaths;
+  m.attr("BLOCK_PATHS") = crandall::kBlockPaths;
+  m.attr("LANES") = crandall::kLanes;
+
+  py::class_<crandall::Options>(m, "Options", "Options of a run (validated by Plan).")
+      .def(py::init<>())
+      .def_readwrite("drift", &crandall::Options::drift)
+      .def_readwrite("noise", &crandall::Options::noise)
+      .def_readwrite("switch_off", &crandall::Options::switch_off)
+      .def_readwrite("times", &crandall::Options::times)
+      .def_readwrite("dt", &crandall::Options::dt)
+      .def_readwrite("min_steps", &crandall::Options::min_steps)
+      .def_property(
+          "method",
+          [](const crandall::Options& o) { return std::string(crandall::method_name(o.method)); },
+          [](crandall::Options& o, const std::string& name) { o.method = crandall::parse_method(name); })
+      .def_readwrite("velocity", &crandall::Options::velocity)
+      .def_readwrite("displacement", &crandall::Options::displacement)
+      .def_readwrite("distance", &crandall::Options::distance)
+      .def_readwrite("stop", &crandall::Options::stop)
+      .def_readwrite("seed", &crandall::Options::seed)
+      .def_readwrite("paths", &crandall::Options::paths)
+      .def("validate", &crandall::Options::validate);
+
+  py::class_<crandall::Plan>(m, "Plan", "A validated run: the time grid and the path partition.")
+      .def(py::init<crandall::Options>(), py::arg("options"))
+      .def_property_readonly("steps_per_path", &crandall::Plan::steps_per_path)
+      .def_property_readonly("chunks", &crandall::Plan::chunks)
+      .def("chunk_paths", &crandall::Plan::chunk_paths, py::arg("chunk"))
+      .def_property_readonly("options", &crandall::Plan::options);
+}
