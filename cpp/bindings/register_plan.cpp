@@ -7,6 +7,12 @@ void register_plan(py::module_& m) {
   m.attr("CHUNK_PATHS") = crandall::kChunkPaths;
   m.attr("BLOCK_PATHS") = crandall::kBlockPaths;
   m.attr("LANES") = crandall::kLanes;
+  // The methods, in the core's order, with the number of grids each walks (plan.hpp's
+  // grids()): the Python layer reads both from here instead of keeping a copy.
+  py::dict method_grids;
+  for (crandall::Method method : crandall::kMethods)
+    method_grids[crandall::method_name(method)] = crandall::grids(method);
+  m.attr("METHOD_GRIDS") = method_grids;
 
   py::class_<crandall::Options>(m, "Options", "Options of a run (validated by Plan).")
       .def(py::init<>())

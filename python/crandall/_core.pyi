@@ -11,6 +11,7 @@ CHUNK_PATHS: int
 BLOCK_PATHS: int
 #: SIMD lanes of the path loop.
 LANES: int
+METHOD_GRIDS: dict[str, int]
 
 def monomial_exponents() -> List[Tuple[int, int, int]]:
     """Exponent triples (a, b, c) of the central sums, in storage order."""

@@ -1,5 +1,7 @@
 """The simulation methods the engine offers, the default one, and the default step."""
 
+from . import _core
+
 __all__ = ["METHODS", "GRIDS", "EXTRAPOLATING_METHODS", "DEFAULT_METHOD", "DEFAULT_DT_TAU",
            "DEFAULT_MIN_STEPS", "DEFAULT_STEPS_FREE"]
 
@@ -11,11 +13,13 @@ __all__ = ["METHODS", "GRIDS", "EXTRAPOLATING_METHODS", "DEFAULT_METHOD", "DEFAU
 #: c1 h^1.5 + c2 h^2 (docs/methods/richardson.md). "richardson2": the same on two grids (h, 2h),
 #: assuming c h^1.5. "refine": the exact skeleton, with steps that start within 2 standard
 #: deviations of 0 taken as 8 exact substeps (docs/methods/refine.md).
-METHODS = ("exact", "euler", "richardson", "richardson2", "refine")
+#: The core decides the list ("exact", "euler", "richardson", "richardson2", "refine").
+METHODS = tuple(_core.METHOD_GRIDS)
 
 #: Grids each method integrates on (the core's Richardson levels): the fine one, and for the
 #: extrapolating methods every 2nd (and 4th) point of it. Sizes the accumulators in memory.
-GRIDS = {"exact": 1, "euler": 1, "richardson": 3, "richardson2": 2, "refine": 1}
+#: Decided in the core (plan.hpp, grids()); read from it here.
+GRIDS = dict(_core.METHOD_GRIDS)
 
 #: Methods whose accumulators are a signed combination of several grids (Richardson
 #: extrapolation): their even central sums may be negative for a handful of paths.
