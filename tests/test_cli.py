@@ -32,6 +32,14 @@ dt = 0.05
 """
 
 
+@pytest.fixture
+def scene_file(tmp_path):
+    """The small scene SMALL, written to tmp_path / "small.toml"."""
+    path = tmp_path / "small.toml"
+    path.write_text(SMALL)
+    return path
+
+
 def crandall_cmd(*args, cwd=None, timeout=120):
     return subprocess.run([sys.executable, "-m", "crandall", *args], capture_output=True,
                           text=True, timeout=timeout, cwd=cwd)
@@ -53,9 +61,7 @@ def test_help_everywhere(args):
             assert option in proc.stdout
 
 
-def test_run_scene_file_prints_and_writes_everything(tmp_path):
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
+def test_run_scene_file_prints_and_writes_everything(scene_file, tmp_path):
     out = tmp_path / "out"
     proc = crandall_cmd("run", str(scene_file), "--out", str(out), "--threads", "1")
     assert proc.returncode == 0, proc.stderr
@@ -77,9 +83,7 @@ def test_run_scene_file_prints_and_writes_everything(tmp_path):
         assert png.stat().st_size > 10_000
 
 
-def test_options_override_the_file(tmp_path, capsys):
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
+def test_options_override_the_file(scene_file, tmp_path, capsys):
     assert cli.main(["run", str(scene_file), "--paths", "2000", "--seed", "4", "--dt", "0.1",
                      "--method", "euler", "--no-files"]) == 0
     out = capsys.readouterr().out
@@ -89,9 +93,7 @@ def test_options_override_the_file(tmp_path, capsys):
     assert not (tmp_path / cli.DEFAULT_OUT).exists()
 
 
-def test_checkpoint_option_resumes(tmp_path, capsys):
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
+def test_checkpoint_option_resumes(scene_file, tmp_path, capsys):
     ckpt = tmp_path / "run.ckpt"
     args = ["run", str(scene_file), "--no-files", "--checkpoint", str(ckpt)]
     assert cli.main(args) == 0
@@ -191,9 +193,7 @@ def _one_line_error(capsys, *words):
     return err
 
 
-def test_second_run_into_the_same_out_is_refused(tmp_path, monkeypatch, capsys):
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
+def test_second_run_into_the_same_out_is_refused(scene_file, tmp_path, monkeypatch, capsys):
     out = tmp_path / "out"
     args = ["run", str(scene_file), "--out", str(out), "--no-figures"]
     assert cli.main(args) == 0
@@ -227,9 +227,7 @@ def test_overwrite_replaces_only_the_earlier_runs_files(tmp_path, capsys):
     capsys.readouterr()
 
 
-def test_a_manifest_never_reaches_outside_its_folder(tmp_path, capsys):
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
+def test_a_manifest_never_reaches_outside_its_folder(scene_file, tmp_path, capsys):
     out = tmp_path / "out"
     out.mkdir()
     (tmp_path / "precious.txt").write_text("keep")
@@ -242,10 +240,8 @@ def test_a_manifest_never_reaches_outside_its_folder(tmp_path, capsys):
     assert (tmp_path / "precious.txt").read_text() == "keep"
 
 
-def test_earlier_outputs_without_a_manifest_are_refused(tmp_path, monkeypatch, capsys):
+def test_earlier_outputs_without_a_manifest_are_refused(scene_file, tmp_path, monkeypatch, capsys):
     """A run killed while writing leaves crandall's files without a manifest."""
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
     out = tmp_path / "out"
     out.mkdir()
     (out / "fig2_distance_mean.png").write_bytes(b"png")
@@ -255,9 +251,7 @@ def test_earlier_outputs_without_a_manifest_are_refused(tmp_path, monkeypatch, c
     _one_line_error(capsys, "fig2_distance_mean.png")
 
 
-def test_folder_with_only_other_files_is_used(tmp_path, capsys):
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
+def test_folder_with_only_other_files_is_used(scene_file, tmp_path, capsys):
     out = tmp_path / "out"
     out.mkdir()
     (out / "other.txt").write_text("x")
@@ -270,9 +264,8 @@ def test_folder_with_only_other_files_is_used(tmp_path, capsys):
     ("afile/sub", ["--out: cannot create", "is a file"]),
     ("", ["--out must be a folder path"]),
 ])
-def test_unwritable_out_fails_before_the_run(tmp_path, monkeypatch, capsys, where, words):
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
+def test_unwritable_out_fails_before_the_run(scene_file, tmp_path, monkeypatch, capsys, where,
+                                             words):
     (tmp_path / "afile").write_text("x")
     monkeypatch.chdir(tmp_path)
     _no_simulation(monkeypatch)
@@ -289,9 +282,7 @@ def _read_only_places():
 
 
 @pytest.mark.parametrize("kind", _read_only_places())
-def test_read_only_out_fails_before_the_run(tmp_path, monkeypatch, capsys, kind):
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
+def test_read_only_out_fails_before_the_run(scene_file, tmp_path, monkeypatch, capsys, kind):
     if kind == "chmod":
         place = tmp_path / "ro"
         place.mkdir()
@@ -316,11 +307,8 @@ def test_read_only_out_fails_before_the_run(tmp_path, monkeypatch, capsys, kind)
             place.chmod(0o700)
 
 
-def test_failed_write_after_the_run_is_one_line_not_a_traceback(tmp_path, monkeypatch,
+def test_failed_write_after_the_run_is_one_line_not_a_traceback(scene_file, tmp_path, monkeypatch,
                                                                 capsys):
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
-
     def disk_full(result, path):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(path))
 
@@ -335,9 +323,8 @@ def test_failed_write_after_the_run_is_one_line_not_a_traceback(tmp_path, monkey
     ("afile", ["checkpoint:", "afile is not a crandall checkpoint"]),
     ("adir", ["checkpoint:", "is a folder"]),
 ])
-def test_bad_checkpoint_exits_2_before_the_run(tmp_path, monkeypatch, capsys, where, words):
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
+def test_bad_checkpoint_exits_2_before_the_run(scene_file, tmp_path, monkeypatch, capsys, where,
+                                               words):
     (tmp_path / "afile").write_bytes(b"\x00garbage")
     (tmp_path / "adir").mkdir()
     monkeypatch.chdir(tmp_path)
@@ -348,9 +335,7 @@ def test_bad_checkpoint_exits_2_before_the_run(tmp_path, monkeypatch, capsys, wh
     assert calls == []
 
 
-def test_damaged_checkpoint_from_the_shell_is_one_line(tmp_path):
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
+def test_damaged_checkpoint_from_the_shell_is_one_line(scene_file, tmp_path):
     ckpt = tmp_path / "run.ckpt"
     ckpt.write_bytes(b"PK\x03\x04 truncated")
     proc = crandall_cmd("run", str(scene_file), "--no-files", "--checkpoint", str(ckpt))
@@ -382,10 +367,8 @@ def test_bad_input_exits_2_with_a_message(tmp_path, monkeypatch, capsys, args, w
         assert word in err
 
 
-def test_malformed_scheduler_address_exits_2(tmp_path, monkeypatch, capsys):
+def test_malformed_scheduler_address_exits_2(scene_file, monkeypatch, capsys):
     distributed = pytest.importorskip("distributed")
-    scene_file = tmp_path / "small.toml"
-    scene_file.write_text(SMALL)
 
     def client(address, **kwargs):
         # What distributed.Client("nonsense") raises. A real attempt starts Dask's IO loop in

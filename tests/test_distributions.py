@@ -287,6 +287,18 @@ def coverage_tolerance(c):
     return 3.0 * math.sqrt(c * (1.0 - c) / SEEDS)
 
 
+def check_coverage(raw_hits, hits, exact):
+    """The raw-sample interval covers at its exact rate ``exact`` (two-sided, 3 standard
+    errors of the coverage estimate from SEEDS seeds) ... and the binned intervals, which
+    contain it, cover at least as often, and at least at the stated rate (one-sided: the bins
+    can only widen)."""
+    raw = raw_hits / SEEDS
+    assert abs(raw - exact) <= coverage_tolerance(exact), (raw, exact)
+    for name, h in hits.items():
+        assert h >= raw_hits, name
+        assert h / SEEDS >= 1 - ALPHA - coverage_tolerance(1 - ALPHA), (name, h / SEEDS)
+
+
 @pytest.fixture(scope="module")
 def samples():
     return [laplace(np.random.default_rng(seed), N) for seed in range(SEEDS)]
@@ -314,15 +326,7 @@ def test_quantile_coverage(samples, q):
             assert est.low == (edges[j_lo] if j_lo >= 0 else -math.inf)
             assert est.high == (edges[j_hi] if j_hi < edges.size else math.inf)
             hits[name] += est.low <= truth <= est.high
-    # The order-statistic interval covers at its exact binomial rate (two-sided, 3 standard
-    # errors of the coverage estimate from SEEDS seeds) ...
-    raw = raw_hits / SEEDS
-    assert abs(raw - exact) <= coverage_tolerance(exact), (raw, exact)
-    # ... and the binned intervals contain it, so cover at least as often, and at least at the
-    # stated rate (one-sided: the bins can only widen).
-    for name, h in hits.items():
-        assert h >= raw_hits, name
-        assert h / SEEDS >= 1 - ALPHA - coverage_tolerance(1 - ALPHA), (name, h / SEEDS)
+    check_coverage(raw_hits, hits, exact)  # the order statistics' exact binomial rate
 
 
 @pytest.mark.slow
@@ -350,8 +354,4 @@ def test_exceedance_coverage(samples, level):
             assert est.low == pytest.approx(cp[k_min][0], rel=1e-9, abs=1e-300)
             assert est.high == pytest.approx(cp[k_max][1], rel=1e-9)
             hits[name] += est.low <= p <= est.high
-    raw = raw_hits / SEEDS
-    assert abs(raw - exact) <= coverage_tolerance(exact), (raw, exact)
-    for name, h in hits.items():
-        assert h >= raw_hits, name
-        assert h / SEEDS >= 1 - ALPHA - coverage_tolerance(1 - ALPHA), (name, h / SEEDS)
+    check_coverage(raw_hits, hits, exact)  # Clopper-Pearson's exact rate at p

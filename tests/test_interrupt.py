@@ -23,25 +23,34 @@ SCRIPT = textwrap.dedent(
 )
 
 
-@pytest.mark.skipif(not hasattr(signal, "SIGINT"), reason="needs POSIX signals")
-def test_ctrl_c_stops_a_long_run_within_a_second():
+def _ctrl_c(script, timeout):
+    """Run ``script`` (which prints "started" and then runs far longer than the test), press
+    Ctrl-C 1.5 s after it started, and wait up to ``timeout`` s for it to exit.
+
+    Returns (return code, stdout, stderr, seconds from Ctrl-C to the exit)."""
     # A shell without job control starts background commands with SIGINT ignored, and Python
     # then installs no Ctrl-C handler; give the child the default disposition a terminal gives.
-    proc = subprocess.Popen([sys.executable, "-c", SCRIPT], stdout=subprocess.PIPE,
+    proc = subprocess.Popen([sys.executable, "-c", script], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         assert proc.stdout.readline().strip() == "started"
-        time.sleep(1.5)  # well inside the run (which would take hours)
+        time.sleep(1.5)  # well inside the run
         assert proc.poll() is None
         sent = time.monotonic()
         proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=10)
+        out, err = proc.communicate(timeout=timeout)
         elapsed = time.monotonic() - sent
     finally:
         if proc.poll() is None:
             proc.kill()
-    assert proc.returncode == 3, err
+    return proc.returncode, out, err, elapsed
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGINT"), reason="needs POSIX signals")
+def test_ctrl_c_stops_a_long_run_within_a_second():
+    returncode, out, err, elapsed = _ctrl_c(SCRIPT, timeout=10)  # the run would take hours
+    assert returncode == 3, err
     assert "interrupted" in out
     assert elapsed < 1.0, f"took {elapsed:.2f} s to stop"
 
@@ -65,20 +74,7 @@ SINGLE_BLOCK = textwrap.dedent(
 
 @pytest.mark.skipif(not hasattr(signal, "SIGINT"), reason="needs POSIX signals")
 def test_ctrl_c_with_more_threads_than_cores_and_a_single_block():
-    proc = subprocess.Popen([sys.executable, "-c", SINGLE_BLOCK], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    try:
-        assert proc.stdout.readline().strip() == "started"
-        time.sleep(1.5)  # the run would take about a day
-        assert proc.poll() is None
-        sent = time.monotonic()
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=30)
-        elapsed = time.monotonic() - sent
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 3, err
+    returncode, out, err, elapsed = _ctrl_c(SINGLE_BLOCK, timeout=30)  # the run: about a day
+    assert returncode == 3, err
     assert "interrupted" in out
     assert elapsed < 3.0, f"took {elapsed:.2f} s to stop"

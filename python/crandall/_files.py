@@ -83,6 +83,16 @@ def _probe(folder: str, name: str, shown: str) -> None:
     os.unlink(tmp)
 
 
+def _path_text(path, name: str, kind: str) -> str:
+    """``path`` as a non-blank str (bytes paths refused), or a ValueError naming ``name``."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"{name} must be a path, got {path!r}")
+    text = os.fspath(path)
+    if not isinstance(text, str) or not text.strip():
+        raise ValueError(f"{name} must be a {kind} path, got {text!r}")
+    return text
+
+
 def check_file_writable(path, name: str) -> str:
     """Check, creating nothing, that the file ``path`` can be written (created or replaced).
 
@@ -104,11 +114,7 @@ def check_file_writable(path, name: str) -> str:
         If ``path`` is not a path, is empty, is a folder, or its folder is missing or not
         writable.
     """
-    if not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"{name} must be a path, got {path!r}")
-    text = os.fspath(path)
-    if not isinstance(text, str) or not text.strip():
-        raise ValueError(f"{name} must be a file path, got {text!r}")
+    text = _path_text(path, name, "file")
     if os.path.isdir(text):
         raise ValueError(f"{name}: {text} is a folder; give a file path")
     if text.endswith(os.sep):
@@ -141,11 +147,7 @@ def check_folder_writable(path, name: str, *, create: bool = False) -> str:
         If ``path`` is not a path, is empty, exists as something other than a folder, cannot be
         created, or is not writable.
     """
-    if not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"{name} must be a path, got {path!r}")
-    text = os.fspath(path)
-    if not isinstance(text, str) or not text.strip():
-        raise ValueError(f"{name} must be a folder path, got {text!r}")
+    text = _path_text(path, name, "folder")
     if os.path.exists(text) and not os.path.isdir(text):
         raise ValueError(f"{name} must be a directory: {text} is a file")
     if os.path.isdir(text):

@@ -22,9 +22,7 @@ from ._laplace import laplace_moment, moment, signed_moment
 from .noise_on import SWITCH as _SWITCH
 from .noise_on import (
     distance_mean_noise_on as _distance_mean_on,
-    displacement_var as _displacement_var_on,
     distance_second_moment,
-    distance_var as _distance_var_on,
     velocity_abs_mean,
     velocity_logpdf,
     velocity_pdf,
@@ -80,6 +78,20 @@ __all__ = [
 ]
 
 
+def _on_then_coast(tau, tau0, on, coast):
+    """The quantity at every tau: ``on(t)`` (closed form) where tau <= tau0, ``coast(t, t0)``
+    after the switch-off."""
+    t = as_time(tau)
+    t0 = as_tau0(tau0)
+    out = np.empty(t.shape)
+    before = t <= t0
+    if np.any(before):
+        out[before] = on(t[before])
+    if np.any(~before):
+        out[~before] = coast(t[~before], t0)
+    return scalar_or_array(out)
+
+
 def velocity_var(tau, tau0=np.inf):
     """Variance of the scaled velocity, Var U1(tau) = E[U1^2] (E U1 = 0 by symmetry).
 
@@ -114,14 +126,7 @@ def velocity_var(tau, tau0=np.inf):
     shows the value is below the smallest double (docs/analytic.md, "Evaluating the coast").
     Speed: about a microsecond per point, in double precision for every tau0.
     """
-    t = as_time(tau)
-    t0 = as_tau0(tau0)
-    out = np.empty(t.shape)
-    on = t <= t0
-    out[on] = _velocity_var_on(t[on])
-    if np.any(~on):
-        out[~on] = _so.coast_velocity_second_moment(t[~on], t0)
-    return scalar_or_array(out)
+    return _on_then_coast(tau, tau0, _velocity_var_on, _so.coast_velocity_second_moment)
 
 
 def distance_mean(tau, tau0=np.inf):
@@ -156,28 +161,10 @@ def distance_mean(tau, tau0=np.inf):
     Accuracy: relative error below 1e-12 for 1e-8 <= tau <= 1e6 (tau <= tau0), below 1e-10
     for 1e-300 <= tau <= 1e300; below 1e-10 after switch-off for any tau0 in [0, 1e300].
     """
-    t = as_time(tau)
-    t0 = as_tau0(tau0)
-    out = np.empty(t.shape)
-    on = t <= t0
-    out[on] = _distance_mean_on(t[on])
-    if np.any(~on):
-        # E U3(tau0) + E[a delta' - delta'^2]: a sum of non-negative terms (a form
-        # t0/2 - H/4 would cancel catastrophically just after the switch-off)
-        out[~on] = _distance_mean_on(np.array([t0]))[0] + _so.coast_distance_increment(t[~on], t0)
-    return scalar_or_array(out)
-
-
-def _on_then_coast(tau, tau0, on, coast):
-    t = as_time(tau)
-    t0 = as_tau0(tau0)
-    out = np.empty(t.shape)
-    before = t <= t0
-    if np.any(before):
-        out[before] = on(t[before], t0)
-    if np.any(~before):
-        out[~before] = coast(t[~before], t0)
-    return scalar_or_array(out)
+    # E U3(tau0) + E[a delta' - delta'^2]: a sum of non-negative terms (a form t0/2 - H/4
+    # would cancel catastrophically just after the switch-off)
+    return _on_then_coast(tau, tau0, _distance_mean_on, lambda t, t0: (
+        _distance_mean_on(np.array([t0]))[0] + _so.coast_distance_increment(t, t0)))
 
 
 def displacement_var(tau, tau0=np.inf):
@@ -226,7 +213,7 @@ def displacement_var(tau, tau0=np.inf):
     About 10 ms per distinct tau; the value at the stop (closed form) once 2 (tau - tau0)
     exceeds every |U1(tau0)| with weight.
     """
-    return _on_then_coast(tau, tau0, lambda t, t0: _data.M020(t, _SWITCH),
+    return _on_then_coast(tau, tau0, lambda t: _data.M020(t, _SWITCH),
                           _cv.coast_displacement_var)
 
 
@@ -265,7 +252,7 @@ def distance_var(tau, tau0=np.inf):
     switch-off, below 1e-10 for every tau0 in [1e-100, 1e300], scaled from 1e-100 below (as
     :func:`displacement_var`).
     """
-    return _on_then_coast(tau, tau0, lambda t, t0: _data.VAR_U3(t, _SWITCH),
+    return _on_then_coast(tau, tau0, lambda t: _data.VAR_U3(t, _SWITCH),
                           _cv.coast_distance_var)
 
 
@@ -304,7 +291,7 @@ def velocity_displacement_cov(tau, tau0=np.inf):
     Accuracy as :func:`displacement_var`: 1e-12 relative (closed form) for tau <= tau0,
     1e-10 after the switch-off.
     """
-    return _on_then_coast(tau, tau0, lambda t, t0: _data.M110(t, _SWITCH),
+    return _on_then_coast(tau, tau0, lambda t: _data.M110(t, _SWITCH),
                           _cv.coast_velocity_displacement_cov)
 
 
@@ -341,5 +328,5 @@ def velocity_abs_distance_cov(tau, tau0=np.inf):
     -----
     Accuracy as :func:`distance_var`.
     """
-    return _on_then_coast(tau, tau0, lambda t, t0: _data.COV_SPEED_U3(t, _SWITCH),
+    return _on_then_coast(tau, tau0, lambda t: _data.COV_SPEED_U3(t, _SWITCH),
                           _cv.coast_velocity_abs_distance_cov)

@@ -398,39 +398,33 @@ def _coast(t, t0, which):
     return (t0 / _TINY) ** _POWER[which] * _evaluate(cs, _TINY, which)
 
 
-def coast_displacement_var(tau, tau0):
-    """Var U2(tau) for tau > tau0 (noise off); see :func:`crandall.analytic.displacement_var`."""
+def _coast_checked(tau, tau0, which):
+    """``which`` (as in :func:`_evaluate`) at the scaled times tau > tau0, validated; 0 where
+    there is no coast (tau0 = 0: never any noise; tau0 = inf: never switched off)."""
     t = as_time(tau)
     t0 = as_tau0(tau0)
     if t0 == 0 or np.isinf(t0):
         return scalar_or_array(np.zeros_like(t))
-    return scalar_or_array(_coast(t, t0, "displacement"))
+    return scalar_or_array(_coast(t, t0, which))
+
+
+def coast_displacement_var(tau, tau0):
+    """Var U2(tau) for tau > tau0 (noise off); see :func:`crandall.analytic.displacement_var`."""
+    return _coast_checked(tau, tau0, "displacement")
 
 
 def coast_distance_var(tau, tau0):
     """Var U3(tau) for tau > tau0 (noise off); see :func:`crandall.analytic.distance_var`."""
-    t = as_time(tau)
-    t0 = as_tau0(tau0)
-    if t0 == 0 or np.isinf(t0):
-        return scalar_or_array(np.zeros_like(t))
-    return scalar_or_array(_coast(t, t0, "distance"))
+    return _coast_checked(tau, tau0, "distance")
 
 
 def coast_velocity_displacement_cov(tau, tau0):
     """E[U1(tau) U2(tau)] for tau > tau0 (noise off); see
     :func:`crandall.analytic.velocity_displacement_cov`."""
-    t = as_time(tau)
-    t0 = as_tau0(tau0)
-    if t0 == 0 or np.isinf(t0):
-        return scalar_or_array(np.zeros_like(t))
-    return scalar_or_array(_coast(t, t0, "displacement_cov"))
+    return _coast_checked(tau, tau0, "displacement_cov")
 
 
 def coast_velocity_abs_distance_cov(tau, tau0):
     """Cov(|U1(tau)|, U3(tau)) for tau > tau0 (noise off); see
     :func:`crandall.analytic.velocity_abs_distance_cov`."""
-    t = as_time(tau)
-    t0 = as_tau0(tau0)
-    if t0 == 0 or np.isinf(t0):
-        return scalar_or_array(np.zeros_like(t))
-    return scalar_or_array(_coast(t, t0, "distance_cov"))
+    return _coast_checked(tau, tau0, "distance_cov")

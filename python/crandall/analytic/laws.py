@@ -224,8 +224,7 @@ def velocity_atom(tau, tau0):
         elif ti <= t0:
             out.flat[i] = 0.0
         else:
-            c = _twice_gap(ti, t0)
-            out.flat[i] = _f_abs(c, t0) if math.isfinite(c) else 1.0
+            out.flat[i] = _stop_law_at(ti, t0, sf=False)  # stopped by tau: P(tau_s <= tau)
     return scalar_or_array(out)
 
 
@@ -295,6 +294,29 @@ def _stop_setup(x, name, tau0):
     return x.astype(float), t0.astype(float)
 
 
+def _stop_law_at(t, t0, sf):
+    """P(tau_s > t) if sf, else P(tau_s <= t), for floats t, t0 >= 0; each keeps its relative
+    accuracy where it is small (S itself for the survival function, :func:`_f_abs` for the CDF,
+    never one as 1 minus the other)."""
+    if t < t0:
+        return 1.0 if sf else 0.0
+    at_rest = 0.0 if sf else 1.0
+    if t0 == 0:
+        return at_rest
+    c = _twice_gap(t, t0)
+    if not math.isfinite(c):
+        return at_rest
+    return _s(c, t0) if sf else _f_abs(c, t0)
+
+
+def _stop_law(t, tau0, sf):
+    t, t0 = _stop_setup(t, "t", tau0)
+    out = np.empty(t.shape)
+    for i, (ti, t0i) in enumerate(zip(t.flat, t0.flat)):
+        out.flat[i] = _stop_law_at(ti, t0i, sf)
+    return scalar_or_array(out)
+
+
 def stop_time_cdf(t, tau0):
     """CDF of the stop time, P(tau_s <= t) = P(|U1(tau0)| <= 2(t - tau0)) (eq14).
 
@@ -314,17 +336,7 @@ def stop_time_cdf(t, tau0):
     float or ndarray
         Probability in [0, 1].
     """
-    t, t0 = _stop_setup(t, "t", tau0)
-    out = np.empty(t.shape)
-    for i, (ti, t0i) in enumerate(zip(t.flat, t0.flat)):
-        if ti < t0i:
-            out.flat[i] = 0.0
-        elif t0i == 0:
-            out.flat[i] = 1.0
-        else:
-            c = _twice_gap(ti, t0i)
-            out.flat[i] = _f_abs(c, t0i) if math.isfinite(c) else 1.0
-    return scalar_or_array(out)
+    return _stop_law(t, tau0, sf=False)
 
 
 def stop_time_sf(t, tau0):
@@ -343,17 +355,7 @@ def stop_time_sf(t, tau0):
     float or ndarray
         Probability in [0, 1].
     """
-    t, t0 = _stop_setup(t, "t", tau0)
-    out = np.empty(t.shape)
-    for i, (ti, t0i) in enumerate(zip(t.flat, t0.flat)):
-        if ti < t0i:
-            out.flat[i] = 1.0
-        elif t0i == 0:
-            out.flat[i] = 0.0
-        else:
-            c = _twice_gap(ti, t0i)
-            out.flat[i] = _s(c, t0i) if math.isfinite(c) else 0.0
-    return scalar_or_array(out)
+    return _stop_law(t, tau0, sf=True)
 
 
 def stop_time_quantile(q, tau0):

@@ -15,9 +15,7 @@ from . import _data
 from ._check import as_real, as_time, as_tau0, only_before_switch_off, scalar_or_array
 
 __all__ = [
-    "displacement_var",
     "distance_second_moment",
-    "distance_var",
     "velocity_abs_mean",
     "velocity_logpdf",
     "velocity_pdf",
@@ -40,40 +38,6 @@ def distance_mean_noise_on(tau):
     return _data.M001(tau, SWITCH)
 
 
-def displacement_var(tau, tau0=np.inf):
-    """Variance of the scaled displacement, Var U2(tau) = E[U2^2] (eq10t).
-
-    .. math::
-        \\sigma_{U_2}^2 = \\tfrac58\\tau - \\tfrac{27}{32} + e^{-\\tau}\\Big[1 - \\sqrt{\\tau/\\pi}
-        \\big(\\tfrac12\\tau^3 + \\tfrac7{12}\\tau^2 - \\tfrac{13}{24}\\tau + \\tfrac5{16}\\big)\\Big]
-        + \\mathrm{erfc}\\sqrt\\tau\\,\\big(\\tfrac12\\tau^4 + \\tfrac56\\tau^3 - \\tfrac12\\tau^2
-        + \\tfrac38\\tau - \\tfrac5{32}\\big)
-
-    Parameters
-    ----------
-    tau : float or array_like
-        Scaled time (eq8), 0 <= tau <= tau0, finite.
-    tau0 : float, optional
-        Scaled switch-off time; default never. tau > tau0 raises ValueError here: the public
-        :func:`crandall.analytic.displacement_var` continues past tau0 (coast_var.py).
-
-    Returns
-    -------
-    float or ndarray
-        Var U2 in scaled units (U2 = mu^3 g^3 U / (2 h^4)). Small tau: (2/3) tau^3; large tau:
-        (5/8) tau - 27/32.
-
-    Notes
-    -----
-    Printed eq10t is correct (checked against the inverse Laplace transform of eq10p).
-    Accuracy: relative error below 1e-12 over 1e-8 <= tau <= 1e6 (series in sqrt(tau) below
-    tau = 1, erfcx form above).
-    """
-    t = as_time(tau)
-    only_before_switch_off(t, as_tau0(tau0), "displacement_var")
-    return scalar_or_array(_data.M020(t, SWITCH))
-
-
 def distance_second_moment(tau, tau0=np.inf):
     """E[U3^2] for tau <= tau0: the second moment of eq10u, *corrected*.
 
@@ -86,8 +50,19 @@ def distance_second_moment(tau, tau0=np.inf):
     The paper prints the e^-tau bracket without the term -(5/16) sqrt(tau/pi); the inverse
     Laplace transform of eq10pp has it (docs/analytic.md, "Correction to eq10u").
 
-    Parameters, returns and accuracy as :func:`displacement_var`; scaled units of U3^2.
-    tau above 2 sqrt(DBL_MAX) ~ 2.7e154, where the value overflows a double, raises ValueError.
+    Parameters
+    ----------
+    tau : float or array_like
+        Scaled time, 0 <= tau <= tau0, finite; tau above 2 sqrt(DBL_MAX) ~ 2.7e154, where the
+        value overflows a double, raises ValueError.
+    tau0 : float, optional
+        Scaled switch-off time (default never); tau > tau0 raises ValueError.
+
+    Returns
+    -------
+    float or ndarray
+        E[U3^2], scaled units of U3^2. Relative error below 1e-12 over 1e-8 <= tau <= 1e6
+        (series in sqrt(tau) below tau = 1, erfcx form above).
     """
     t = as_time(tau)
     only_before_switch_off(t, as_tau0(tau0), "distance_second_moment")
@@ -102,36 +77,6 @@ def distance_second_moment(tau, tau0=np.inf):
 # E[U3^2] = tau^2/4 + tau/8 - 11/32 + (exponentially small): the largest tau whose value is a
 # finite double (the Horner sum itself overflows a little earlier than tau^2/4 = DBL_MAX).
 _M002_TAU_MAX = 2.0 * math.sqrt(np.finfo(float).max) * (1 - 1e-12)
-
-
-def distance_var(tau, tau0=np.inf):
-    """Variance of the scaled distance travelled, Var U3(tau) (eq10u, corrected).
-
-    Var U3 = E[U3^2] - E[U3]^2 with E[U3^2] from :func:`distance_second_moment` (eq10u with the
-    missing -(5/16) sqrt(tau/pi) e^-tau restored) and E[U3] from eq10r. The difference is formed
-    in exact arithmetic, so the tau^2 terms cancel symbolically: large tau, tau/4 - 23/64;
-    small tau, (3/4 - 16/(9 pi)) tau^3 ... (the Brownian limit).
-
-    Parameters
-    ----------
-    tau : float or array_like
-        Scaled time, 0 <= tau <= tau0, finite.
-    tau0 : float, optional
-        Scaled switch-off time (default never); tau > tau0 raises ValueError here: the public
-        :func:`crandall.analytic.distance_var` continues past tau0 (coast_var.py).
-
-    Returns
-    -------
-    float or ndarray
-        Var U3, scaled units (U3 = mu^3 g^3 S / (2 h^4)).
-
-    Notes
-    -----
-    Accuracy: relative error below 1e-12 for 1e-8 <= tau <= 1e6.
-    """
-    t = as_time(tau)
-    only_before_switch_off(t, as_tau0(tau0), "distance_var")
-    return scalar_or_array(_data.VAR_U3(t, SWITCH))
 
 
 def velocity_abs_mean(tau, tau0=np.inf):
