@@ -118,13 +118,21 @@ def render() -> str:
         ob = o["path_steps_per_second"]
         lines += [
             "",
-            f"For comparison, another build (isa {(o.get('build') or {}).get('isa', 'unknown')}, "
+            f"For comparison, crandall {o.get('crandall_version', '?')} "
+            f"(build {(o.get('build') or {}).get('isa', 'unknown')}, "
             f"measured by `.venv/bin/{o['command']}`): "
             f"{ob['full_1_thread'] / 1e6:.1f} M path-steps/s on 1 thread, "
-            f"{ob['full_2_thread'] / 1e6:.1f} M on 2, random floor "
+            f"{ob['full_2_thread'] / 1e6:.1f} M on 2, velocity only "
+            f"{ob.get('velocity_only_1_thread', float('nan')) / 1e6:.1f} M, random floor "
             f"{ob.get('random_floor_1_thread', float('nan')) / 1e6:.1f} M "
             "([bench/results/throughput_other_build.json](bench/results/throughput_other_build.json)).",
         ]
+        ours = tp["path_steps_per_second"]
+        ratios = ", ".join(
+            f"{what} {ours[k] / ob[k]:.2f}×" for k, what in (
+                ("full_1_thread", "full kernel"), ("velocity_only_1_thread", "velocity only"),
+                ("random_floor_1_thread", "random floor")) if k in ours and k in ob)
+        lines += ["", f"This build against that one, one thread: {ratios}."]
     lines += [
         "",
         f"Two threads give {a['two_thread_speedup']:.2f}× one thread; the full kernel runs at "
