@@ -113,7 +113,7 @@ TEST(ExactStep, SignKeptUnlessTouched) {
   EXPECT_NEAR(static_cast<double>(positive_after_touch) / touched, 0.5, 5.0 * 0.5 / std::sqrt(touched));
 }
 
-// Transition density of dX = -2 sign(X) dt + sqrt(2) dW over time t from x (DESIGN.md).
+// Transition density of dX = -2 sign(X) dt + sqrt(2) dW over time t from x (docs/exact-step.md).
 double density(double x, double y, double t) {
   return std::exp(-(y - x) * (y - x) / (4 * t) - (std::abs(y) - std::abs(x)) - t) / std::sqrt(4 * M_PI * t) +
          0.5 * std::exp(-2 * std::abs(y)) * std::erfc((std::abs(x) + std::abs(y) - 2 * t) / (2 * std::sqrt(t)));
