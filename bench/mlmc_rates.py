@@ -51,11 +51,9 @@ Writes bench/out/mlmc_rates.json and .png; --publish copies both to bench/result
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import platform
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -68,6 +66,7 @@ from crandall import analytic
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "tests"))
 from reference_rng import exact_step  # noqa: E402
+from _publish import write  # noqa: E402
 
 TAU0 = 5.0
 TIMES = (1.0, 5.0)
@@ -599,15 +598,7 @@ def main() -> None:
         "load": [round(x, 2) for x in load_before], "load_after": [round(x, 2) for x in os.getloadavg()],
         "total_seconds": time.perf_counter() - started,
     }
-    out = HERE / "out"
-    out.mkdir(exist_ok=True)
-    (out / "mlmc_rates.json").write_text(json.dumps(data, indent=1, default=float))
-    plot(data, out / "mlmc_rates.png")
-    if args.publish:
-        dest = HERE / "results"
-        dest.mkdir(exist_ok=True)
-        for f in ("mlmc_rates.json", "mlmc_rates.png"):
-            shutil.copy(out / f, dest / f)
+    write("mlmc_rates", data, plot, publish=args.publish, default=float)
     print(f"done in {data['total_seconds']:.0f} s; load {data['load']} -> {data['load_after']}")
 
 

@@ -32,13 +32,14 @@ import argparse
 import json
 import os
 import platform
-import shutil
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from _publish import write  # noqa: E402
 
 TAU0 = 5.0
 DT = 0.01
@@ -196,16 +197,8 @@ def main() -> None:
         print(f"{'':>9}  per CPU second: " + ", ".join(
             f"{k} {x / 1e6:.1f} M" for k, x in out["variants_per_cpu_second"][isa].items()))
 
-    dest = HERE / "out"
-    dest.mkdir(exist_ok=True)
-    stem = "throughput" if not args.module_path else "throughput_other_build"
-    (dest / f"{stem}.json").write_text(json.dumps(out, indent=1))
-    plot(out, dest / f"{stem}.png")
-    if args.publish:
-        res = HERE / "results"
-        res.mkdir(exist_ok=True)
-        for ext in ("json", "png"):
-            shutil.copy(dest / f"{stem}.{ext}", res / f"{stem}.{ext}")
+    write("throughput" if not args.module_path else "throughput_other_build", out, plot,
+          publish=args.publish)
 
 
 def plot(out: dict, path: Path) -> None:

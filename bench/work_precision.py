@@ -30,7 +30,6 @@ import json
 import math
 import os
 import platform
-import shutil
 import sys
 import time
 from pathlib import Path
@@ -43,6 +42,7 @@ from crandall.paper import CURVES
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
+from _publish import write  # noqa: E402
 from peers import numpy_em  # noqa: E402
 
 try:
@@ -283,18 +283,10 @@ def main() -> None:
     data["load"] = [round(x, 2) for x in load_before]
     data["load_after"] = [round(x, 2) for x in os.getloadavg()]
     data["total_seconds"] = time.perf_counter() - started
-    out = HERE / "out"
-    out.mkdir(exist_ok=True)
-    (out / "work_precision.json").write_text(json.dumps(data, indent=1))
-    plot(data, out / "work_precision.png")
+    write("work_precision", data, plot, publish=args.publish)
     for name, r in ratios.items():
         print(f"{name}: best crandall {r['best_crandall']}, best peer {r['best_peer']}, "
               f"ratio {r['ratio_peer_over_crandall']}")
-    if args.publish:
-        dest = HERE / "results"
-        dest.mkdir(exist_ok=True)
-        for f in ("work_precision.json", "work_precision.png"):
-            shutil.copy(out / f, dest / f)
     print(f"done in {data['total_seconds']:.0f} s; load {data['load']} -> {data['load_after']}")
 
 
