@@ -22,6 +22,7 @@ void register_plan(py::module_& m) {
       .def_readwrite("times", &crandall::Options::times)
       .def_readwrite("dt", &crandall::Options::dt)
       .def_readwrite("min_steps", &crandall::Options::min_steps)
+      .def_readwrite("refinement", &crandall::Options::refinement)
       .def_property(
           "method",
           [](const crandall::Options& o) { return std::string(crandall::method_name(o.method)); },

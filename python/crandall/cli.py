@@ -90,6 +90,14 @@ def _parser() -> argparse.ArgumentParser:
                      help="longest internal step in the scene's time units (default: the "
                           "file's, else crandall.default_dt)")
     run.add_argument("--method", choices=METHODS, help=f"simulation method (default: {DEFAULT_METHOD})")
+    target = run.add_mutually_exclusive_group()
+    target.add_argument("--error", type=_float, metavar="EPS",
+                        help="ask for an accuracy instead of paths: run until the estimated "
+                             "total error (bias and statistical) of every statistic is at most "
+                             "EPS in the scene's units (multilevel Monte Carlo; writes "
+                             "result.csv only)")
+    target.add_argument("--rel-error", type=_float, metavar="R",
+                        help="the same, relative to each statistic's size")
     run.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                      help=f"output folder (default: ./{DEFAULT_OUT}); one that holds another "
                           "run's files is refused unless --overwrite")
@@ -189,9 +197,10 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ())
     written, notes = [], []
     try:
         try:
-            path = os.path.join(out, "result.nc")
-            result.save(path)
-            written.append(path)
+            if hasattr(result, "save"):  # a run to an accuracy has a table only
+                path = os.path.join(out, "result.nc")
+                result.save(path)
+                written.append(path)
             path = os.path.join(out, "result.csv")
             result.to_pandas().to_csv(path, index=False)
             written.append(path)
@@ -216,7 +225,8 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ())
 
 def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None, dt=None,
         method=None, out: str = DEFAULT_OUT, checkpoint=None, scheduler=None,
-        figures: bool = True, files: bool = True, progress=None, overwrite: bool = False) -> int:
+        figures: bool = True, files: bool = True, progress=None, overwrite: bool = False,
+        error=None, rel_error=None) -> int:
     """What ``crandall run`` does (arguments as its options); returns the exit status.
 
     Raises
@@ -230,6 +240,11 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     """
     scene, settings, is_paper = _load_scene(scene_path)
     earlier = _check_out(out, overwrite) if files else []
+    if error is not None or rel_error is not None:
+        return _run_to_error(scene, settings, error=error, rel_error=rel_error, paths=paths,
+                             seed=seed, threads=threads, dt=dt, method=method, out=out,
+                             checkpoint=checkpoint, scheduler=scheduler, files=files,
+                             earlier=earlier)
     for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method)):
         if value is not None:
             settings[key] = value
@@ -267,6 +282,31 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
           f"(seed {result.seed})")
     if files:
         written = _write_outputs(result, out, figures, earlier)
+        if written:
+            print(f"wrote {len(written)} files to {out}{os.sep}: "
+                  + ", ".join(os.path.basename(p) for p in written))
+    return 0
+
+
+def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, threads, dt, method,
+                  out, checkpoint, scheduler, files, earlier) -> int:
+    """``crandall run --error EPS``: a run to a requested accuracy."""
+    for option, value in (("--paths", paths), ("--dt", dt), ("--method", method),
+                          ("--checkpoint", checkpoint), ("--scheduler", scheduler)):
+        if value is not None:
+            raise ValueError(f"{option}: not with --error / --rel-error (the run chooses its "
+                             "grids and paths itself, on this machine)")
+    seed = seed if seed is not None else settings.get("seed")
+    target = f"error <= {error:g}" if error is not None else f"rel_error <= {rel_error:g}"
+    print(f"crandall: {scene!r}")
+    print(f"simulating to {target} ...", flush=True)
+    result = simulate(scene, error=error, rel_error=rel_error, seed=seed, threads=threads)
+    print(result.summary())
+    c = result.cost
+    print(f"\n{c['path_steps']:.3g} path-steps in {c['wall_time']:.1f} s "
+          f"(levels {len(c['paths'])}, paths per level {c['paths']}, seed {result.seed})")
+    if files:
+        written = _write_outputs(result, out, False, earlier)
         if written:
             print(f"wrote {len(written)} files to {out}{os.sep}: "
                   + ", ".join(os.path.basename(p) for p in written))
@@ -357,7 +397,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                        dt=args.dt, method=args.method, out=args.out, checkpoint=args.checkpoint,
                        scheduler=args.scheduler, figures=not args.no_figures,
                        files=not args.no_files, progress=args.progress,
-                       overwrite=args.overwrite)
+                       overwrite=args.overwrite, error=args.error, rel_error=args.rel_error)
         return analytic_command(args.scene, tau0=args.tau0, times=args.times)
     except ValueError as exc:
         print(f"crandall: error: {exc}", file=sys.stderr)
