@@ -79,7 +79,36 @@ class _Target:
     ito: bool = False  # the mean distance through the Ito identity
 
 
-def _targets(scene: Scene) -> List[_Target]:
+def _check_statistics(scene: Scene, statistics) -> Optional[set]:
+    """``statistics`` as a set of (name, stat), each held by the scene; None for all."""
+    if statistics is None:
+        return None
+    if isinstance(statistics, str):
+        statistics = [statistics]
+    held = names_for(scene.observe)
+    out = set()
+    for item in statistics:
+        if isinstance(item, str):
+            name, _, stat = item.partition(":")
+            stat = stat or "mean"
+        elif isinstance(item, tuple) and len(item) == 2:
+            name, stat = item
+        else:
+            raise ValueError(f"statistics: give names such as 'distance:var' or pairs "
+                             f"(name, stat), got {item!r}")
+        if name not in held:
+            raise ValueError(f"statistics: {name!r} is not observed by the scene; it holds "
+                             f"{', '.join(held)}")
+        if stat not in STATS:
+            raise ValueError(f"statistics: the statistic of {name!r} must be one of "
+                             f"{', '.join(STATS)}, got {stat!r}")
+        out.add((name, stat))
+    if not out:
+        raise ValueError("statistics: name at least one statistic")
+    return out
+
+
+def _targets(scene: Scene, statistics: Optional[set] = None) -> List[_Target]:
     out = []
     n_times = len(scene.times)
     for name in names_for(scene.observe):
@@ -87,6 +116,8 @@ def _targets(scene: Scene) -> List[_Target]:
         slots = [(n_times, None)] if q.at_stop else [(i, i) for i in range(n_times)]
         for slot, ti in slots:
             for stat in STATS:
+                if statistics is not None and (name, stat) not in statistics:
+                    continue
                 exact = q.variable == VELOCITY  # velocity, kinetic energy, stop time
                 ito = (stat == "mean" and q.variable == DISTANCE and scene.drift > 0)
                 out.append(_Target(name, slot, ti, stat, q.variable, q.power, exact or ito, ito))
@@ -142,12 +173,12 @@ class _Level:
 
 class _Engine:
     def __init__(self, scene: Scene, *, eps: Optional[float], rel: Optional[float], seed: int,
-                 threads: int) -> None:
+                 threads: int, statistics: Optional[set] = None) -> None:
         self.scene = scene
         self.eps, self.rel = eps, rel
         self.seed = seed
         self.threads = threads
-        self.targets = _targets(scene)
+        self.targets = _targets(scene, statistics)
         flags = core_flags(scene.observe)
         self.integrals = flags["displacement"] or flags["distance"]
         self.base_dt = BASE_DT_FACTOR * default_dt(scene)
@@ -249,22 +280,27 @@ class _Engine:
                 level_var = [max(c[1, 1] - 4 * d * c[0, 1] + 4 * d * d * c[0, 0], 0.0)
                              for _, c in groups]
                 level_mean = [m[1] - 2 * d * m[0] for m, _ in groups]
-            se = math.sqrt(sum(v / lev.sums.n for v, lev in zip(level_var, used)))
-            bias = 0.0 if t.exact else self._bias(level_mean)
+            level_se = [math.sqrt(v / lev.sums.n) for v, lev in zip(level_var, used)]
+            se = math.sqrt(sum(x * x for x in level_se))
+            bias = 0.0 if t.exact else self._bias(level_mean, level_se)
             out.append((value, se, bias, level_var))
         return out
 
     @staticmethod
-    def _bias(level_mean: Sequence[float]) -> float:
-        """Giles' estimate of the levels left out, from the finest two: the level means fall
-        like 2^(-alpha l); alpha = 1.5 is the trapezoid rule's leading exponent on this
-        skeleton (docs/integrals.md), the smallest measured (docs/methods/adaptive.md)."""
-        alpha = ALPHA
+    def _bias(level_mean: Sequence[float], level_se: Sequence[float]) -> float:
+        """Giles' estimate of the levels left out: the level means fall like 2^(-alpha l), so
+        the bias of stopping at level L is about |Y_L| / (2^alpha - 1). alpha is measured from
+        the two finest levels when both means are resolved (beyond 2 standard errors), within
+        [ALPHA_MIN, ALPHA_MAX]; else ALPHA, the trapezoid rule's leading exponent on this
+        skeleton (docs/integrals.md). Then also at least |Y_(L-1)| 2^-alpha / (2^alpha - 1),
+        so that a finest mean that is small by chance does not hide the bias."""
         if len(level_mean) < 3:
             return math.inf
-        last = abs(level_mean[-1])
-        prev = abs(level_mean[-2]) * 2.0 ** -alpha
-        return max(last, prev) / (2.0 ** alpha - 1.0)
+        last, prev = abs(level_mean[-1]), abs(level_mean[-2])
+        alpha = ALPHA
+        if last > 2 * level_se[-1] and prev > 2 * level_se[-2]:
+            alpha = min(max(math.log2(prev / last), ALPHA_MIN), ALPHA_MAX)
+        return max(last, prev * 2.0 ** -alpha) / (2.0 ** alpha - 1.0)
 
     def tolerance(self, i: int, value: float, level_var) -> float:
         """The target of statistic i in the core's variable (the scene asks in the
@@ -325,8 +361,10 @@ class _Engine:
                 self._grow(level, n)
 
 
-#: The exponent of the level means' decay assumed by the bias estimate.
+#: The exponent of the level means' decay assumed by the bias estimate where it is not
+#: resolved, and the range a measured one is kept in (docs/methods/adaptive.md).
 ALPHA = 1.5
+ALPHA_MIN, ALPHA_MAX = 1.0, 3.0
 
 
 class AdaptiveResult:
@@ -364,7 +402,12 @@ class AdaptiveResult:
 
     @property
     def names(self) -> tuple:
-        return names_for(self.scene.observe)
+        """The quantities with at least one statistic in this result."""
+        return tuple(n for n in names_for(self.scene.observe)
+                     if any((n, s) in self._table for s in STATS))
+
+    def _stats_of(self, name: str) -> tuple:
+        return tuple(s for s in STATS if (name, s) in self._table)
 
     def _get(self, name: str, stat: str, k: int):
         if stat not in STATS:
@@ -372,6 +415,9 @@ class AdaptiveResult:
         if name not in self.names:
             raise ValueError(f"name: {name!r} is not in this result; it holds "
                              f"{', '.join(self.names)}")
+        if (name, stat) not in self._table:
+            raise ValueError(f"stat: the {stat} of {name} was not asked for (the run's "
+                             f"statistics= named {', '.join(self._stats_of(name))} of it)")
         q = quantity(name)
         f = q.factor(self.scene)
         scale = f if stat == "mean" else f * f
@@ -390,6 +436,7 @@ class AdaptiveResult:
         return self._get(name, "var", 0)
 
     def std(self, name: str):
+        """The square root of the estimated variance."""
         return np.sqrt(np.maximum(self.var(name), 0.0))
 
     def stderr(self, name: str, stat: str = "mean"):
@@ -433,7 +480,7 @@ class AdaptiveResult:
             lines.append(f"  {n}" + (f" [{u}]" if u else ""))
             lines.append(f"    {'' if q.at_stop else sc.time_name:>10}  {'stat':>4}  "
                          f"{'estimate':>13}  {'stderr':>9}  {'bias':>9}  {'error':>9}")
-            for stat in STATS:
+            for stat in self._stats_of(n):
                 vals = np.atleast_1d(self._get(n, stat, 0))
                 ses = np.atleast_1d(self.stderr(n, stat))
                 bs = np.atleast_1d(self.bias(n, stat))
@@ -455,7 +502,7 @@ class AdaptiveResult:
         rows = []
         for n in self.names:
             q = quantity(n)
-            for stat in STATS:
+            for stat in self._stats_of(n):
                 vals = np.atleast_1d(self._get(n, stat, 0))
                 ses = np.atleast_1d(self.stderr(n, stat))
                 bs = np.atleast_1d(self.bias(n, stat))
@@ -481,7 +528,8 @@ def _check_target(name: str, value) -> float:
 
 
 def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
-                      rel_error: Optional[float] = None, seed: int, threads: int) -> AdaptiveResult:
+                      rel_error: Optional[float] = None, seed: int, threads: int,
+                      statistics=None) -> AdaptiveResult:
     """Run ``scene`` until every statistic's estimated total error is within the target
     (see :func:`crandall.simulate`)."""
     if (error is None) == (rel_error is None):
@@ -490,6 +538,7 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
     rel = _check_target("rel_error", rel_error) if rel_error is not None else None
     seed = check_int("seed", seed, 0, MAX_SEED)
     start = time.perf_counter()
-    engine = _Engine(scene, eps=eps, rel=rel, seed=seed, threads=threads)
+    chosen = _check_statistics(scene, statistics)
+    engine = _Engine(scene, eps=eps, rel=rel, seed=seed, threads=threads, statistics=chosen)
     engine.run()
     return AdaptiveResult(engine, time.perf_counter() - start)

@@ -335,6 +335,7 @@ def simulate(
     progress: Optional[bool] = None,
     error: Optional[float] = None,
     rel_error: Optional[float] = None,
+    statistics: Optional[Sequence] = None,
 ):
     """Simulate a scene and return its statistics: ``paths`` paths on a fixed grid, or as
     many as a requested accuracy needs (``error=`` or ``rel_error=``).
@@ -360,6 +361,10 @@ def simulate(
         The same, relative: at most ``rel_error`` times the statistic's size (its absolute
         value; for a mean, at least the quantity's standard deviation, so that a mean that is
         0 by symmetry has a finite target).
+    statistics : sequence, optional
+        With ``error`` / ``rel_error``: the statistics the target applies to (and that the
+        result holds), as ``"name:stat"`` strings or ``(name, stat)`` pairs with stat "mean"
+        or "var", e.g. ``["distance:var"]``; default: every statistic of the scene.
     seed : int, optional
         0 <= seed < 2**64. The result is a pure function of (seed, scene, paths, dt, method,
         crandall version): bitwise the same for any ``threads``, checkpointed or not, local or
@@ -423,7 +428,9 @@ def simulate(
             threads = os.cpu_count() or 1
         threads = check_int("threads", threads, 1, 1024)
         return simulate_to_error(scene, error=error, rel_error=rel_error, seed=seed,
-                                 threads=threads)
+                                 threads=threads, statistics=statistics)
+    if statistics is not None:
+        raise ValueError("statistics: only with error= or rel_error=")
     if paths is None:
         raise ValueError("paths: give the number of paths, or error= / rel_error= for an "
                          "accuracy")
