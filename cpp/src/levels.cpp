@@ -11,11 +11,15 @@
 
 #include "crandall/dispatch.hpp"
 #include "crandall/kernel.hpp"
+#include "crandall/kernel_controls.hpp"
 
 namespace crandall {
 
+int control_count() { return kControls; }
+
 std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count,
-                                int threads, const CancelCheck& cancel) {
+                                int threads, const CancelCheck& cancel,
+                                std::vector<double>* controls_out) {
   const Options& o = plan.options();
   if (count == 0 || first >= o.paths || count > o.paths - first)
     throw std::invalid_argument("run_samples: paths [first, first + count) must lie in the plan's paths");
@@ -24,7 +28,13 @@ std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint
   const std::size_t slots = o.times.size() + (o.stop ? 1 : 0);
   const int grids = o.grids();
   std::vector<double> out(count * slots * static_cast<std::size_t>(grids) * 3, 0.0);
-  const BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance);
+  BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance);
+  if (controls_out) {
+    if (o.method != Method::exact || !o.integrals())
+      throw std::invalid_argument("run_samples: controls need the exact method and an observed integral");
+    controls_out->assign(count * slots * kControls, 0.0);
+    block_fn = active_kernel().controls_fn(o.displacement, o.distance);
+  }
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
   std::atomic<bool> stop{false};
   std::exception_ptr error;
@@ -41,6 +51,7 @@ std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint
       ws->sample_first = first;
       ws->sample_slots = slots;
       ws->sample_grids = grids;
+      if (controls_out) ws->controls = controls_out->data();
       ws->cancelled = [&stop]() { return stop.load(std::memory_order_relaxed); };
     } catch (...) {
       std::lock_guard<std::mutex> lock(error_mutex);
@@ -76,7 +87,7 @@ std::vector<double> sum_products(const double* values, std::uint64_t rows, std::
   std::uint64_t covered = 0;
   std::size_t width = 0;
   for (int w : widths) {
-    if (w < 1 || w > 4) throw std::invalid_argument("sum_products: group widths must be 1 to 4");
+    if (w < 1 || w > 32) throw std::invalid_argument("sum_products: group widths must be 1 to 32");
     covered += static_cast<std::uint64_t>(w);
     width += static_cast<std::size_t>(w + w * (w + 1) / 2);
   }

@@ -50,6 +50,8 @@ MAX_LEVELS = 14
 #: A round at most multiplies a level's paths by this (the variance estimates of a small
 #: sample can be far off).
 MAX_GROWTH = 16
+#: Control variates on the base level (switch off to measure what they bring).
+USE_CONTROLS = True
 #: The statistics a run reports for each quantity.
 STATS = ("mean", "var")
 #: The two-sided normal quantile of the reported 95 % interval.
@@ -169,6 +171,44 @@ class _Level:
         #: Steps a path of this level takes (its cost unit).
         self.cost = max(int(self.plan.steps_per_path), 1)
         self.sums: Optional[_Sums] = None
+        #: Whether the level runs with control variates, and the first path its sums hold
+        #: (the paths before it fitted the control coefficients).
+        self.controls = False
+        self.start = 0
+
+
+def _solve(a: np.ndarray, b: np.ndarray) -> List[float]:
+    """a x = b for a symmetric positive semi-definite a, by Gaussian elimination in Python
+    floats (the same bits on every machine; no LAPACK). Columns without variance get 0; a
+    ridge of 1e-12 of the largest diagonal keeps nearly dependent controls bounded."""
+    n = len(b)
+    keep = [j for j in range(n) if a[j, j] > 0.0]
+    x = [0.0] * n
+    if not keep:
+        return x
+    ridge = 1e-12 * max(float(a[j, j]) for j in keep)
+    m = [[float(a[i, j]) + (ridge if i == j else 0.0) for j in keep] + [float(b[i])]
+         for i in keep]
+    size = len(keep)
+    for col in range(size):
+        piv = max(range(col, size), key=lambda r: abs(m[r][col]))
+        m[col], m[piv] = m[piv], m[col]
+        if m[col][col] == 0.0:
+            continue
+        for r in range(col + 1, size):
+            f = m[r][col] / m[col][col]
+            if f != 0.0:
+                for c in range(col, size + 1):
+                    m[r][c] -= f * m[col][c]
+    sol = [0.0] * size
+    for r in range(size - 1, -1, -1):
+        if m[r][r] == 0.0:
+            continue
+        acc = m[r][size] - sum(m[r][c] * sol[c] for c in range(r + 1, size))
+        sol[r] = acc / m[r][r]
+    for j, v in zip(keep, sol):
+        x[j] = v
+    return x
 
 
 class _Engine:
@@ -193,6 +233,10 @@ class _Engine:
             if t.stat == "var":
                 self.cols.append((i, 2))
         self.widths = [2 if t.stat == "var" else 1 for t in self.targets]
+        #: Control variates on the base level (docs/methods/adaptive.md): with an observed
+        #: integral (the controls need the grid's steps).
+        self.use_controls = USE_CONTROLS and self.integrals
+        self.beta: Optional[List[List[float]]] = None
         self.level_targets = [i for i, t in enumerate(self.targets) if not t.exact]
 
     # -- per-path values ------------------------------------------------------------------
@@ -210,7 +254,8 @@ class _Engine:
             return v  # the stop time from the switch-off
         return v ** t.power
 
-    def _features(self, block: np.ndarray, level: int) -> np.ndarray:
+    def _features(self, block: np.ndarray, level: int,
+                  controls: Optional[np.ndarray] = None) -> np.ndarray:
         n = block.shape[0]
         f = np.zeros((n, len(self.cols)))
         for c, (i, power) in enumerate(self.cols):
@@ -219,41 +264,77 @@ class _Engine:
             fine = self._values(block, t, 0) - centre
             if level == 0:
                 f[:, c] = fine ** power
+                if controls is not None and self.beta is not None:
+                    # Minus fixed multiples of the controls (mean exactly 0): still unbiased.
+                    # Elementwise, in a fixed order (no BLAS), for the same bits everywhere.
+                    for k, b in enumerate(self.beta[c]):
+                        if b != 0.0:
+                            f[:, c] -= b * controls[:, t.slot, k]
             elif not t.exact:
                 coarse = self._values(block, t, 1) - centre
                 f[:, c] = fine ** power - coarse ** power
         return f
 
+    def _mean(self, values: np.ndarray) -> float:
+        return float(_core.sum_products(values[:, None], [1], self.threads)[0]) / len(values)
+
+    def _fit_controls(self, block: np.ndarray, controls: np.ndarray) -> None:
+        """The control coefficients of every feature column: least squares on the pilot paths
+        (which the estimates then leave out, so that the coefficients are independent of the
+        paths they are applied to)."""
+        raw = self._features(block, 0)
+        k = controls.shape[2]
+        self.beta = []
+        for c, (i, _) in enumerate(self.cols):
+            m = np.concatenate([raw[:, c:c + 1], controls[:, self.targets[i].slot, :]], axis=1)
+            flat = _core.sum_products(m, [k + 1], self.threads)
+            g = _Sums([k + 1])
+            g.add(len(m), flat)
+            _, cov = g.group(0)
+            self.beta.append(_solve(cov[1:, 1:], cov[1:, 0]))
+
     def _simulate(self, lev: _Level, first: int, count: int) -> None:
         done = 0
         while done < count:
             n = min(BATCH_PATHS, count - done)
-            block = _core.run_samples(lev.plan, first + done, n, self.threads)
+            controls = None
+            if lev.controls:
+                block, controls = _core.run_samples(lev.plan, first + done, n, self.threads, True)
+            else:
+                block = _core.run_samples(lev.plan, first + done, n, self.threads)
+            self.path_steps += n * lev.cost
             if self.centre is None:
                 # The centring constants (the first batch's means) only keep the sums of
                 # squares well conditioned; any fixed value gives an unbiased estimate.
-                self.centre = np.zeros(len(self.targets))
-                for i, t in enumerate(self.targets):
-                    self.centre[i] = float(np.mean(self._values(block, t, 0)))
-            flat = _core.sum_products(self._features(block, lev.level), self.widths,
+                self.centre = np.array([self._mean(self._values(block, t, 0))
+                                        for t in self.targets])
+            if lev.controls and self.beta is None:
+                self._fit_controls(block, controls)
+                lev.start = first + done + n
+                done += n
+                continue
+            flat = _core.sum_products(self._features(block, lev.level, controls), self.widths,
                                       self.threads)
             if lev.sums is None:
                 lev.sums = _Sums(self.widths)
             lev.sums.add(n, flat)
             done += n
-            self.path_steps += n * lev.cost
 
     def _level(self, level: int) -> _Level:
         while len(self.levels) <= level:
             self.levels.append(_Level(self.scene, len(self.levels), self.seed, self.base_dt,
                                       self.threads, self.integrals))
+            if level == 0 and self.use_controls:
+                self.levels[0].controls = True
         return self.levels[level]
 
     def _grow(self, level: int, target: int) -> None:
         lev = self._level(level)
         have = lev.sums.n if lev.sums is not None else 0
+        if lev.controls and self.beta is None:
+            self._simulate(lev, 0, PILOT_PATHS)  # the pilot: coefficients only
         if target > have:
-            self._simulate(lev, have, target - have)
+            self._simulate(lev, lev.start + have, target - have)
 
     # -- estimates ------------------------------------------------------------------------
 

@@ -53,6 +53,10 @@ struct Workspace {
   std::uint64_t sample_first = 0;
   std::size_t sample_slots = 0;
   int sample_grids = 1;
+  // Control sums of the base level (kernel_controls.hpp), path-major like samples:
+  // controls[((p - sample_first) * sample_slots + k) * kControls + j]; and the lanes' buffer.
+  double* controls = nullptr;
+  std::vector<double> control_lanes;
   void record(std::size_t slot, int grid, std::uint64_t path0, const double* a, const double* b,
               const double* c, int lanes) const {
     if (!samples) return;
@@ -105,7 +109,7 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
   const auto& slots = plan.coast_slots();
   const auto& elapsed = plan.coast_elapsed();
   for (std::size_t j = 0; j < slots.size(); ++j) {
-    double cx[kLanes], cu[kLanes], cs[kLanes];
+    double cx[kLanes] = {}, cu[kLanes] = {}, cs[kLanes] = {};
     for (int l = 0; l < lanes; ++l) {
       const State st = coast({x[l], u[l], s[l]}, o.drift, elapsed[j]);
       cx[l] = st.velocity;
@@ -116,7 +120,7 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
     ws.record(static_cast<std::size_t>(slots[j]), grid, path0, cx, cu, cs, lanes);
   }
   if (o.stop) {
-    double ts[kLanes], us[kLanes], ss[kLanes];
+    double ts[kLanes] = {}, us[kLanes] = {}, ss[kLanes] = {};
     for (int l = 0; l < lanes; ++l) {
       const double to_stop = time_to_stop(x[l], o.drift);
       const State st = coast({x[l], u[l], s[l]}, o.drift, to_stop);

@@ -20,11 +20,16 @@ namespace crandall {
 // time from the switch-off to the stop and the displacement and distance there. Variables not
 // observed are 0. `cancel` is polled by the calling thread between blocks; returning true
 // throws Cancelled.
+// With `controls` (exact method only, at least one integral observed), also the control sums
+// of kernel_controls.hpp, count x slots x kControls doubles, into *controls_out.
 std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count,
-                                int threads, const CancelCheck& cancel = {});
+                                int threads, const CancelCheck& cancel = {},
+                                std::vector<double>* controls_out = nullptr);
+// Number of control sums per path and slot.
+int control_count();
 
 // For a rows x cols row-major matrix F whose columns form consecutive groups of the given
-// widths (each 1 to 4, summing to cols): per group, its column sums (w numbers) followed by the
+// widths (each 1 to 32, summing to cols): per group, its column sums (w numbers) followed by the
 // upper triangle of its F_g^T F_g, row by row (w (w + 1) / 2 numbers). Summed in blocks of 256
 // rows, the blocks in order, so the result does not depend on the thread count.
 std::vector<double> sum_products(const double* values, std::uint64_t rows, std::uint64_t cols,
