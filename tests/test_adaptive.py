@@ -146,6 +146,7 @@ def test_physical_units():
     (dict(error=0.1, paths=100), "paths: not with error"),
     (dict(error=0.1, dt=0.1), "dt: not with error"),
     (dict(error=0.1, method="exact"), "method: not with error"),
+    (dict(error=0.1, checkpoint=3), "checkpoint must be a path"),
     (dict(error=0.1, statistics=["speed:var"]), "statistics: 'speed' is not observed"),
     (dict(error=0.1, statistics=["distance:median"]), "must be one of mean, var"),
     (dict(error=0.1, statistics=[]), "name at least one"),
@@ -287,3 +288,63 @@ def test_controls_cut_the_cost_and_keep_the_answer():
     ref = analytic.distance_var(5.0, TAU0)
     for r in (with_cv, without):
         assert abs(r.var("distance")[0] - ref) <= 4 * r.error("distance", "var")[0]
+
+
+def test_checkpoint_resume_is_bitwise(tmp_path, monkeypatch):
+    from crandall import adaptive
+    sc = crandall.Scene.scaled(tau0=TAU0, times=[1.0, 5.0], observe=["distance", "stop"])
+    whole = crandall.simulate(sc, error=3e-2, seed=21, threads=1)
+    monkeypatch.setattr(adaptive, "CHECKPOINT_SECONDS", 0.0)
+    real = _core.run_samples
+    total = {"n": 0}
+
+    def counting(*args, **kwargs):
+        total["n"] += 1
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(adaptive._core, "run_samples", counting)
+    crandall.simulate(sc, error=3e-2, seed=21, threads=1)
+    assert total["n"] >= 4
+    # Interrupted after the control pilot, in the middle, and before the last batch.
+    for stop_after in (1, total["n"] // 2, total["n"] - 1):
+        ckpt = tmp_path / f"run{stop_after}.json"
+        calls = {"n": 0}
+
+        def interrupted(*args, **kwargs):
+            calls["n"] += 1
+            if calls["n"] > stop_after:
+                raise KeyboardInterrupt
+            return real(*args, **kwargs)
+
+        monkeypatch.setattr(adaptive._core, "run_samples", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            crandall.simulate(sc, error=3e-2, seed=21, threads=2, checkpoint=ckpt)
+        monkeypatch.setattr(adaptive._core, "run_samples", real)
+        assert ckpt.exists()
+        resumed = crandall.simulate(sc, error=3e-2, seed=21, threads=2, checkpoint=ckpt)
+        np.testing.assert_array_equal(_table(resumed), _table(whole))
+        assert resumed.cost["paths"] == whole.cost["paths"]
+        assert resumed.cost["path_steps"] == whole.cost["path_steps"]
+        # A finished checkpoint returns at once with the same numbers.
+        again = crandall.simulate(sc, error=3e-2, seed=21, threads=1, checkpoint=ckpt)
+        np.testing.assert_array_equal(_table(again), _table(whole))
+
+
+def test_checkpoint_of_another_run_is_refused(tmp_path):
+    sc = crandall.Scene.scaled(tau0=2.0, times=[1.0], observe=["distance"])
+    ckpt = tmp_path / "c.json"
+    crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=ckpt)
+    with pytest.raises(ValueError, match="belongs to a different run \\(error: checkpoint has 0.05, this run 0.04\\)"):
+        crandall.simulate(sc, error=4e-2, seed=1, threads=1, checkpoint=ckpt)
+    with pytest.raises(ValueError, match="belongs to a different run \\(seed: checkpoint has 1, this run 2\\)"):
+        crandall.simulate(sc, error=5e-2, seed=2, threads=1, checkpoint=ckpt)
+    ckpt.write_text("{not json")
+    with pytest.raises(ValueError, match="is not a checkpoint of a run to an accuracy"):
+        crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=ckpt)
+    import json as _json
+    crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=tmp_path / "d.json")
+    state = _json.loads((tmp_path / "d.json").read_text())
+    state["levels"][0]["flat"] = state["levels"][0]["flat"][:-1]
+    (tmp_path / "d.json").write_text(_json.dumps(state))
+    with pytest.raises(ValueError, match="is damaged \\(field flat\\)"):
+        crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=tmp_path / "d.json")

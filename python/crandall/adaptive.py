@@ -22,7 +22,9 @@ error estimates are in docs/methods/adaptive.md; in short:
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import time
 from dataclasses import dataclass
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -30,6 +32,8 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from . import _core
+from ._files import check_file_writable, write_atomic
+from ._version import __version__
 from .quantities import VELOCITY, DISPLACEMENT, DISTANCE, core_flags, names_for, quantity
 from .scene import Scene
 from .spec import MAX_SEED, check_int, default_dt
@@ -237,6 +241,13 @@ class _Engine:
         #: integral (the controls need the grid's steps).
         self.use_controls = USE_CONTROLS and self.integrals
         self.beta: Optional[List[List[float]]] = None
+        self.sums_width = sum(w + w * (w + 1) // 2 for w in self.widths)
+        #: What is left of the current round: [level, paths] to grow to, in order.
+        self.pending: Optional[List[List[int]]] = None
+        self.checkpoint = None
+        self.last_save = -math.inf
+        self.started = time.perf_counter()
+        self.wall_before = 0.0
         self.level_targets = [i for i, t in enumerate(self.targets) if not t.exact]
 
     # -- per-path values ------------------------------------------------------------------
@@ -312,6 +323,7 @@ class _Engine:
                 self._fit_controls(block, controls)
                 lev.start = first + done + n
                 done += n
+                self._save()
                 continue
             flat = _core.sum_products(self._features(block, lev.level, controls), self.widths,
                                       self.threads)
@@ -319,6 +331,7 @@ class _Engine:
                 lev.sums = _Sums(self.widths)
             lev.sums.add(n, flat)
             done += n
+            self._save()
 
     def _level(self, level: int) -> _Level:
         while len(self.levels) <= level:
@@ -400,10 +413,16 @@ class _Engine:
     # -- the schedule ---------------------------------------------------------------------
 
     def run(self) -> None:
-        deepest = 2 if self.level_targets and self.integrals else 0
-        for level in range(deepest + 1):
-            self._grow(level, PILOT_PATHS)
+        """Run the schedule to its end (or on from a checkpoint's state)."""
+        if self.pending is None:
+            deepest = 2 if self.level_targets and self.integrals else 0
+            self.pending = [[level, PILOT_PATHS] for level in range(deepest + 1)]
         while True:
+            while self.pending:
+                level, target = self.pending[0]
+                self._grow(level, target)
+                self.pending.pop(0)
+            self._save(force=True)
             self.rounds += 1
             est = self.estimates()
             want = [lev.sums.n for lev in self.levels]
@@ -428,18 +447,117 @@ class _Engine:
             if done:
                 return
             if deeper and len(self.levels) <= MAX_LEVELS:
-                self._grow(len(self.levels), PILOT_PATHS)
+                self.pending = [[len(self.levels), PILOT_PATHS]]
                 continue
             if deeper:
-                raise RuntimeError(
+                raise ValueError(
                     f"error: the discretisation bias is still above the target on a grid "
                     f"2^{MAX_LEVELS} times finer than the base; ask for a larger error")
+            self.pending = []
             for level, n in enumerate(want):
                 have = self.levels[level].sums.n
                 n = min(n, have * MAX_GROWTH)
                 # Whole batches beyond the pilot, so that small increments do not cost a call.
                 n = -(-n // PILOT_PATHS) * PILOT_PATHS
-                self._grow(level, n)
+                if n > have:
+                    self.pending.append([level, n])
+
+    # -- checkpoints ----------------------------------------------------------------------
+
+    def identity(self) -> Dict:
+        return {"format": CHECKPOINT_FORMAT, "format_version": CHECKPOINT_VERSION,
+                "crandall": __version__, "random_stream": int(_core.RANDOM_STREAM),
+                "scene": self.scene.to_dict(), "error": self.eps, "rel_error": self.rel,
+                "seed": self.seed,
+                "statistics": [f"{t.name}:{t.stat}" for t in self.targets]}
+
+    def state(self) -> Dict:
+        return {"identity": self.identity(),
+                "centre": None if self.centre is None else [float(c) for c in self.centre],
+                "beta": self.beta, "path_steps": self.path_steps, "rounds": self.rounds,
+                "wall_time": self.wall_before + (time.perf_counter() - self.started),
+                "pending": self.pending,
+                "levels": [{"start": lev.start, "n": 0 if lev.sums is None else lev.sums.n,
+                            "flat": None if lev.sums is None else [float(v) for v in lev.sums.flat]}
+                           for lev in self.levels]}
+
+    def _save(self, force: bool = False) -> None:
+        if self.checkpoint is None:
+            return
+        now = time.perf_counter()
+        if not force and now - self.last_save < CHECKPOINT_SECONDS:
+            return
+        text = json.dumps(self.state())
+        write_atomic(self.checkpoint, lambda f: f.write(text.encode("utf-8")))
+        self.last_save = now
+
+    def restore(self, path) -> None:
+        """Carry on from the checkpoint at ``path`` (nothing if there is none)."""
+        if not os.path.exists(path):
+            return
+        where = f"checkpoint: {os.fspath(path)}"
+        try:
+            with open(path, "rb") as f:
+                st = json.loads(f.read().decode("utf-8"))
+        except (OSError, ValueError, UnicodeDecodeError) as exc:
+            raise ValueError(f"{where} is not a checkpoint of a run to an accuracy "
+                             f"(unreadable: {exc})") from None
+        if not isinstance(st, dict) or not isinstance(st.get("identity"), dict):
+            raise ValueError(f"{where} is not a checkpoint of a run to an accuracy")
+        mine = json.loads(json.dumps(self.identity()))
+        theirs = st["identity"]
+        if theirs != mine:
+            diff = sorted(k for k in set(theirs) | set(mine) if theirs.get(k) != mine.get(k))
+            details = "; ".join(f"{k}: checkpoint has {theirs.get(k)!r}, this run "
+                                f"{mine.get(k)!r}" for k in diff)
+            raise ValueError(f"{where} belongs to a different run ({details}); give another "
+                             "path or the same arguments")
+        try:
+            levels = st["levels"]
+            for k, lv in enumerate(levels):
+                lev = self._level(k)
+                lev.start = _nonneg_int(lv["start"], "start")
+                n = _nonneg_int(lv["n"], "n")
+                if lv["flat"] is not None:
+                    flat = np.array(lv["flat"], dtype=float)
+                    if flat.shape != (self.sums_width,) or not np.all(np.isfinite(flat)) or n < 1:
+                        raise ValueError("flat")
+                    lev.sums = _Sums(self.widths)
+                    lev.sums.add(n, flat)
+            if st["centre"] is not None:
+                centre = np.array(st["centre"], dtype=float)
+                if centre.shape != (len(self.targets),) or not np.all(np.isfinite(centre)):
+                    raise ValueError("centre")
+                self.centre = centre
+            if st["beta"] is not None:
+                beta = [[float(v) for v in row] for row in st["beta"]]
+                if len(beta) != len(self.cols) or any(len(r) != _core.CONTROLS for r in beta):
+                    raise ValueError("beta")
+                self.beta = beta
+            self.path_steps = _nonneg_int(st["path_steps"], "path_steps")
+            self.rounds = _nonneg_int(st["rounds"], "rounds")
+            self.wall_before = float(st["wall_time"])
+            pending = st["pending"]
+            if pending is not None:
+                pending = [[_nonneg_int(a, "pending"), _nonneg_int(b, "pending")]
+                           for a, b in pending]
+            self.pending = pending
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"{where} is damaged (field {exc})") from None
+
+
+def _nonneg_int(value, field: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ValueError(field)
+    return value
+
+
+#: Checkpoints of runs to an accuracy: a JSON file (floats written exactly, as Python's repr
+#: round-trips them) replaced atomically at most every CHECKPOINT_SECONDS and at every round's
+#: end.
+CHECKPOINT_FORMAT = "crandall-adaptive-checkpoint"
+CHECKPOINT_VERSION = 1
+CHECKPOINT_SECONDS = 1.0
 
 
 #: The exponent of the level means' decay assumed by the bias estimate where it is not
@@ -610,7 +728,7 @@ def _check_target(name: str, value) -> float:
 
 def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                       rel_error: Optional[float] = None, seed: int, threads: int,
-                      statistics=None) -> AdaptiveResult:
+                      statistics=None, checkpoint=None) -> AdaptiveResult:
     """Run ``scene`` until every statistic's estimated total error is within the target
     (see :func:`crandall.simulate`)."""
     if (error is None) == (rel_error is None):
@@ -621,5 +739,9 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
     start = time.perf_counter()
     chosen = _check_statistics(scene, statistics)
     engine = _Engine(scene, eps=eps, rel=rel, seed=seed, threads=threads, statistics=chosen)
+    if checkpoint is not None:
+        check_file_writable(checkpoint, "checkpoint")
+        engine.restore(checkpoint)
+        engine.checkpoint = checkpoint
     engine.run()
-    return AdaptiveResult(engine, time.perf_counter() - start)
+    return AdaptiveResult(engine, engine.wall_before + time.perf_counter() - start)

@@ -355,8 +355,11 @@ def simulate(
         statistic the scene asks for (the mean and the variance of each observed quantity at
         each output time and at the stop) is at most ``error``, in the scene's units. Returns a
         :class:`crandall.adaptive.AdaptiveResult`, whose ``error``, ``bias``, ``stderr`` and
-        ``interval`` report it. Not with ``paths``, ``dt``, ``method``, ``checkpoint`` or
-        ``client``.
+        ``interval`` report it. Not with ``paths``, ``dt``, ``method`` or ``client``; with
+        ``checkpoint`` the run's state is kept in that file (a JSON file, replaced atomically
+        at most every second and at the end of every round) and a rerun with the same
+        arguments carries on from it, to a result bitwise the same as an uninterrupted run's.
+        ``seed`` None draws one; give a seed to resume.
     rel_error : float, optional
         The same, relative: at most ``rel_error`` times the statistic's size (its absolute
         value; for a mean, at least the quantity's standard deviation, so that a mean that is
@@ -416,10 +419,12 @@ def simulate(
     """
     if error is not None or rel_error is not None:
         for name, value in (("paths", paths), ("dt", dt), ("method", method),
-                            ("checkpoint", checkpoint), ("client", client)):
+                            ("client", client)):
             if value is not None:
                 raise ValueError(f"{name}: not with error= or rel_error= (the run chooses its "
                                  "grids and paths itself, on this process)")
+        if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
+            raise ValueError(f"checkpoint must be a path, got {checkpoint!r}")
         if seed is None:
             seed = int(np.random.SeedSequence().entropy % (1 << 64))
         if not isinstance(scene, Scene):
@@ -428,7 +433,8 @@ def simulate(
             threads = os.cpu_count() or 1
         threads = check_int("threads", threads, 1, 1024)
         return simulate_to_error(scene, error=error, rel_error=rel_error, seed=seed,
-                                 threads=threads, statistics=statistics)
+                                 threads=threads, statistics=statistics,
+                                 checkpoint=checkpoint)
     if statistics is not None:
         raise ValueError("statistics: only with error= or rel_error=")
     if paths is None:
