@@ -245,6 +245,8 @@ class _Engine:
         #: What is left of the current round: [level, paths] to grow to, in order.
         self.pending: Optional[List[List[int]]] = None
         self.checkpoint = None
+        self.client = None
+        self.task_threads = 1
         self.last_save = -math.inf
         self.started = time.perf_counter()
         self.wall_before = 0.0
@@ -304,40 +306,83 @@ class _Engine:
             _, cov = g.group(0)
             self.beta.append(_solve(cov[1:, 1:], cov[1:, 0]))
 
+    def _batch(self, lev: _Level, first: int, n: int) -> np.ndarray:
+        """The flat sums of paths [first, first + n) of a level (centre and coefficients
+        known): a pure function of the engine's configuration, run here or on a Dask worker."""
+        controls = None
+        if lev.controls:
+            block, controls = _core.run_samples(lev.plan, first, n, self.threads, True)
+        else:
+            block = _core.run_samples(lev.plan, first, n, self.threads)
+        return _core.sum_products(self._features(block, lev.level, controls), self.widths,
+                                  self.threads)
+
+    def _add(self, lev: _Level, n: int, flat: np.ndarray) -> None:
+        if lev.sums is None:
+            lev.sums = _Sums(self.widths)
+        lev.sums.add(n, flat)
+        self.path_steps += n * lev.cost
+        self._save()
+
     def _simulate(self, lev: _Level, first: int, count: int) -> None:
+        batches = []
         done = 0
         while done < count:
             n = min(BATCH_PATHS, count - done)
+            batches.append((first + done, n))
+            done += n
+        if self.centre is None or (lev.controls and self.beta is None):
+            # The first batch of a run fixes the centring constants (its means: they only
+            # keep the sums of squares well conditioned, any fixed value gives an unbiased
+            # estimate) and, on the base level, the control coefficients (then its paths are
+            # left out of the estimate).
+            start, n = batches.pop(0)
             controls = None
             if lev.controls:
-                block, controls = _core.run_samples(lev.plan, first + done, n, self.threads, True)
+                block, controls = _core.run_samples(lev.plan, start, n, self.threads, True)
             else:
-                block = _core.run_samples(lev.plan, first + done, n, self.threads)
-            self.path_steps += n * lev.cost
+                block = _core.run_samples(lev.plan, start, n, self.threads)
             if self.centre is None:
-                # The centring constants (the first batch's means) only keep the sums of
-                # squares well conditioned; any fixed value gives an unbiased estimate.
                 self.centre = np.array([self._mean(self._values(block, t, 0))
                                         for t in self.targets])
             if lev.controls and self.beta is None:
                 self._fit_controls(block, controls)
-                lev.start = first + done + n
-                done += n
+                lev.start = start + n
+                self.path_steps += n * lev.cost
                 self._save()
-                continue
-            flat = _core.sum_products(self._features(block, lev.level, controls), self.widths,
-                                      self.threads)
-            if lev.sums is None:
-                lev.sums = _Sums(self.widths)
-            lev.sums.add(n, flat)
-            done += n
-            self._save()
+            else:
+                self._add(lev, n, _core.sum_products(
+                    self._features(block, lev.level, controls), self.widths, self.threads))
+        if self.client is None:
+            for start, n in batches:
+                self._add(lev, n, self._batch(lev, start, n))
+            return
+        # On a Dask cluster: every batch a task; merged in batch order, so bitwise the local
+        # result.
+        config = self.config()
+        futures = [self.client.submit(batch_task, config, lev.level, start, n, pure=False)
+                   for start, n in batches]
+        try:
+            for (start, n), fut in zip(batches, futures):
+                self._add(lev, n, np.asarray(fut.result()))
+        except BaseException:
+            for fut in futures:
+                fut.cancel()
+            raise
+
+    def config(self) -> Dict:
+        """What a Dask worker needs to rebuild this engine (plain data)."""
+        return {"scene": self.scene.to_dict(), "eps": self.eps, "rel": self.rel,
+                "seed": self.seed, "threads": self.task_threads,
+                "statistics": [f"{t.name}:{t.stat}" for t in self.targets],
+                "centre": [float(c) for c in self.centre], "beta": self.beta,
+                "use_controls": self.use_controls, "random_stream": int(_core.RANDOM_STREAM)}
 
     def _level(self, level: int) -> _Level:
         while len(self.levels) <= level:
             self.levels.append(_Level(self.scene, len(self.levels), self.seed, self.base_dt,
                                       self.threads, self.integrals))
-            if level == 0 and self.use_controls:
+            if len(self.levels) == 1 and self.use_controls:
                 self.levels[0].controls = True
         return self.levels[level]
 
@@ -566,6 +611,23 @@ ALPHA = 1.5
 ALPHA_MIN, ALPHA_MAX = 1.0, 3.0
 
 
+def batch_task(config: Dict, level: int, first: int, count: int) -> np.ndarray:
+    """A Dask worker's task: the flat sums of one batch of a run to an accuracy."""
+    if config["random_stream"] != int(_core.RANDOM_STREAM):
+        raise ValueError(
+            f"random_stream: this worker's crandall draws random stream {_core.RANDOM_STREAM}, "
+            f"the client's draws stream {config['random_stream']}; install the same crandall "
+            "version on every worker")
+    scene = Scene.from_dict(config["scene"])
+    engine = _Engine(scene, eps=config["eps"], rel=config["rel"], seed=config["seed"],
+                     threads=config["threads"],
+                     statistics=_check_statistics(scene, config["statistics"]))
+    engine.use_controls = config["use_controls"]
+    engine.centre = np.array(config["centre"], dtype=float)
+    engine.beta = config["beta"]
+    return engine._batch(engine._level(level), first, count)
+
+
 class AdaptiveResult:
     """Statistics of a run to a requested accuracy (``crandall.simulate(scene, error=...)``).
 
@@ -728,7 +790,8 @@ def _check_target(name: str, value) -> float:
 
 def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                       rel_error: Optional[float] = None, seed: int, threads: int,
-                      statistics=None, checkpoint=None) -> AdaptiveResult:
+                      statistics=None, checkpoint=None, client=None,
+                      task_threads: int = 1) -> AdaptiveResult:
     """Run ``scene`` until every statistic's estimated total error is within the target
     (see :func:`crandall.simulate`)."""
     if (error is None) == (rel_error is None):
@@ -743,5 +806,7 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
         check_file_writable(checkpoint, "checkpoint")
         engine.restore(checkpoint)
         engine.checkpoint = checkpoint
+    engine.client = client
+    engine.task_threads = task_threads
     engine.run()
     return AdaptiveResult(engine, engine.wall_before + time.perf_counter() - start)

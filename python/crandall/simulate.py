@@ -418,23 +418,25 @@ def simulate(
     simulate_many : several scenes (a parameter sweep), locally or on a cluster.
     """
     if error is not None or rel_error is not None:
-        for name, value in (("paths", paths), ("dt", dt), ("method", method),
-                            ("client", client)):
+        for name, value in (("paths", paths), ("dt", dt), ("method", method)):
             if value is not None:
                 raise ValueError(f"{name}: not with error= or rel_error= (the run chooses its "
-                                 "grids and paths itself, on this process)")
+                                 "grids and paths itself)")
+        _check_client(client)
         if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
             raise ValueError(f"checkpoint must be a path, got {checkpoint!r}")
         if seed is None:
             seed = int(np.random.SeedSequence().entropy % (1 << 64))
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be a crandall.Scene, got {type(scene).__name__}")
+        task_threads = check_int("threads", threads if threads is not None else 1, 1, 1024)
         if threads is None:
             threads = os.cpu_count() or 1
         threads = check_int("threads", threads, 1, 1024)
         return simulate_to_error(scene, error=error, rel_error=rel_error, seed=seed,
                                  threads=threads, statistics=statistics,
-                                 checkpoint=checkpoint)
+                                 checkpoint=checkpoint, client=client,
+                                 task_threads=task_threads)
     if statistics is not None:
         raise ValueError("statistics: only with error= or rel_error=")
     if paths is None:
