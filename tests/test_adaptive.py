@@ -348,3 +348,24 @@ def test_checkpoint_of_another_run_is_refused(tmp_path):
     (tmp_path / "d.json").write_text(_json.dumps(state))
     with pytest.raises(ValueError, match="is damaged \\(field flat\\)"):
         crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=tmp_path / "d.json")
+
+
+def test_cli_error(tmp_path, capsys):
+    from crandall import cli
+    scene = tmp_path / "s.toml"
+    scene.write_text('[scene]\nunits = "scaled"\ntau0 = 2.0\ntimes = [1.0, 2.0]\n'
+                     'observe = ["distance", "stop"]\n')
+    out = tmp_path / "out"
+    assert cli.main(["run", str(scene), "--error", "0.05", "--seed", "3", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "error <= 0.05" in text and "distance_at_stop" in text
+    import pandas as pd
+    df = pd.read_csv(out / "result.csv")
+    assert set(df["stat"]) == {"mean", "var"} and (df["error"] <= 0.05).all()
+    assert cli.main(["run", str(scene), "--error", "0.05", "--paths", "10", "--no-files"]) == 2
+    assert "--paths: not with --error" in capsys.readouterr().err
+    assert cli.main(["run", str(scene), "--error", "0.05", "--checkpoint", str(tmp_path / "c"),
+                     "--no-files"]) == 2
+    assert "--checkpoint: give --seed with --error" in capsys.readouterr().err
+    assert cli.main(["run", str(scene), "--error", "-1", "--no-files"]) == 2
+    assert "error must be finite and > 0" in capsys.readouterr().err

@@ -252,19 +252,7 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     print(f"crandall: {scene!r}")
     where = f" on {scheduler}" if scheduler else ""
     print(f"simulating {n:,} paths{where} ...", flush=True)
-    client = None
-    if scheduler:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise ValueError("--scheduler needs Dask: pip install 'crandall[distributed]'") from None
-        try:
-            client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as exc:
-            raise ValueError(f"--scheduler: cannot reach {scheduler}: {exc}") from None
-        except (ValueError, TypeError) as exc:  # Dask's word on a malformed address
-            raise ValueError(f"--scheduler: {scheduler!r} is not a scheduler address: "
-                             f"{exc}") from None
+    client = _client(scheduler)
     start = time.perf_counter()
     try:
         result = simulate(scene, paths=n, seed=settings.get("seed"), dt=settings.get("dt"),
@@ -288,19 +276,45 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     return 0
 
 
+def _client(scheduler: Optional[str]):
+    """A Dask client of the scheduler at this address (None without one)."""
+    if not scheduler:
+        return None
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ValueError("--scheduler needs Dask: pip install 'crandall[distributed]'") from None
+    try:
+        return Client(scheduler, timeout="20s")
+    except (OSError, TimeoutError) as exc:
+        raise ValueError(f"--scheduler: cannot reach {scheduler}: {exc}") from None
+    except (ValueError, TypeError) as exc:  # Dask's word on a malformed address
+        raise ValueError(f"--scheduler: {scheduler!r} is not a scheduler address: "
+                         f"{exc}") from None
+
+
 def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, threads, dt, method,
                   out, checkpoint, scheduler, files, earlier) -> int:
     """``crandall run --error EPS``: a run to a requested accuracy."""
-    for option, value in (("--paths", paths), ("--dt", dt), ("--method", method),
-                          ("--checkpoint", checkpoint), ("--scheduler", scheduler)):
+    for option, value in (("--paths", paths), ("--dt", dt), ("--method", method)):
         if value is not None:
             raise ValueError(f"{option}: not with --error / --rel-error (the run chooses its "
-                             "grids and paths itself, on this machine)")
+                             "grids and paths itself)")
     seed = seed if seed is not None else settings.get("seed")
+    if seed is None and checkpoint is not None:
+        raise ValueError("--checkpoint: give --seed with --error, so that a rerun resumes "
+                         "the same run")
     target = f"error <= {error:g}" if error is not None else f"rel_error <= {rel_error:g}"
     print(f"crandall: {scene!r}")
-    print(f"simulating to {target} ...", flush=True)
-    result = simulate(scene, error=error, rel_error=rel_error, seed=seed, threads=threads)
+    where = f" on {scheduler}" if scheduler else ""
+    print(f"simulating to {target}{where} ...", flush=True)
+    client = _client(scheduler)
+    try:
+        result = simulate(scene, error=error, rel_error=rel_error, seed=seed, threads=threads,
+                          checkpoint=checkpoint, client=client)
+    finally:
+        if client is not None:
+            client.close()
     print(result.summary())
     c = result.cost
     print(f"\n{c['path_steps']:.3g} path-steps in {c['wall_time']:.1f} s "
