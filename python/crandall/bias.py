@@ -31,6 +31,7 @@ from typing import Dict, Tuple
 import numpy as np
 
 from . import _core
+from .adaptive import _level_seed  # the same key derivation as the levels of a run
 from .quantities import VELOCITY, core_flags, quantity
 
 __all__ = ["estimate", "BIAS_PATHS", "EXACT_IN_LAW"]
@@ -54,8 +55,6 @@ def exact_in_law(name: str) -> bool:
 
 
 def _samples(result, threads: int) -> np.ndarray:
-    from .adaptive import _level_seed  # the same key derivation as the levels of a run
-
     scene = result.scene
     o = _core.Options()
     o.drift, o.noise, o.switch_off = scene.drift, scene.noise, scene.t0
