@@ -1,7 +1,9 @@
 """Render the README's "Accuracy and speed" section from the last published bench results.
 
-Reads bench/results/work_precision.json and bench/results/throughput.json (written by
-bench/work_precision.py --publish and bench/throughput.py --publish) and replaces everything
+Reads bench/results/time_to_answer.json and calibration.json (bench/time_to_answer.py and
+bench/calibration.py with --publish), bench/results/work_precision.json and
+bench/results/throughput.json (written by bench/work_precision.py --publish and
+bench/throughput.py --publish) and replaces everything
 from the heading "## Accuracy and speed" to the end of README.md. No number is typed by hand.
 
     .venv/bin/python bench/report.py [--check]
@@ -27,10 +29,93 @@ def fmt_time(s) -> str:
     return f"{s * 1e6:.3g} µs" if s < 1e-3 else f"{s * 1e3:.3g} ms"
 
 
+def fmt_s(s: float) -> str:
+    return f"{s:.2g} s" if s >= 0.01 else f"{s * 1e3:.2g} ms"
+
+
+def render_time_to_answer() -> list:
+    """The time to a requested total error, from time_to_answer.json and calibration.json."""
+    path = HERE / "results" / "time_to_answer.json"
+    if not path.exists():
+        return []
+    tta = json.loads(path.read_text())
+    lines = [
+        "### Time to an answer",
+        "",
+        "Wall time to reach a total error EPS (discretisation bias and statistical error",
+        "together, root mean square) in one statistic of the paper's scene (scaled, tau0 = 5),",
+        f"{tta['threads']} thread(s): `simulate(scene, error=EPS)` (multilevel Monte Carlo,",
+        "[docs/methods/adaptive.md](docs/methods/adaptive.md)); the fixed-step default",
+        "(richardson on the default grid) with the paths its statistical error needs, its bias",
+        "ignored; and the Numba Euler-Maruyama peer with the step and paths its measured bias",
+        "needs (the step that minimises its time). The fixed-step and peer times are their",
+        "measured time per path (or path-step) times the paths they need; the multilevel runs",
+        f"were run whenever their predicted time was under {tta['budget_s']:g} s (marked *p*:",
+        "predicted from the EPS^-2 law of the same statistic's runs). Made by",
+        "",
+        "```sh",
+        f".venv/bin/python {tta['command']}",
+        "```",
+        "",
+        f"(load average before the run: {tta['machine']['load_before']:.2f})",
+        "",
+        "![time to answer](bench/results/time_to_answer.png)",
+        "",
+        "| statistic | EPS | error=EPS | fixed step | Euler peer | fixed step / error=EPS "
+        "| peer / error=EPS |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    misses = []
+    for label, st in tta["statistics"].items():
+        for r in st["rows"]:
+            m = r["mlmc"]["seconds"]
+            mark = "" if r["mlmc"]["run"] else " *p*"
+            fx = r["fixed_step"]["seconds"]
+            eu = r.get("euler", {}).get("seconds")
+            lines.append(
+                f"| {label} | {r['eps']:g} | {fmt_s(m)}{mark} | {fmt_s(fx)} | "
+                f"{fmt_s(eu) if eu is not None else 'n/a'} | {fx / m:.2g} | "
+                f"{(eu / m) if eu is not None else float('nan'):.3g} |")
+            if r["eps"] == 1e-4 and fx / m < 10:
+                misses.append(f"{label}: {fx / m:.2g}× the fixed step at 1e-4 (target 10×)")
+            if eu is not None and r["eps"] == 1e-4 and eu / m < 1000:
+                misses.append(f"{label}: {eu / m:.3g}× the peer at 1e-4 (target 1000×)")
+            if eu is not None and r["eps"] == 1e-3 and eu / m < 100:
+                misses.append(f"{label}: {eu / m:.3g}× the peer at 1e-3 (target 100×)")
+        slope = st.get("mlmc_slope_measured")
+        if slope is not None and not -2.2 <= slope <= -1.9:
+            misses.append(f"{label}: time grows like EPS^{slope:.2f} (target slope -2.2 to -1.9)")
+    slopes = ", ".join(f"{k} {v['mlmc_slope_measured']:.2f}"
+                       for k, v in tta["statistics"].items() if v.get("mlmc_slope_measured"))
+    lines += ["", f"Fitted slope of log time against log EPS over the runs done: {slopes}.", ""]
+    if misses:
+        lines += ["Targets missed, as measured: " + "; ".join(misses) + ".", ""]
+    cal = HERE / "results" / "calibration.json"
+    if cal.exists():
+        c = json.loads(cal.read_text())
+        lines += [
+            f"Calibration ({c['seeds']} seeds, error = {c['error']:g}; "
+            "`.venv/bin/python bench/calibration.py --publish`): how often the analytic value "
+            "lies in the reported 95 % interval (target 93-97 %; binomial standard deviation "
+            f"{100 * c['binomial_sd_of_coverage']:.1f} %):",
+            "",
+            "| statistic | coverage |",
+            "|---|---|",
+        ]
+        for name, row in c["statistics"].items():
+            note = " (error 0: exact identity)" if row["max_error"] == 0 else ""
+            lines.append(f"| {name} | {100 * row['coverage']:.1f} %{note} |")
+        lines.append("")
+    lines += ["Raw numbers: [bench/results/time_to_answer.json](bench/results/time_to_answer.json).",
+              "", "### Fixed-step methods", ""]
+    return lines
+
+
 def render() -> str:
     wp = json.loads((HERE / "results" / "work_precision.json").read_text())
     tp = json.loads((HERE / "results" / "throughput.json").read_text())
     lines = [HEADING, ""]
+    lines += render_time_to_answer()
     lines += [
         "Bias against `crandall.analytic` versus wall time per path (one thread), for every",
         "method and for Euler-Maruyama written with NumPy and with Numba (`bench/peers/`), in the",

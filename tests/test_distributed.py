@@ -80,3 +80,14 @@ def test_simulate_many_bad_input():
         crandall.simulate_many([], paths=10)
     with pytest.raises(ValueError, match=r"scenes\[1\]"):
         crandall.simulate_many([scene(), "x"], paths=10)
+
+
+def test_run_to_an_accuracy_on_the_cluster_is_bitwise_local(client):
+    # The batches of every round are Dask tasks, merged in batch order.
+    sc = crandall.Scene.scaled(tau0=2.0, times=[1.0, 2.0], observe=["distance", "stop"])
+    local = crandall.simulate(sc, error=2e-2, seed=8, threads=2)
+    remote = crandall.simulate(sc, error=2e-2, seed=8, client=client)
+    cols = ["estimate", "stderr", "bias"]
+    np.testing.assert_array_equal(remote.to_pandas()[cols].to_numpy(),
+                                  local.to_pandas()[cols].to_numpy())
+    assert remote.cost["paths"] == local.cost["paths"]

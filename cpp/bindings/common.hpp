@@ -23,6 +23,7 @@ void register_plan(py::module_& m);         // Options, Plan, the partition cons
 void register_moments(py::module_& m);      // Moments, monomial_exponents
 void register_run(py::module_& m);          // run_chunk, ChunkResult, cancelling a run
 void register_diagnostics(py::module_& m);  // exact_steps, random_floor, build_info, ...
+void register_levels(py::module_& m);       // run_samples, sum_products (adaptive runs)
 
 namespace bindings {
 

@@ -16,4 +16,5 @@ PYBIND11_MODULE(_core, m) {
   register_moments(m);
   register_run(m);
   register_diagnostics(m);
+  register_levels(m);
 }

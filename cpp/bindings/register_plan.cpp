@@ -13,6 +13,11 @@ void register_plan(py::module_& m) {
   for (crandall::Method method : crandall::kMethods)
     method_grids[crandall::method_name(method)] = crandall::grids(method);
   m.attr("METHOD_GRIDS") = method_grids;
+  m.def(
+      "richardson_weights",
+      [](const std::string& method) { return crandall::richardson_weights(crandall::parse_method(method)); },
+      py::arg("method"),
+      "The weights that combine a method's coupled grids (steps h, 2h, 4h), finest first.");
 
   py::class_<crandall::Options>(m, "Options", "Options of a run (validated by Plan).")
       .def(py::init<>())
@@ -22,6 +27,7 @@ void register_plan(py::module_& m) {
       .def_readwrite("times", &crandall::Options::times)
       .def_readwrite("dt", &crandall::Options::dt)
       .def_readwrite("min_steps", &crandall::Options::min_steps)
+      .def_readwrite("refinement", &crandall::Options::refinement)
       .def_property(
           "method",
           [](const crandall::Options& o) { return std::string(crandall::method_name(o.method)); },

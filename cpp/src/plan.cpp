@@ -83,6 +83,7 @@ void Options::validate() const {
   }
   require(std::isfinite(dt) && dt > 0.0, "dt must be finite and > 0");
   require(min_steps <= kMaxMinSteps, "min_steps must be <= 2^30");
+  require(refinement >= 0 && refinement <= 30, "refinement must be between 0 and 30");
   require(paths >= 1, "paths must be >= 1");
   require(velocity || displacement || distance || stop, "observe at least one quantity");
   require(!times.empty() || stop, "times must not be empty unless only the stop is observed");
@@ -113,6 +114,7 @@ Plan::Plan(Options options) : options_(std::move(options)) {
         const double graded = std::ceil(gap / until * static_cast<double>(o.min_steps) * (1.0 - 1e-12));
         if (graded > want) want = graded;
       }
+      if (fine) want = std::ldexp(want < 1.0 ? 1.0 : want, o.refinement);
       require(want < 9.0e15, "dt is too small for the horizon: the grid would not fit in 2^53 steps");
       n = want < 1.0 ? 1 : static_cast<std::uint64_t>(want);
       // Richardson's coarse grids are every 2nd (4th) point of the fine one, segment by

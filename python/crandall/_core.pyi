@@ -1,6 +1,6 @@
 """Type stubs of crandall's compiled core (private; use the crandall package)."""
 
-from typing import List, Sequence, Tuple, Union
+from typing import Any, List, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -26,6 +26,8 @@ class Options:
     dt: float
     #: Graded grid: the step before time t is at most t / min_steps (0: off).
     min_steps: int
+    #: Nested grids: every segment's step count times 2^refinement (0 to 30).
+    refinement: int
     method: str
     velocity: bool
     displacement: bool
@@ -93,6 +95,8 @@ def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
     """Generate the kernel's noise for paths x steps with no physics (a throughput floor)."""
 
 RANDOM_STREAM: int
+#: Control sums per path and slot of run_samples(controls=True).
+CONTROLS: int
 
 def build_info() -> dict[str, Union[int, str, list[str]]]:
     """What runs: the kernel variant in use (isa: CRANDALL_ISA or the best the CPU supports), the
@@ -106,3 +110,16 @@ def draw_noise(seed: int, path0: int, count: int, pair: int) -> npt.NDArray[np.f
 def simulate_states(plan: Plan) -> npt.NDArray[np.float64]:
     """Diagnostics: every path's velocity at the end of the plan's last segment, velocity only,
     exact or Euler method, one thread, through the kernel in use."""
+
+
+def richardson_weights(method: str) -> List[float]:
+    """The weights that combine a method's coupled grids (steps h, 2h, 4h), finest first."""
+
+def run_samples(plan: Plan, first: int, count: int, threads: int = 0,
+                controls: bool = False) -> Any:
+    """Per-path values, shape (count, slots, grids, 3); with controls, (values, controls)
+    with controls of shape (count, slots, CONTROLS)."""
+
+def sum_products(values: npt.NDArray[np.float64], widths: List[int],
+                 threads: int = 0) -> npt.NDArray[np.float64]:
+    """Per group of consecutive columns: column sums and the upper triangle of F^T F."""

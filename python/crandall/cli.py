@@ -90,6 +90,14 @@ def _parser() -> argparse.ArgumentParser:
                      help="longest internal step in the scene's time units (default: the "
                           "file's, else crandall.default_dt)")
     run.add_argument("--method", choices=METHODS, help=f"simulation method (default: {DEFAULT_METHOD})")
+    target = run.add_mutually_exclusive_group()
+    target.add_argument("--error", type=_float, metavar="EPS",
+                        help="ask for an accuracy instead of paths: run until the estimated "
+                             "total error (bias and statistical) of every statistic is at most "
+                             "EPS in the scene's units (multilevel Monte Carlo; writes "
+                             "result.csv only)")
+    target.add_argument("--rel-error", type=_float, metavar="R",
+                        help="the same, relative to each statistic's size")
     run.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                      help=f"output folder (default: ./{DEFAULT_OUT}); one that holds another "
                           "run's files is refused unless --overwrite")
@@ -189,9 +197,10 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ())
     written, notes = [], []
     try:
         try:
-            path = os.path.join(out, "result.nc")
-            result.save(path)
-            written.append(path)
+            if hasattr(result, "save"):  # a run to an accuracy has a table only
+                path = os.path.join(out, "result.nc")
+                result.save(path)
+                written.append(path)
             path = os.path.join(out, "result.csv")
             result.to_pandas().to_csv(path, index=False)
             written.append(path)
@@ -216,7 +225,8 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ())
 
 def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None, dt=None,
         method=None, out: str = DEFAULT_OUT, checkpoint=None, scheduler=None,
-        figures: bool = True, files: bool = True, progress=None, overwrite: bool = False) -> int:
+        figures: bool = True, files: bool = True, progress=None, overwrite: bool = False,
+        error=None, rel_error=None) -> int:
     """What ``crandall run`` does (arguments as its options); returns the exit status.
 
     Raises
@@ -230,6 +240,11 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     """
     scene, settings, is_paper = _load_scene(scene_path)
     earlier = _check_out(out, overwrite) if files else []
+    if error is not None or rel_error is not None:
+        return _run_to_error(scene, settings, error=error, rel_error=rel_error, paths=paths,
+                             seed=seed, threads=threads, dt=dt, method=method, out=out,
+                             checkpoint=checkpoint, scheduler=scheduler, files=files,
+                             earlier=earlier)
     for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method)):
         if value is not None:
             settings[key] = value
@@ -237,19 +252,7 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     print(f"crandall: {scene!r}")
     where = f" on {scheduler}" if scheduler else ""
     print(f"simulating {n:,} paths{where} ...", flush=True)
-    client = None
-    if scheduler:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise ValueError("--scheduler needs Dask: pip install 'crandall[distributed]'") from None
-        try:
-            client = Client(scheduler, timeout="20s")
-        except (OSError, TimeoutError) as exc:
-            raise ValueError(f"--scheduler: cannot reach {scheduler}: {exc}") from None
-        except (ValueError, TypeError) as exc:  # Dask's word on a malformed address
-            raise ValueError(f"--scheduler: {scheduler!r} is not a scheduler address: "
-                             f"{exc}") from None
+    client = _client(scheduler)
     start = time.perf_counter()
     try:
         result = simulate(scene, paths=n, seed=settings.get("seed"), dt=settings.get("dt"),
@@ -267,6 +270,57 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
           f"(seed {result.seed})")
     if files:
         written = _write_outputs(result, out, figures, earlier)
+        if written:
+            print(f"wrote {len(written)} files to {out}{os.sep}: "
+                  + ", ".join(os.path.basename(p) for p in written))
+    return 0
+
+
+def _client(scheduler: Optional[str]):
+    """A Dask client of the scheduler at this address (None without one)."""
+    if not scheduler:
+        return None
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ValueError("--scheduler needs Dask: pip install 'crandall[distributed]'") from None
+    try:
+        return Client(scheduler, timeout="20s")
+    except (OSError, TimeoutError) as exc:
+        raise ValueError(f"--scheduler: cannot reach {scheduler}: {exc}") from None
+    except (ValueError, TypeError) as exc:  # Dask's word on a malformed address
+        raise ValueError(f"--scheduler: {scheduler!r} is not a scheduler address: "
+                         f"{exc}") from None
+
+
+def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, threads, dt, method,
+                  out, checkpoint, scheduler, files, earlier) -> int:
+    """``crandall run --error EPS``: a run to a requested accuracy."""
+    for option, value in (("--paths", paths), ("--dt", dt), ("--method", method)):
+        if value is not None:
+            raise ValueError(f"{option}: not with --error / --rel-error (the run chooses its "
+                             "grids and paths itself)")
+    seed = seed if seed is not None else settings.get("seed")
+    if seed is None and checkpoint is not None:
+        raise ValueError("--checkpoint: give --seed with --error, so that a rerun resumes "
+                         "the same run")
+    target = f"error <= {error:g}" if error is not None else f"rel_error <= {rel_error:g}"
+    print(f"crandall: {scene!r}")
+    where = f" on {scheduler}" if scheduler else ""
+    print(f"simulating to {target}{where} ...", flush=True)
+    client = _client(scheduler)
+    try:
+        result = simulate(scene, error=error, rel_error=rel_error, seed=seed, threads=threads,
+                          checkpoint=checkpoint, client=client)
+    finally:
+        if client is not None:
+            client.close()
+    print(result.summary())
+    c = result.cost
+    print(f"\n{c['path_steps']:.3g} path-steps in {c['wall_time']:.1f} s "
+          f"(levels {len(c['paths'])}, paths per level {c['paths']}, seed {result.seed})")
+    if files:
+        written = _write_outputs(result, out, False, earlier)
         if written:
             print(f"wrote {len(written)} files to {out}{os.sep}: "
                   + ", ".join(os.path.basename(p) for p in written))
@@ -357,7 +411,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                        dt=args.dt, method=args.method, out=args.out, checkpoint=args.checkpoint,
                        scheduler=args.scheduler, figures=not args.no_figures,
                        files=not args.no_files, progress=args.progress,
-                       overwrite=args.overwrite)
+                       overwrite=args.overwrite, error=args.error, rel_error=args.rel_error)
         return analytic_command(args.scene, tau0=args.tau0, times=args.times)
     except ValueError as exc:
         print(f"crandall: error: {exc}", file=sys.stderr)

@@ -17,6 +17,7 @@ import numpy as np
 
 from . import checkpoint as _ckpt
 from . import engine
+from .adaptive import simulate_to_error
 from .methods import DEFAULT_METHOD, GRIDS, METHODS
 from .quantities import simulated_variables
 from .results import MONOMIALS, Result
@@ -324,16 +325,20 @@ def _run_local(run, bar):
 def simulate(
     scene: Scene,
     *,
-    paths: int,
+    paths: Optional[int] = None,
     seed: Optional[int] = None,
     dt: Optional[float] = None,
-    method: str = DEFAULT_METHOD,
+    method: Optional[str] = None,
     threads: Optional[int] = None,
     checkpoint: Optional[Union[str, "os.PathLike[str]"]] = None,
     client: Any = None,
     progress: Optional[bool] = None,
-) -> Result:
-    """Simulate ``paths`` independent paths of a scene and return their statistics.
+    error: Optional[float] = None,
+    rel_error: Optional[float] = None,
+    statistics: Optional[Sequence] = None,
+):
+    """Simulate a scene and return its statistics: ``paths`` paths on a fixed grid, or as
+    many as a requested accuracy needs (``error=`` or ``rel_error=``).
 
     Parameters
     ----------
@@ -341,7 +346,28 @@ def simulate(
         What to simulate (physical or scaled units).
     paths : int
         Number of independent paths, 1 <= paths <= ``MAX_PATHS`` (2**63). Memory does not grow
-        with it. Variances need at least 2 (see :class:`Result`).
+        with it. Variances need at least 2 (see :class:`Result`). Required unless ``error`` or
+        ``rel_error`` is given.
+    error : float, optional
+        Ask for an accuracy instead of ``paths``: crandall chooses the grids and the number of
+        paths (multilevel Monte Carlo, docs/methods/adaptive.md) until the estimated
+        root-mean-square error (discretisation bias and statistical error together) of every
+        statistic the scene asks for (the mean and the variance of each observed quantity at
+        each output time and at the stop) is at most ``error``, in the scene's units. Returns a
+        :class:`crandall.adaptive.AdaptiveResult`, whose ``error``, ``bias``, ``stderr`` and
+        ``interval`` report it. Not with ``paths``, ``dt``, ``method`` or ``client``; with
+        ``checkpoint`` the run's state is kept in that file (a JSON file, replaced atomically
+        at most every second and at the end of every round) and a rerun with the same
+        arguments carries on from it, to a result bitwise the same as an uninterrupted run's.
+        ``seed`` None draws one; give a seed to resume.
+    rel_error : float, optional
+        The same, relative: at most ``rel_error`` times the statistic's size (its absolute
+        value; for a mean, at least the quantity's standard deviation, so that a mean that is
+        0 by symmetry has a finite target).
+    statistics : sequence, optional
+        With ``error`` / ``rel_error``: the statistics the target applies to (and that the
+        result holds), as ``"name:stat"`` strings or ``(name, stat)`` pairs with stat "mean"
+        or "var", e.g. ``["distance:var"]``; default: every statistic of the scene.
     seed : int, optional
         0 <= seed < 2**64. The result is a pure function of (seed, scene, paths, dt, method,
         crandall version): bitwise the same for any ``threads``, checkpointed or not, local or
@@ -391,6 +417,33 @@ def simulate(
     --------
     simulate_many : several scenes (a parameter sweep), locally or on a cluster.
     """
+    if error is not None or rel_error is not None:
+        for name, value in (("paths", paths), ("dt", dt), ("method", method)):
+            if value is not None:
+                raise ValueError(f"{name}: not with error= or rel_error= (the run chooses its "
+                                 "grids and paths itself)")
+        _check_client(client)
+        if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
+            raise ValueError(f"checkpoint must be a path, got {checkpoint!r}")
+        if seed is None:
+            seed = int(np.random.SeedSequence().entropy % (1 << 64))
+        if not isinstance(scene, Scene):
+            raise ValueError(f"scene must be a crandall.Scene, got {type(scene).__name__}")
+        task_threads = check_int("threads", threads if threads is not None else 1, 1, 1024)
+        if threads is None:
+            threads = os.cpu_count() or 1
+        threads = check_int("threads", threads, 1, 1024)
+        return simulate_to_error(scene, error=error, rel_error=rel_error, seed=seed,
+                                 threads=threads, statistics=statistics,
+                                 checkpoint=checkpoint, client=client,
+                                 task_threads=task_threads)
+    if statistics is not None:
+        raise ValueError("statistics: only with error= or rel_error=")
+    if paths is None:
+        raise ValueError("paths: give the number of paths, or error= / rel_error= for an "
+                         "accuracy")
+    if method is None:
+        method = DEFAULT_METHOD
     if checkpoint is not None:
         if not isinstance(checkpoint, (str, os.PathLike)):
             raise ValueError(f"checkpoint must be a path, got {checkpoint!r}")

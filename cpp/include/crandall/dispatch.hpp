@@ -23,6 +23,8 @@ struct KernelTable {
   int doubles_per_register;        // widest vector the variant targets: 2, 4 or 8
   // simulate_block instantiation for a method and the observed integrals.
   BlockFn (*block_fn)(Method method, bool displacement, bool distance);
+  // The exact method's loop with control variates (kernel_controls.hpp).
+  BlockFn (*controls_fn)(bool displacement, bool distance);
   // The noise of paths [path0, path0 + kLanes) for `steps` steps, summed (random_floor).
   double (*noise_checksum)(std::uint64_t seed, std::uint64_t path0, std::uint64_t steps);
   // Draws of pair `pair` for paths path0 .. path0 + count - 1, as 6 arrays of `count` doubles:

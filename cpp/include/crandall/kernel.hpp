@@ -45,6 +45,28 @@ struct Workspace {
   // Diagnostics only (simulate_states): when set, the velocity at the end of the last segment
   // of path p is stored in states[p].
   double* states = nullptr;
+  // Per-path values for multilevel runs (levels.hpp): when set, what is added to the sums of
+  // slot k on grid g for path p is also stored at
+  // samples[(((p - sample_first) * sample_slots + k) * sample_grids + g) * 3 + variable],
+  // the stop being slot times.size().
+  double* samples = nullptr;
+  std::uint64_t sample_first = 0;
+  std::size_t sample_slots = 0;
+  int sample_grids = 1;
+  // Control sums of the base level (kernel_controls.hpp), path-major like samples:
+  // controls[((p - sample_first) * sample_slots + k) * kControls + j]; and the lanes' buffer.
+  double* controls = nullptr;
+  std::vector<double> control_lanes;
+  void record(std::size_t slot, int grid, std::uint64_t path0, const double* a, const double* b,
+              const double* c, int lanes) const {
+    if (!samples) return;
+    for (int l = 0; l < lanes; ++l) {
+      double* v = samples + (((path0 + l - sample_first) * sample_slots + slot) * sample_grids + grid) * 3;
+      v[0] = a[l];
+      v[1] = b[l];
+      v[2] = c[l];
+    }
+  }
 };
 
 constexpr std::uint64_t kPollSteps = 1u << 14;
@@ -81,12 +103,13 @@ inline void sqrt_lanes(double* v) {
 // Outputs after the switch-off (closed-form coast) and at the stop, from the state at t0.
 inline void add_after_switch_off(const Plan& plan, const double* x, const double* u,
                                  const double* s, int lanes, const std::vector<int>& active,
-                                 BlockSums& times, BlockSums& stop) {
+                                 BlockSums& times, BlockSums& stop, const Workspace& ws,
+                                 int grid, std::uint64_t path0) {
   const Options& o = plan.options();
   const auto& slots = plan.coast_slots();
   const auto& elapsed = plan.coast_elapsed();
   for (std::size_t j = 0; j < slots.size(); ++j) {
-    double cx[kLanes], cu[kLanes], cs[kLanes];
+    double cx[kLanes] = {}, cu[kLanes] = {}, cs[kLanes] = {};
     for (int l = 0; l < lanes; ++l) {
       const State st = coast({x[l], u[l], s[l]}, o.drift, elapsed[j]);
       cx[l] = st.velocity;
@@ -94,9 +117,10 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
       cs[l] = st.distance;
     }
     times.add(static_cast<std::size_t>(slots[j]), cx, cu, cs, lanes, active);
+    ws.record(static_cast<std::size_t>(slots[j]), grid, path0, cx, cu, cs, lanes);
   }
   if (o.stop) {
-    double ts[kLanes], us[kLanes], ss[kLanes];
+    double ts[kLanes] = {}, us[kLanes] = {}, ss[kLanes] = {};
     for (int l = 0; l < lanes; ++l) {
       const double to_stop = time_to_stop(x[l], o.drift);
       const State st = coast({x[l], u[l], s[l]}, o.drift, to_stop);
@@ -108,6 +132,7 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
       ss[l] = st.distance;
     }
     stop.add(0, ts, us, ss, lanes, active);
+    ws.record(o.times.size(), grid, path0, ts, us, ss, lanes);
   }
 }
 
@@ -242,20 +267,23 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
       }
       if (seg.slot >= 0) {
         ws.times.add(static_cast<std::size_t>(seg.slot), x, u, s, lanes, ws.active);
+        ws.record(static_cast<std::size_t>(seg.slot), 0, path0, x, u, s, lanes);
         if constexpr (kCoarse)
-          for (int g = 1; g < kGrids; ++g)
+          for (int g = 1; g < kGrids; ++g) {
             ws.coarse_times[g - 1].add(static_cast<std::size_t>(seg.slot), x, uc[g], sc[g], lanes,
                                        ws.active);
+            ws.record(static_cast<std::size_t>(seg.slot), g, path0, x, uc[g], sc[g], lanes);
+          }
       }
     }
     if (ws.states)
       for (int l = 0; l < lanes; ++l) ws.states[path0 + l] = x[l];
     if (!plan.needs_switch_state()) continue;
-    add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop);
+    add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop, ws, 0, path0);
     if constexpr (kCoarse)
       for (int g = 1; g < kGrids; ++g)
         add_after_switch_off(plan, x, uc[g], sc[g], lanes, ws.active, ws.coarse_times[g - 1],
-                             ws.coarse_stop[g - 1]);
+                             ws.coarse_stop[g - 1], ws, g, path0);
   }
 }
 

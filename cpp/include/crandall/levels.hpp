@@ -1,0 +1,38 @@
+// Per-path values for the multilevel (adaptive-accuracy) runs of python/crandall/adaptive.py
+// (docs/methods/adaptive.md): the values a run would add to its sums, returned path by path so
+// that the level differences of any statistic can be formed, and a fixed-order sum of their
+// products. Both are pure functions of their arguments: the same bits for any thread count and
+// on every machine.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "crandall/plan.hpp"
+#include "crandall/run.hpp"
+
+namespace crandall {
+
+// Paths [first, first + count) of the plan (within its `paths`). Returns
+// count x slots x grids x 3 doubles, path-major: slot k < times.size() holds (velocity,
+// displacement, distance) at output time k on each grid (grid g: steps 2^g times the fine
+// one, as many grids as the method walks), slot times.size() (when the stop is observed) the
+// time from the switch-off to the stop and the displacement and distance there. Variables not
+// observed are 0. `cancel` is polled by the calling thread between blocks; returning true
+// throws Cancelled.
+// With `controls` (exact method only, at least one integral observed), also the control sums
+// of kernel_controls.hpp, count x slots x kControls doubles, into *controls_out.
+std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count,
+                                int threads, const CancelCheck& cancel = {},
+                                std::vector<double>* controls_out = nullptr);
+// Number of control sums per path and slot.
+int control_count();
+
+// For a rows x cols row-major matrix F whose columns form consecutive groups of the given
+// widths (each 1 to 32, summing to cols): per group, its column sums (w numbers) followed by the
+// upper triangle of its F_g^T F_g, row by row (w (w + 1) / 2 numbers). Summed in blocks of 256
+// rows, the blocks in order, so the result does not depend on the thread count.
+std::vector<double> sum_products(const double* values, std::uint64_t rows, std::uint64_t cols,
+                                 const std::vector<int>& widths, int threads);
+
+}  // namespace crandall

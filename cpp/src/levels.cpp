@@ -1,0 +1,119 @@
+#include "crandall/levels.hpp"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <atomic>
+#include <exception>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+
+#include "crandall/dispatch.hpp"
+#include "crandall/kernel.hpp"
+#include "crandall/kernel_controls.hpp"
+
+namespace crandall {
+
+int control_count() { return kControls; }
+
+std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count,
+                                int threads, const CancelCheck& cancel,
+                                std::vector<double>* controls_out) {
+  const Options& o = plan.options();
+  if (count == 0 || first >= o.paths || count > o.paths - first)
+    throw std::invalid_argument("run_samples: paths [first, first + count) must lie in the plan's paths");
+  if (count > (std::uint64_t{1} << 24)) throw std::invalid_argument("run_samples: count must be <= 2^24");
+  const int team = thread_count(threads);
+  const std::size_t slots = o.times.size() + (o.stop ? 1 : 0);
+  const int grids = o.grids();
+  std::vector<double> out(count * slots * static_cast<std::size_t>(grids) * 3, 0.0);
+  BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance);
+  if (controls_out) {
+    if (o.method != Method::exact || !o.integrals())
+      throw std::invalid_argument("run_samples: controls need the exact method and an observed integral");
+    controls_out->assign(count * slots * kControls, 0.0);
+    block_fn = active_kernel().controls_fn(o.displacement, o.distance);
+  }
+  const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
+  std::atomic<bool> stop{false};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  std::atomic<long> next{0};
+  if (cancel && cancel()) throw Cancelled();
+#pragma omp parallel num_threads(team)
+  {
+    const bool caller = omp_get_thread_num() == 0;
+    std::unique_ptr<Workspace> ws;
+    try {
+      ws = std::make_unique<Workspace>(plan);
+      ws->samples = out.data();
+      ws->sample_first = first;
+      ws->sample_slots = slots;
+      ws->sample_grids = grids;
+      if (controls_out) ws->controls = controls_out->data();
+      ws->cancelled = [&stop]() { return stop.load(std::memory_order_relaxed); };
+    } catch (...) {
+      std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = std::current_exception();
+      stop.store(true);
+    }
+    // Every path writes only its own values, so the claim order does not matter.
+    while (ws && !stop.load()) {
+      const long b = next.fetch_add(1);
+      if (b >= blocks) break;
+      try {
+        if (caller && cancel && cancel()) {
+          stop.store(true);
+          break;
+        }
+        ws->reset();
+        const std::uint64_t start = first + static_cast<std::uint64_t>(b) * kBlockPaths;
+        block_fn(plan, start, std::min<std::uint64_t>(kBlockPaths, first + count - start), *ws);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+        stop.store(true);
+      }
+    }
+  }
+  if (error) std::rethrow_exception(error);
+  if (stop.load()) throw Cancelled();
+  return out;
+}
+
+std::vector<double> sum_products(const double* values, std::uint64_t rows, std::uint64_t cols,
+                                 const std::vector<int>& widths, int threads) {
+  std::uint64_t covered = 0;
+  std::size_t width = 0;
+  for (int w : widths) {
+    if (w < 1 || w > 32) throw std::invalid_argument("sum_products: group widths must be 1 to 32");
+    covered += static_cast<std::uint64_t>(w);
+    width += static_cast<std::size_t>(w + w * (w + 1) / 2);
+  }
+  if (covered != cols) throw std::invalid_argument("sum_products: the group widths must add up to the columns");
+  const std::uint64_t block = 256;
+  const long blocks = static_cast<long>((rows + block - 1) / block);
+  std::vector<double> partial(static_cast<std::size_t>(blocks) * width, 0.0);
+#pragma omp parallel for schedule(static) num_threads(thread_count(threads))
+  for (long b = 0; b < blocks; ++b) {
+    double* acc = partial.data() + static_cast<std::size_t>(b) * width;
+    const std::uint64_t end = std::min<std::uint64_t>(rows, (static_cast<std::uint64_t>(b) + 1) * block);
+    for (std::uint64_t r = static_cast<std::uint64_t>(b) * block; r < end; ++r) {
+      const double* f = values + r * cols;
+      std::size_t k = 0;
+      for (int w : widths) {
+        for (int i = 0; i < w; ++i) acc[k++] += f[i];
+        for (int i = 0; i < w; ++i)
+          for (int j = i; j < w; ++j) acc[k++] += f[i] * f[j];
+        f += w;
+      }
+    }
+  }
+  std::vector<double> total(width, 0.0);
+  for (long b = 0; b < blocks; ++b)
+    for (std::size_t k = 0; k < width; ++k) total[k] += partial[static_cast<std::size_t>(b) * width + k];
+  return total;
+}
+
+}  // namespace crandall

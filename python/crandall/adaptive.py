@@ -1,0 +1,812 @@
+"""Runs to a requested accuracy: multilevel Monte Carlo on the exactly coupled grids.
+
+``crandall.simulate(scene, error=EPS)`` lands here. The method, its measurements and its
+error estimates are in docs/methods/adaptive.md; in short:
+
+- Level 0 simulates paths on a coarse base grid; level l >= 1 simulates other paths on the
+  grid refined 2^l times and forms, on each path, the difference between the statistic's
+  per-path value on that grid and on every second point of it (the grid of level l - 1, on the
+  same exact path: the coupling is perfect, no extra random numbers). The telescoping sum of
+  the level means estimates the statistic on the finest grid; its discretisation bias is
+  estimated from the finest level's mean.
+- Statistics exact in law at any step (every moment of the velocity, the kinetic energy, the
+  stop time) need level 0 only, and their bias is exactly 0. So does the mean distance (and
+  the mean dissipated energy), through the identity
+  E S(t) = (sigma^2 min(t, t0) - E X(t)^2) / (2 c) that Ito's formula gives for a body
+  starting at rest (c the friction deceleration, sigma the noise intensity).
+- Samples are allocated across levels as Giles' multilevel Monte Carlo prescribes, from level
+  variances and costs (steps per path) estimated on the run, in rounds. Every decision is a
+  function of the merged sums at a round's end, and every path's numbers are a function of
+  (seed, level, path index): the result is bitwise the same for any thread count.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import dataclass
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from . import _core
+from ._files import check_file_writable, write_atomic
+from ._version import __version__
+from .quantities import VELOCITY, DISPLACEMENT, DISTANCE, core_flags, names_for, quantity
+from .scene import Scene
+from .spec import MAX_SEED, check_int, default_dt
+
+__all__ = ["AdaptiveResult", "simulate_to_error", "BASE_DT_FACTOR", "BASE_MIN_STEPS",
+           "BATCH_PATHS", "PILOT_PATHS", "MAX_LEVELS", "STATS"]
+
+#: The base grid (level 0): steps of at most BASE_DT_FACTOR times the default step
+#: (0.25 in scaled time), graded so that every output time and the switch-off t are reached in
+#: at least BASE_MIN_STEPS steps.
+BASE_DT_FACTOR = 25
+BASE_MIN_STEPS = 4
+#: Paths per call of the core; and the pilot sample of a new level.
+BATCH_PATHS = 1 << 16
+PILOT_PATHS = 4096
+#: Levels beyond the base (the finest grid is 2^MAX_LEVELS times finer than the base).
+MAX_LEVELS = 14
+#: A round at most multiplies a level's paths by this (the variance estimates of a small
+#: sample can be far off).
+MAX_GROWTH = 16
+#: Control variates on the base level (switch off to measure what they bring).
+USE_CONTROLS = True
+#: The statistics a run reports for each quantity.
+STATS = ("mean", "var")
+#: The two-sided normal quantile of the reported 95 % interval.
+Z95 = 1.959963984540054
+
+
+def _level_seed(seed: int, level: int) -> int:
+    """The Philox key of a level's paths: splitmix64 of (seed, level), so that the levels'
+    streams are disjoint and each a pure function of (seed, level)."""
+    z = (seed + 0x9E3779B97F4A7C15 * (level + 1)) & MAX_SEED
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & MAX_SEED
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & MAX_SEED
+    return z ^ (z >> 31)
+
+
+@dataclass
+class _Target:
+    """One statistic: (quantity, output slot, mean or var)."""
+
+    name: str
+    slot: int          # output-time index, or len(times) for the stop
+    time_index: Optional[int]
+    stat: str
+    variable: int
+    power: int
+    exact: bool        # exact in law at any step: level 0 only, bias 0
+    ito: bool = False  # the mean distance through the Ito identity
+
+
+def _check_statistics(scene: Scene, statistics) -> Optional[set]:
+    """``statistics`` as a set of (name, stat), each held by the scene; None for all."""
+    if statistics is None:
+        return None
+    if isinstance(statistics, str):
+        statistics = [statistics]
+    held = names_for(scene.observe)
+    out = set()
+    for item in statistics:
+        if isinstance(item, str):
+            name, _, stat = item.partition(":")
+            stat = stat or "mean"
+        elif isinstance(item, tuple) and len(item) == 2:
+            name, stat = item
+        else:
+            raise ValueError(f"statistics: give names such as 'distance:var' or pairs "
+                             f"(name, stat), got {item!r}")
+        if name not in held:
+            raise ValueError(f"statistics: {name!r} is not observed by the scene; it holds "
+                             f"{', '.join(held)}")
+        if stat not in STATS:
+            raise ValueError(f"statistics: the statistic of {name!r} must be one of "
+                             f"{', '.join(STATS)}, got {stat!r}")
+        out.add((name, stat))
+    if not out:
+        raise ValueError("statistics: name at least one statistic")
+    return out
+
+
+def _targets(scene: Scene, statistics: Optional[set] = None) -> List[_Target]:
+    out = []
+    n_times = len(scene.times)
+    for name in names_for(scene.observe):
+        q = quantity(name)
+        slots = [(n_times, None)] if q.at_stop else [(i, i) for i in range(n_times)]
+        for slot, ti in slots:
+            for stat in STATS:
+                if statistics is not None and (name, stat) not in statistics:
+                    continue
+                exact = q.variable == VELOCITY  # velocity, kinetic energy, stop time
+                ito = (stat == "mean" and q.variable == DISTANCE and scene.drift > 0)
+                out.append(_Target(name, slot, ti, stat, q.variable, q.power, exact or ito, ito))
+    return out
+
+
+class _Sums:
+    """Per level: the number of paths, and per target the sums of its feature columns (one
+    for a mean, two for a variance) and of their products."""
+
+    def __init__(self, widths: Sequence[int]) -> None:
+        self.n = 0
+        self.widths = list(widths)
+        self.flat = np.zeros(sum(w + w * (w + 1) // 2 for w in widths))
+        self.offsets = np.cumsum([0] + [w + w * (w + 1) // 2 for w in widths])[:-1]
+
+    def add(self, n: int, flat: np.ndarray) -> None:
+        self.n += n
+        self.flat += flat
+
+    def group(self, g: int) -> Tuple[np.ndarray, np.ndarray]:
+        """Target g's column means and unbiased covariance."""
+        w, o = self.widths[g], self.offsets[g]
+        s = self.flat[o:o + w]
+        p = np.zeros((w, w))
+        p[np.triu_indices(w)] = self.flat[o + w:o + w + w * (w + 1) // 2]
+        p = p + np.triu(p, 1).T
+        m = s / self.n
+        return m, (p - self.n * np.outer(m, m)) / max(self.n - 1, 1)
+
+
+class _Level:
+    def __init__(self, scene: Scene, level: int, seed: int, base_dt: float, threads: int,
+                 integrals: bool) -> None:
+        o = _core.Options()
+        o.drift, o.noise, o.switch_off = scene.drift, scene.noise, scene.t0
+        o.times = scene.times.tolist()
+        o.dt = base_dt
+        o.min_steps = BASE_MIN_STEPS
+        o.refinement = level
+        o.method = "richardson2" if level > 0 else "exact"
+        for flag, on in core_flags(scene.observe).items():
+            setattr(o, flag, on)
+        o.seed = _level_seed(seed, level)
+        o.paths = 1 << 62
+        self.plan = _core.Plan(o)
+        self.level = level
+        self.threads = threads
+        #: Steps a path of this level takes (its cost unit).
+        self.cost = max(int(self.plan.steps_per_path), 1)
+        self.sums: Optional[_Sums] = None
+        #: Whether the level runs with control variates, and the first path its sums hold
+        #: (the paths before it fitted the control coefficients).
+        self.controls = False
+        self.start = 0
+
+
+def _solve(a: np.ndarray, b: np.ndarray) -> List[float]:
+    """a x = b for a symmetric positive semi-definite a, by Gaussian elimination in Python
+    floats (the same bits on every machine; no LAPACK). Columns without variance get 0; a
+    ridge of 1e-12 of the largest diagonal keeps nearly dependent controls bounded."""
+    n = len(b)
+    keep = [j for j in range(n) if a[j, j] > 0.0]
+    x = [0.0] * n
+    if not keep:
+        return x
+    ridge = 1e-12 * max(float(a[j, j]) for j in keep)
+    m = [[float(a[i, j]) + (ridge if i == j else 0.0) for j in keep] + [float(b[i])]
+         for i in keep]
+    size = len(keep)
+    for col in range(size):
+        piv = max(range(col, size), key=lambda r: abs(m[r][col]))
+        m[col], m[piv] = m[piv], m[col]
+        if m[col][col] == 0.0:
+            continue
+        for r in range(col + 1, size):
+            f = m[r][col] / m[col][col]
+            if f != 0.0:
+                for c in range(col, size + 1):
+                    m[r][c] -= f * m[col][c]
+    sol = [0.0] * size
+    for r in range(size - 1, -1, -1):
+        if m[r][r] == 0.0:
+            continue
+        acc = m[r][size] - sum(m[r][c] * sol[c] for c in range(r + 1, size))
+        sol[r] = acc / m[r][r]
+    for j, v in zip(keep, sol):
+        x[j] = v
+    return x
+
+
+class _Engine:
+    def __init__(self, scene: Scene, *, eps: Optional[float], rel: Optional[float], seed: int,
+                 threads: int, statistics: Optional[set] = None) -> None:
+        self.scene = scene
+        self.eps, self.rel = eps, rel
+        self.seed = seed
+        self.threads = threads
+        self.targets = _targets(scene, statistics)
+        flags = core_flags(scene.observe)
+        self.integrals = flags["displacement"] or flags["distance"]
+        self.base_dt = BASE_DT_FACTOR * default_dt(scene)
+        self.levels: List[_Level] = []
+        self.centre: Optional[np.ndarray] = None
+        self.path_steps = 0
+        self.rounds = 0
+        # Feature columns: per target one (mean) or two (var: first and second power).
+        self.cols: List[Tuple[int, int]] = []
+        for i, t in enumerate(self.targets):
+            self.cols.append((i, 1))
+            if t.stat == "var":
+                self.cols.append((i, 2))
+        self.widths = [2 if t.stat == "var" else 1 for t in self.targets]
+        #: Control variates on the base level (docs/methods/adaptive.md): with an observed
+        #: integral (the controls need the grid's steps).
+        self.use_controls = USE_CONTROLS and self.integrals
+        self.beta: Optional[List[List[float]]] = None
+        self.sums_width = sum(w + w * (w + 1) // 2 for w in self.widths)
+        #: What is left of the current round: [level, paths] to grow to, in order.
+        self.pending: Optional[List[List[int]]] = None
+        self.checkpoint = None
+        self.client = None
+        self.task_threads = 1
+        self.last_save = -math.inf
+        self.started = time.perf_counter()
+        self.wall_before = 0.0
+        self.level_targets = [i for i, t in enumerate(self.targets) if not t.exact]
+
+    # -- per-path values ------------------------------------------------------------------
+
+    def _values(self, block: np.ndarray, t: _Target, grid: int) -> np.ndarray:
+        v = block[:, t.slot, grid, t.variable]
+        if t.ito:
+            sc = self.scene
+            x = block[:, t.slot, grid, VELOCITY]
+            if t.time_index is None:  # at the stop the velocity is 0
+                x = np.zeros_like(v)
+            elapsed = min(sc.times[t.time_index], sc.t0) if t.time_index is not None else sc.t0
+            return (sc.noise ** 2 * elapsed - x * x) / (2.0 * sc.drift)
+        if t.stat == "mean" and t.variable == VELOCITY and t.time_index is None:
+            return v  # the stop time from the switch-off
+        return v ** t.power
+
+    def _features(self, block: np.ndarray, level: int,
+                  controls: Optional[np.ndarray] = None) -> np.ndarray:
+        n = block.shape[0]
+        f = np.zeros((n, len(self.cols)))
+        for c, (i, power) in enumerate(self.cols):
+            t = self.targets[i]
+            centre = self.centre[i]
+            fine = self._values(block, t, 0) - centre
+            if level == 0:
+                f[:, c] = fine ** power
+                if controls is not None and self.beta is not None:
+                    # Minus fixed multiples of the controls (mean exactly 0): still unbiased.
+                    # Elementwise, in a fixed order (no BLAS), for the same bits everywhere.
+                    for k, b in enumerate(self.beta[c]):
+                        if b != 0.0:
+                            f[:, c] -= b * controls[:, t.slot, k]
+            elif not t.exact:
+                coarse = self._values(block, t, 1) - centre
+                f[:, c] = fine ** power - coarse ** power
+        return f
+
+    def _mean(self, values: np.ndarray) -> float:
+        return float(_core.sum_products(values[:, None], [1], self.threads)[0]) / len(values)
+
+    def _fit_controls(self, block: np.ndarray, controls: np.ndarray) -> None:
+        """The control coefficients of every feature column: least squares on the pilot paths
+        (which the estimates then leave out, so that the coefficients are independent of the
+        paths they are applied to)."""
+        raw = self._features(block, 0)
+        k = controls.shape[2]
+        self.beta = []
+        for c, (i, _) in enumerate(self.cols):
+            m = np.concatenate([raw[:, c:c + 1], controls[:, self.targets[i].slot, :]], axis=1)
+            flat = _core.sum_products(m, [k + 1], self.threads)
+            g = _Sums([k + 1])
+            g.add(len(m), flat)
+            _, cov = g.group(0)
+            self.beta.append(_solve(cov[1:, 1:], cov[1:, 0]))
+
+    def _batch(self, lev: _Level, first: int, n: int) -> np.ndarray:
+        """The flat sums of paths [first, first + n) of a level (centre and coefficients
+        known): a pure function of the engine's configuration, run here or on a Dask worker."""
+        controls = None
+        if lev.controls:
+            block, controls = _core.run_samples(lev.plan, first, n, self.threads, True)
+        else:
+            block = _core.run_samples(lev.plan, first, n, self.threads)
+        return _core.sum_products(self._features(block, lev.level, controls), self.widths,
+                                  self.threads)
+
+    def _add(self, lev: _Level, n: int, flat: np.ndarray) -> None:
+        if lev.sums is None:
+            lev.sums = _Sums(self.widths)
+        lev.sums.add(n, flat)
+        self.path_steps += n * lev.cost
+        self._save()
+
+    def _simulate(self, lev: _Level, first: int, count: int) -> None:
+        batches = []
+        done = 0
+        while done < count:
+            n = min(BATCH_PATHS, count - done)
+            batches.append((first + done, n))
+            done += n
+        if self.centre is None or (lev.controls and self.beta is None):
+            # The first batch of a run fixes the centring constants (its means: they only
+            # keep the sums of squares well conditioned, any fixed value gives an unbiased
+            # estimate) and, on the base level, the control coefficients (then its paths are
+            # left out of the estimate).
+            start, n = batches.pop(0)
+            controls = None
+            if lev.controls:
+                block, controls = _core.run_samples(lev.plan, start, n, self.threads, True)
+            else:
+                block = _core.run_samples(lev.plan, start, n, self.threads)
+            if self.centre is None:
+                self.centre = np.array([self._mean(self._values(block, t, 0))
+                                        for t in self.targets])
+            if lev.controls and self.beta is None:
+                self._fit_controls(block, controls)
+                lev.start = start + n
+                self.path_steps += n * lev.cost
+                self._save()
+            else:
+                self._add(lev, n, _core.sum_products(
+                    self._features(block, lev.level, controls), self.widths, self.threads))
+        if self.client is None:
+            for start, n in batches:
+                self._add(lev, n, self._batch(lev, start, n))
+            return
+        # On a Dask cluster: every batch a task; merged in batch order, so bitwise the local
+        # result.
+        config = self.config()
+        futures = [self.client.submit(batch_task, config, lev.level, start, n, pure=False)
+                   for start, n in batches]
+        try:
+            for (start, n), fut in zip(batches, futures):
+                self._add(lev, n, np.asarray(fut.result()))
+        except BaseException:
+            for fut in futures:
+                fut.cancel()
+            raise
+
+    def config(self) -> Dict:
+        """What a Dask worker needs to rebuild this engine (plain data)."""
+        return {"scene": self.scene.to_dict(), "eps": self.eps, "rel": self.rel,
+                "seed": self.seed, "threads": self.task_threads,
+                "statistics": [f"{t.name}:{t.stat}" for t in self.targets],
+                "centre": [float(c) for c in self.centre], "beta": self.beta,
+                "use_controls": self.use_controls, "random_stream": int(_core.RANDOM_STREAM)}
+
+    def _level(self, level: int) -> _Level:
+        while len(self.levels) <= level:
+            self.levels.append(_Level(self.scene, len(self.levels), self.seed, self.base_dt,
+                                      self.threads, self.integrals))
+            if len(self.levels) == 1 and self.use_controls:
+                self.levels[0].controls = True
+        return self.levels[level]
+
+    def _grow(self, level: int, target: int) -> None:
+        lev = self._level(level)
+        have = lev.sums.n if lev.sums is not None else 0
+        if lev.controls and self.beta is None:
+            self._simulate(lev, 0, PILOT_PATHS)  # the pilot: coefficients only
+        if target > have:
+            self._simulate(lev, lev.start + have, target - have)
+
+    # -- estimates ------------------------------------------------------------------------
+
+    def estimates(self):
+        """Per target: (value, standard error, bias, level variances V_l)."""
+        out = []
+        for i, t in enumerate(self.targets):
+            used = [lev for lev in self.levels if lev.sums is not None and lev.sums.n > 0]
+            if t.exact:
+                used = used[:1]
+            groups = [lev.sums.group(i) for lev in used]
+            d = sum(m[0] for m, _ in groups)
+            var_d = sum(c[0, 0] / lev.sums.n for (_, c), lev in zip(groups, used))
+            if t.stat == "mean":
+                value = self.centre[i] + d
+                level_var = [c[0, 0] for _, c in groups]
+                level_mean = [m[0] for m, _ in groups]
+            else:
+                m2 = sum(m[1] for m, _ in groups)
+                # E[d^2] = (E d)^2 + Var d: add Var d back so that the variance is unbiased.
+                value = m2 - d * d + var_d
+                # The delta method: the estimate moves like the level means of
+                # (P - c)^2 - 2 d (P - c).
+                level_var = [max(c[1, 1] - 4 * d * c[0, 1] + 4 * d * d * c[0, 0], 0.0)
+                             for _, c in groups]
+                level_mean = [m[1] - 2 * d * m[0] for m, _ in groups]
+            level_se = [math.sqrt(v / lev.sums.n) for v, lev in zip(level_var, used)]
+            se = math.sqrt(sum(x * x for x in level_se))
+            bias = 0.0 if t.exact else self._bias(level_mean, level_se)
+            out.append((value, se, bias, level_var))
+        return out
+
+    @staticmethod
+    def _bias(level_mean: Sequence[float], level_se: Sequence[float]) -> float:
+        """Giles' estimate of the levels left out: the level means fall like 2^(-alpha l), so
+        the bias of stopping at level L is about |Y_L| / (2^alpha - 1). alpha is measured from
+        the two finest levels when both means are resolved (beyond 2 standard errors), within
+        [ALPHA_MIN, ALPHA_MAX]; else ALPHA, the trapezoid rule's leading exponent on this
+        skeleton (docs/integrals.md). Then also at least |Y_(L-1)| 2^-alpha / (2^alpha - 1),
+        so that a finest mean that is small by chance does not hide the bias."""
+        if len(level_mean) < 3:
+            return math.inf
+        last, prev = abs(level_mean[-1]), abs(level_mean[-2])
+        alpha = ALPHA
+        if last > 2 * level_se[-1] and prev > 2 * level_se[-2]:
+            alpha = min(max(math.log2(prev / last), ALPHA_MIN), ALPHA_MAX)
+        return max(last, prev * 2.0 ** -alpha) / (2.0 ** alpha - 1.0)
+
+    def tolerance(self, i: int, value: float, level_var) -> float:
+        """The target of statistic i in the core's variable (the scene asks in the
+        quantity's own units: an energy is a factor times its variable)."""
+        t = self.targets[i]
+        if self.eps is not None:
+            f = abs(quantity(t.name).factor(self.scene))
+            return self.eps / (f if t.stat == "mean" else f * f)
+        scale = abs(value)
+        if t.stat == "mean" and level_var:
+            # A mean that is 0 by symmetry (velocity, displacement) is measured against the
+            # quantity's spread instead.
+            scale = max(scale, math.sqrt(max(level_var[0], 0.0)))
+        return self.rel * scale
+
+    # -- the schedule ---------------------------------------------------------------------
+
+    def run(self) -> None:
+        """Run the schedule to its end (or on from a checkpoint's state)."""
+        if self.pending is None:
+            deepest = 2 if self.level_targets and self.integrals else 0
+            self.pending = [[level, PILOT_PATHS] for level in range(deepest + 1)]
+        while True:
+            while self.pending:
+                level, target = self.pending[0]
+                self._grow(level, target)
+                self.pending.pop(0)
+            self._save(force=True)
+            self.rounds += 1
+            est = self.estimates()
+            want = [lev.sums.n for lev in self.levels]
+            done = True
+            deeper = False
+            for i, (value, se, bias, level_var) in enumerate(est):
+                tol = self.tolerance(i, value, level_var)
+                if not (tol > 0):
+                    continue  # a statistic that is exactly 0 (e.g. at time 0)
+                if se * se + bias * bias > tol * tol:
+                    done = False
+                if bias > tol / math.sqrt(2.0):
+                    deeper = True
+                # Giles' allocation with the variance budget left by the bias (at least half).
+                budget = max(tol * tol - bias * bias, 0.5 * tol * tol) if math.isfinite(bias) \
+                    else 0.5 * tol * tol
+                costs = [lev.cost for lev in self.levels[:len(level_var)]]
+                total = sum(math.sqrt(v * c) for v, c in zip(level_var, costs))
+                for level, (v, c) in enumerate(zip(level_var, costs)):
+                    n = math.ceil(math.sqrt(v / c) * total / budget) if v > 0 else 0
+                    want[level] = max(want[level], n)
+            if done:
+                return
+            if deeper and len(self.levels) <= MAX_LEVELS:
+                self.pending = [[len(self.levels), PILOT_PATHS]]
+                continue
+            if deeper:
+                raise ValueError(
+                    f"error: the discretisation bias is still above the target on a grid "
+                    f"2^{MAX_LEVELS} times finer than the base; ask for a larger error")
+            self.pending = []
+            for level, n in enumerate(want):
+                have = self.levels[level].sums.n
+                n = min(n, have * MAX_GROWTH)
+                # Whole batches beyond the pilot, so that small increments do not cost a call.
+                n = -(-n // PILOT_PATHS) * PILOT_PATHS
+                if n > have:
+                    self.pending.append([level, n])
+
+    # -- checkpoints ----------------------------------------------------------------------
+
+    def identity(self) -> Dict:
+        return {"format": CHECKPOINT_FORMAT, "format_version": CHECKPOINT_VERSION,
+                "crandall": __version__, "random_stream": int(_core.RANDOM_STREAM),
+                "scene": self.scene.to_dict(), "error": self.eps, "rel_error": self.rel,
+                "seed": self.seed,
+                "statistics": [f"{t.name}:{t.stat}" for t in self.targets]}
+
+    def state(self) -> Dict:
+        return {"identity": self.identity(),
+                "centre": None if self.centre is None else [float(c) for c in self.centre],
+                "beta": self.beta, "path_steps": self.path_steps, "rounds": self.rounds,
+                "wall_time": self.wall_before + (time.perf_counter() - self.started),
+                "pending": self.pending,
+                "levels": [{"start": lev.start, "n": 0 if lev.sums is None else lev.sums.n,
+                            "flat": None if lev.sums is None else [float(v) for v in lev.sums.flat]}
+                           for lev in self.levels]}
+
+    def _save(self, force: bool = False) -> None:
+        if self.checkpoint is None:
+            return
+        now = time.perf_counter()
+        if not force and now - self.last_save < CHECKPOINT_SECONDS:
+            return
+        text = json.dumps(self.state())
+        write_atomic(self.checkpoint, lambda f: f.write(text.encode("utf-8")))
+        self.last_save = now
+
+    def restore(self, path) -> None:
+        """Carry on from the checkpoint at ``path`` (nothing if there is none)."""
+        if not os.path.exists(path):
+            return
+        where = f"checkpoint: {os.fspath(path)}"
+        try:
+            with open(path, "rb") as f:
+                st = json.loads(f.read().decode("utf-8"))
+        except (OSError, ValueError, UnicodeDecodeError) as exc:
+            raise ValueError(f"{where} is not a checkpoint of a run to an accuracy "
+                             f"(unreadable: {exc})") from None
+        if not isinstance(st, dict) or not isinstance(st.get("identity"), dict):
+            raise ValueError(f"{where} is not a checkpoint of a run to an accuracy")
+        mine = json.loads(json.dumps(self.identity()))
+        theirs = st["identity"]
+        if theirs != mine:
+            diff = sorted(k for k in set(theirs) | set(mine) if theirs.get(k) != mine.get(k))
+            details = "; ".join(f"{k}: checkpoint has {theirs.get(k)!r}, this run "
+                                f"{mine.get(k)!r}" for k in diff)
+            raise ValueError(f"{where} belongs to a different run ({details}); give another "
+                             "path or the same arguments")
+        try:
+            levels = st["levels"]
+            for k, lv in enumerate(levels):
+                lev = self._level(k)
+                lev.start = _nonneg_int(lv["start"], "start")
+                n = _nonneg_int(lv["n"], "n")
+                if lv["flat"] is not None:
+                    flat = np.array(lv["flat"], dtype=float)
+                    if flat.shape != (self.sums_width,) or not np.all(np.isfinite(flat)) or n < 1:
+                        raise ValueError("flat")
+                    lev.sums = _Sums(self.widths)
+                    lev.sums.add(n, flat)
+            if st["centre"] is not None:
+                centre = np.array(st["centre"], dtype=float)
+                if centre.shape != (len(self.targets),) or not np.all(np.isfinite(centre)):
+                    raise ValueError("centre")
+                self.centre = centre
+            if st["beta"] is not None:
+                beta = [[float(v) for v in row] for row in st["beta"]]
+                if len(beta) != len(self.cols) or any(len(r) != _core.CONTROLS for r in beta):
+                    raise ValueError("beta")
+                self.beta = beta
+            self.path_steps = _nonneg_int(st["path_steps"], "path_steps")
+            self.rounds = _nonneg_int(st["rounds"], "rounds")
+            self.wall_before = float(st["wall_time"])
+            pending = st["pending"]
+            if pending is not None:
+                pending = [[_nonneg_int(a, "pending"), _nonneg_int(b, "pending")]
+                           for a, b in pending]
+            self.pending = pending
+        except (KeyError, TypeError, ValueError) as exc:
+            raise ValueError(f"{where} is damaged (field {exc})") from None
+
+
+def _nonneg_int(value, field: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ValueError(field)
+    return value
+
+
+#: Checkpoints of runs to an accuracy: a JSON file (floats written exactly, as Python's repr
+#: round-trips them) replaced atomically at most every CHECKPOINT_SECONDS and at every round's
+#: end.
+CHECKPOINT_FORMAT = "crandall-adaptive-checkpoint"
+CHECKPOINT_VERSION = 1
+CHECKPOINT_SECONDS = 1.0
+
+
+#: The exponent of the level means' decay assumed by the bias estimate where it is not
+#: resolved, and the range a measured one is kept in (docs/methods/adaptive.md).
+ALPHA = 1.5
+ALPHA_MIN, ALPHA_MAX = 1.0, 3.0
+
+
+def batch_task(config: Dict, level: int, first: int, count: int) -> np.ndarray:
+    """A Dask worker's task: the flat sums of one batch of a run to an accuracy."""
+    if config["random_stream"] != int(_core.RANDOM_STREAM):
+        raise ValueError(
+            f"random_stream: this worker's crandall draws random stream {_core.RANDOM_STREAM}, "
+            f"the client's draws stream {config['random_stream']}; install the same crandall "
+            "version on every worker")
+    scene = Scene.from_dict(config["scene"])
+    engine = _Engine(scene, eps=config["eps"], rel=config["rel"], seed=config["seed"],
+                     threads=config["threads"],
+                     statistics=_check_statistics(scene, config["statistics"]))
+    engine.use_controls = config["use_controls"]
+    engine.centre = np.array(config["centre"], dtype=float)
+    engine.beta = config["beta"]
+    return engine._batch(engine._level(level), first, count)
+
+
+class AdaptiveResult:
+    """Statistics of a run to a requested accuracy (``crandall.simulate(scene, error=...)``).
+
+    Every statistic (the mean and the variance of each quantity at each output time, and at
+    the stop) comes with its standard error, its estimated discretisation bias and the total
+    error sqrt(stderr^2 + bias^2), which the run brought below the target. Time-resolved
+    quantities give arrays over :attr:`times`, stop quantities floats.
+    """
+
+    def __init__(self, engine: _Engine, wall: float) -> None:
+        self.scene = engine.scene
+        self.seed = engine.seed
+        self.error_target = engine.eps
+        self.rel_error_target = engine.rel
+        self.method = "mlmc"
+        self.random_stream = int(_core.RANDOM_STREAM)
+        est = engine.estimates()
+        self._table: Dict[Tuple[str, str], List[Tuple[Optional[int], tuple]]] = {}
+        for t, e in zip(engine.targets, est):
+            self._table.setdefault((t.name, t.stat), []).append((t.time_index, e))
+        self._exact = {(t.name, t.stat): t.exact for t in engine.targets}
+        self.levels = [
+            {"level": lev.level, "paths": lev.sums.n, "steps_per_path": lev.cost,
+             "dt": lev.plan.options.dt / 2 ** lev.level}
+            for lev in engine.levels if lev.sums is not None]
+        #: What the answer cost: wall time (s), path-steps, paths per level, rounds.
+        self.cost = {"wall_time": wall, "path_steps": engine.path_steps,
+                     "paths": [lv["paths"] for lv in self.levels], "rounds": engine.rounds}
+
+    @property
+    def times(self) -> np.ndarray:
+        return self.scene.times
+
+    @property
+    def names(self) -> tuple:
+        """The quantities with at least one statistic in this result."""
+        return tuple(n for n in names_for(self.scene.observe)
+                     if any((n, s) in self._table for s in STATS))
+
+    def _stats_of(self, name: str) -> tuple:
+        return tuple(s for s in STATS if (name, s) in self._table)
+
+    def _get(self, name: str, stat: str, k: int):
+        if stat not in STATS:
+            raise ValueError(f"stat must be one of {', '.join(STATS)}, got {stat!r}")
+        if name not in self.names:
+            raise ValueError(f"name: {name!r} is not in this result; it holds "
+                             f"{', '.join(self.names)}")
+        if (name, stat) not in self._table:
+            raise ValueError(f"stat: the {stat} of {name} was not asked for (the run's "
+                             f"statistics= named {', '.join(self._stats_of(name))} of it)")
+        q = quantity(name)
+        f = q.factor(self.scene)
+        scale = f if stat == "mean" else f * f
+        rows = self._table[(name, stat)]
+        vals = np.array([e[k] for _, e in rows], dtype=float) * scale
+        if k == 0 and stat == "mean" and q.offset is not None:
+            vals = vals + q.offset(self.scene)
+        return float(vals[0]) if q.at_stop else vals
+
+    def mean(self, name: str):
+        """The estimated mean of a quantity."""
+        return self._get(name, "mean", 0)
+
+    def var(self, name: str):
+        """The estimated variance of a quantity."""
+        return self._get(name, "var", 0)
+
+    def std(self, name: str):
+        """The square root of the estimated variance."""
+        return np.sqrt(np.maximum(self.var(name), 0.0))
+
+    def stderr(self, name: str, stat: str = "mean"):
+        """The standard error of a statistic (statistical error only)."""
+        return self._get(name, stat, 1)
+
+    def bias(self, name: str, stat: str = "mean"):
+        """The estimated magnitude of the discretisation bias of a statistic: 0 exactly for
+        the statistics exact in law (velocity, kinetic energy, stop time, mean distance and
+        dissipated energy), see :meth:`exact`."""
+        return self._get(name, stat, 2)
+
+    def error(self, name: str, stat: str = "mean"):
+        """The total error, sqrt(stderr^2 + bias^2): the root-mean-square error estimate the
+        run brought below the target."""
+        return np.hypot(self.stderr(name, stat), self.bias(name, stat))
+
+    def interval(self, name: str, stat: str = "mean"):
+        """The 95 % interval: the estimate +- 1.96 times :meth:`error`."""
+        value = self._get(name, stat, 0)
+        half = Z95 * self.error(name, stat)
+        return value - half, value + half
+
+    def exact(self, name: str, stat: str = "mean") -> bool:
+        """Whether the statistic is exact in law at any step (its bias is 0, not estimated)."""
+        self._get(name, stat, 0)
+        return self._exact[(name, stat)]
+
+    def summary(self) -> str:
+        sc = self.scene
+        target = (f"error <= {self.error_target:g}" if self.error_target is not None
+                  else f"rel_error <= {self.rel_error_target:g}")
+        lines = [f"crandall result: {sc!r}",
+                 f"  {target}  seed={self.seed}  method=mlmc  levels={len(self.levels)}  "
+                 f"paths per level={self.cost['paths']}  "
+                 f"path-steps={self.cost['path_steps']:.3g}  "
+                 f"time={self.cost['wall_time']:.3g} s"]
+        for n in self.names:
+            q = quantity(n)
+            u = sc.units_of(n)
+            lines.append(f"  {n}" + (f" [{u}]" if u else ""))
+            lines.append(f"    {'' if q.at_stop else sc.time_name:>10}  {'stat':>4}  "
+                         f"{'estimate':>13}  {'stderr':>9}  {'bias':>9}  {'error':>9}")
+            for stat in self._stats_of(n):
+                vals = np.atleast_1d(self._get(n, stat, 0))
+                ses = np.atleast_1d(self.stderr(n, stat))
+                bs = np.atleast_1d(self.bias(n, stat))
+                ts = [None] if q.at_stop else list(self.times)
+                for j, t in enumerate(ts):
+                    tt = "stop" if t is None else f"{t:.4g}"
+                    b = "exact" if self._exact[(n, stat)] else f"{bs[j]:.2g}"
+                    lines.append(f"    {tt:>10}  {stat:>4}  {vals[j]:>13.6g}  {ses[j]:>9.2g}  "
+                                 f"{b:>9}  {math.hypot(ses[j], bs[j]):>9.2g}")
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.summary()
+
+    def to_pandas(self):
+        """One row per quantity, time and statistic: estimate, stderr, bias, error, exact."""
+        import pandas as pd
+
+        rows = []
+        for n in self.names:
+            q = quantity(n)
+            for stat in self._stats_of(n):
+                vals = np.atleast_1d(self._get(n, stat, 0))
+                ses = np.atleast_1d(self.stderr(n, stat))
+                bs = np.atleast_1d(self.bias(n, stat))
+                ts = [math.nan] if q.at_stop else list(self.times)
+                for j, t in enumerate(ts):
+                    rows.append({"quantity": n, self.scene.time_name: t, "stat": stat,
+                                 "estimate": vals[j], "stderr": ses[j], "bias": bs[j],
+                                 "error": math.hypot(ses[j], bs[j]),
+                                 "exact": self._exact[(n, stat)]})
+        return pd.DataFrame(rows)
+
+    def __repr__(self) -> str:
+        return f"<crandall.AdaptiveResult {self.scene!r} seed={self.seed} cost={self.cost}>"
+
+
+def _check_target(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    value = float(value)
+    if not (math.isfinite(value) and value > 0):
+        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+    return value
+
+
+def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
+                      rel_error: Optional[float] = None, seed: int, threads: int,
+                      statistics=None, checkpoint=None, client=None,
+                      task_threads: int = 1) -> AdaptiveResult:
+    """Run ``scene`` until every statistic's estimated total error is within the target
+    (see :func:`crandall.simulate`)."""
+    if (error is None) == (rel_error is None):
+        raise ValueError("error: give exactly one of error= and rel_error=")
+    eps = _check_target("error", error) if error is not None else None
+    rel = _check_target("rel_error", rel_error) if rel_error is not None else None
+    seed = check_int("seed", seed, 0, MAX_SEED)
+    start = time.perf_counter()
+    chosen = _check_statistics(scene, statistics)
+    engine = _Engine(scene, eps=eps, rel=rel, seed=seed, threads=threads, statistics=chosen)
+    if checkpoint is not None:
+        check_file_writable(checkpoint, "checkpoint")
+        engine.restore(checkpoint)
+        engine.checkpoint = checkpoint
+    engine.client = client
+    engine.task_threads = task_threads
+    engine.run()
+    return AdaptiveResult(engine, engine.wall_before + time.perf_counter() - start)
