@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass
-from typing import Any, Dict, List, Mapping, Optional, Tuple
+from typing import Any, Dict, List, Mapping, NamedTuple, Optional, Tuple
 
 import numpy as np
 
@@ -32,7 +32,7 @@ from .quantities import (DISPLACEMENT, DISTANCE, HISTOGRAM_VARIABLES, PEAK_DISPL
 
 __all__ = ["DEFAULT_PER_OCTAVE", "MAX_PER_OCTAVE", "REACH", "BULK_BINS", "Axis", "axes",
            "axis_name", "check_distributions", "check_bins", "bins_to_plain",
-           "primary_of", "VARIABLE_COUNT"]
+           "primary_of", "VARIABLE_COUNT", "Histograms", "check_histograms", "recorded"]
 
 #: Bins per octave of the automatic edges unless the scene says otherwise: the bin is between
 #: 1/64 and 1/32 of the value beyond the scale, which at 10^6 paths is about the sampling
@@ -310,6 +310,21 @@ def _usable(scale: float, fallback: float) -> float:
     return min(max(scale, _TINY), _HUGE)
 
 
+def recorded(scene) -> List[Tuple[int, int, int, str]]:
+    """The histogram axes a scene's distributions record, in the core's order, without their
+    bins: (index, slot, variable, name)."""
+    dist = getattr(scene, "distributions", ())
+    if not dist:
+        return []
+    kept = _recorded(dist)
+    n = scene.times.size
+    out = []
+    for slot, at_stop in [(i, False) for i in range(n)] + [(n, True)]:
+        for var in sorted(v for s, v in kept if s == at_stop):
+            out.append((slot * VARIABLE_COUNT + var, slot, var, axis_name(at_stop, var)))
+    return out
+
+
 def axes(scene) -> List[Axis]:
     """Every histogram axis the scene's distributions need, in the core's order.
 
@@ -365,3 +380,54 @@ def _unit_scales(scene) -> Dict[str, float]:
     if scene.units == "SI" and s is not None:
         return {k: s.scale(k) for k in ("time", "velocity", "length")}
     return {"time": 1.0, "velocity": 1.0, "length": 1.0}
+
+
+class Histograms(NamedTuple):
+    """The histograms of a run: per recorded axis, its index (``slot * VARIABLE_COUNT +
+    variable``), its edges (float64, the core's units) and its counts (uint64: underflow,
+    one per bin, overflow, NaN). Merged by adding counts: exact, in any order."""
+
+    index: Tuple[int, ...]
+    edges: Tuple[np.ndarray, ...]
+    counts: Tuple[np.ndarray, ...]
+
+    def find(self, slot: int, variable: int):
+        """(edges, counts) of an axis, or None if it is not recorded."""
+        want = slot * VARIABLE_COUNT + variable
+        for i, e, c in zip(self.index, self.edges, self.counts):
+            if i == want:
+                return e, c
+        return None
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of edges and counts: fixed by the axes, whatever the number of paths."""
+        return int(sum(e.nbytes for e in self.edges) + sum(c.nbytes for c in self.counts))
+
+
+def check_histograms(where: str, index, edges, counts, expected_index, paths=None) -> None:
+    """Check stored histograms before trusting them (a ValueError naming ``where`` and the
+    field): the recorded axes are the scene's, each axis has strictly increasing finite
+    edges and ``len(edges) + 2`` non-negative integer counts, and (``paths`` given) every
+    axis counts every path once."""
+    index = [int(i) for i in index]
+    if index != list(expected_index):
+        raise ValueError(f"{where}: histogram_index is {index}, but the scene's distributions "
+                         f"record the axes {list(expected_index)}")
+    if len(edges) != len(index) or len(counts) != len(index):
+        raise ValueError(f"{where}: histogram_edges and histogram_counts must have one entry "
+                         f"per axis ({len(index)})")
+    for i, e, c in zip(index, edges, counts):
+        e = np.asarray(e)
+        c = np.asarray(c)
+        if e.ndim != 1 or e.size < 2 or e.dtype.kind != "f" or not np.isfinite(e).all() \
+                or not (np.diff(e) > 0).all():
+            raise ValueError(f"{where}: histogram_edges of axis {i} are not strictly "
+                             "increasing finite numbers")
+        if c.ndim != 1 or c.size != e.size + 2 or c.dtype.kind not in "iu" \
+                or (c.dtype.kind == "i" and (c < 0).any()):
+            raise ValueError(f"{where}: histogram_counts of axis {i} must be {e.size + 2} "
+                             "counts >= 0 (underflow, one per bin, overflow, NaN)")
+        if paths is not None and sum(int(x) for x in c) != paths:
+            raise ValueError(f"{where}: histogram_counts of axis {i} add up to "
+                             f"{sum(int(x) for x in c)}, expected the {paths} paths")
