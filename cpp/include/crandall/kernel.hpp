@@ -22,23 +22,38 @@ struct Workspace {
   explicit Workspace(const Plan& plan)
       : times(plan.options().times.size()),
         stop(plan.options().stop ? 1 : 0),
-        active(active_monomials(plan.options().displacement, plan.options().distance)) {
+        active(active_monomials(plan.options().displacement, plan.options().distance)),
+        peaks(plan.options().peaks ? plan.options().times.size() : 0),
+        peaks_stop(plan.options().peaks && plan.options().stop ? 1 : 0),
+        peak_active(active_monomials(plan.options().displacement, false)),
+        histograms(plan.recorded_axes()) {
     for (int j = 1; j < plan.options().grids(); ++j) {
       coarse_times.emplace_back(plan.options().times.size());
       coarse_stop.emplace_back(plan.options().stop ? 1 : 0);
     }
   }
+  // Clears the block's sums; the histograms keep counting across the blocks of a thread.
   void reset() {
     times.reset();
     stop.reset();
     for (auto& c : coarse_times) c.reset();
     for (auto& c : coarse_stop) c.reset();
+    peaks.reset();
+    peaks_stop.reset();
   }
   BlockSums times, stop;
   // Richardson's coarser grids (steps twice and four times the fine one), empty for the other
   // methods.
   std::vector<BlockSums> coarse_times, coarse_stop;
   std::vector<int> active;
+  // Peaks (Options::peaks; no slots without): the running maxima of |velocity| and
+  // |displacement| (0 when displacement is not observed) at each output time and at the stop,
+  // as the first two variables of a BlockSums.
+  BlockSums peaks, peaks_stop;
+  std::vector<int> peak_active;
+  // The thread's counts over all its blocks (Plan::recorded_axes); integer, so the threads'
+  // histograms merge exactly in any order.
+  Histograms histograms;
   // Returns true when the run is cancelled; polled every kPollSteps steps so that long paths
   // can be cancelled. May be empty.
   std::function<bool()> cancelled;
@@ -78,13 +93,55 @@ inline void sqrt_lanes(double* v) {
 #endif
 }
 
+// Bins the values of one output slot (Options::histogram_axes): values[v] holds the lanes of
+// variable v, or is null for a variable that is not simulated (Options::validate allows no
+// axis there). Called at output slots only, never in the step loop.
+inline void bin_slot(const Plan& plan, Histograms& histograms, std::size_t slot,
+                     const double* const (&values)[kHistogramVariables], int lanes) {
+  for (int v = 0; v < kHistogramVariables; ++v) {
+    const long h = plan.histogram_slot(slot, v);
+    if (h >= 0 && values[v] != nullptr)
+      histograms.add(static_cast<std::size_t>(h), values[v], static_cast<std::size_t>(lanes));
+  }
+}
+
+// One step's update of the running maxima, over all lanes (the padding lanes of a partial group
+// compute harmless values that are never read). std::max(a, b) is a < b ? b : a, exact and
+// branch-free (a vector max), so every variant gives the same bits.
+template <bool kDisp>
+inline void track_peaks(const double* x, const double* u, double* pv, double* pu) {
+#pragma omp simd
+  for (int l = 0; l < kLanes; ++l) {
+    pv[l] = std::max(pv[l], std::abs(x[l]));
+    if constexpr (kDisp) pu[l] = std::max(pu[l], std::abs(u[l]));
+  }
+}
+
 // Outputs after the switch-off (closed-form coast) and at the stop, from the state at t0.
+// The fine grid also passes its peaks at t0 (pv: max |velocity|, pu: max |displacement| or
+// null) and its histograms; Richardson's coarse grids pass neither (their moments are only
+// extrapolated, the peaks and the distributions come from the fine grid).
+//
+// Peaks after the switch-off: the speed falls linearly to 0 and stays there (coast.hpp), so
+// |X(t)| <= |X(t0)| <= pv and the peak speed does not change. The displacement moves by
+// sign(X(t0)) times the distance travelled, which never decreases, so U2 is monotone on
+// [t0, t] and its largest modulus there is at an end: the peak of |U2| up to t is
+// max(pu, |U2(t)|), and at the stop max(pu, |U2(t_s)|).
 inline void add_after_switch_off(const Plan& plan, const double* x, const double* u,
                                  const double* s, int lanes, const std::vector<int>& active,
-                                 BlockSums& times, BlockSums& stop) {
+                                 BlockSums& times, BlockSums& stop, const double* pv = nullptr,
+                                 const double* pu = nullptr, Workspace* ws = nullptr) {
   const Options& o = plan.options();
   const auto& slots = plan.coast_slots();
   const auto& elapsed = plan.coast_elapsed();
+  const bool peaks = ws != nullptr && pv != nullptr;
+  const bool binned = ws != nullptr && plan.histograms();
+  double zero[kLanes] = {}, qv[kLanes], qu[kLanes];
+  if (peaks)
+    for (int l = 0; l < lanes; ++l) {
+      qv[l] = pv[l];
+      qu[l] = pu != nullptr ? pu[l] : 0.0;
+    }
   for (std::size_t j = 0; j < slots.size(); ++j) {
     double cx[kLanes], cu[kLanes], cs[kLanes];
     for (int l = 0; l < lanes; ++l) {
@@ -93,7 +150,18 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
       cu[l] = st.displacement;
       cs[l] = st.distance;
     }
-    times.add(static_cast<std::size_t>(slots[j]), cx, cu, cs, lanes, active);
+    const auto slot = static_cast<std::size_t>(slots[j]);
+    times.add(slot, cx, cu, cs, lanes, active);
+    if (peaks) {
+      if (pu != nullptr)
+        for (int l = 0; l < lanes; ++l) qu[l] = std::max(pu[l], std::abs(cu[l]));
+      ws->peaks.add(slot, qv, qu, zero, lanes, ws->peak_active);
+    }
+    if (binned)
+      bin_slot(plan, ws->histograms, slot,
+               {cx, o.displacement ? cu : nullptr, o.distance ? cs : nullptr, peaks ? qv : nullptr,
+                peaks && pu != nullptr ? qu : nullptr},
+               lanes);
   }
   if (o.stop) {
     double ts[kLanes], us[kLanes], ss[kLanes];
@@ -108,11 +176,23 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
       ss[l] = st.distance;
     }
     stop.add(0, ts, us, ss, lanes, active);
+    if (peaks) {
+      if (pu != nullptr)
+        for (int l = 0; l < lanes; ++l) qu[l] = std::max(pu[l], std::abs(us[l]));
+      ws->peaks_stop.add(0, qv, qu, zero, lanes, ws->peak_active);
+    }
+    if (binned)
+      bin_slot(plan, ws->histograms, o.times.size(),
+               {ts, o.displacement ? us : nullptr, o.distance ? ss : nullptr, peaks ? qv : nullptr,
+                peaks && pu != nullptr ? qu : nullptr},
+               lanes);
   }
 }
 
 // Simulate paths [first, first + count) (count <= kBlockPaths) into ws (reset by the caller).
-template <Method M, bool kDisp, bool kDist>
+// kPeaks: track the running maxima of |velocity| and |displacement| (Options::peaks), compiled
+// in only when asked for. Histograms are a run-time choice made at output slots only.
+template <Method M, bool kDisp, bool kDist, bool kPeaks>
 void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, Workspace& ws) {
   constexpr int kGrids = grids(M, kDisp || kDist);
   constexpr bool kCoarse = kGrids > 1;
@@ -122,6 +202,9 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
     const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
     const std::uint64_t path0 = first + offset;
     double x[kLanes] = {}, u[kLanes] = {}, s[kLanes] = {};
+    // Running maxima of |x| and |u| over the points computed so far (the path starts at 0).
+    alignas(32) double pv[kLanes] = {}, pu[kLanes] = {};
+    [[maybe_unused]] const double zero[kLanes] = {};
     // Richardson's coarse grids g = 1, 2 (steps 2^g times the fine one): integrals, and x where
     // their step began.
     double xc[kGrids][kLanes] = {}, uc[kGrids][kLanes] = {}, sc[kGrids][kLanes] = {};
@@ -156,6 +239,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
             if constexpr (kDist) s[l] += step * std::abs(x0);
             x[l] = euler_step(x0, step, drift, noise, zn[l]);
           }
+          if constexpr (kPeaks) track_peaks<kDisp>(x, u, pv, pu);
         } else if constexpr (M == Method::refine) {
           for (int l = 0; l < lanes; ++l) {
             const double x0 = x[l];
@@ -173,6 +257,11 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
                   if constexpr (kDisp) u[l] += trapezoid(substep, xa, xb);
                   if constexpr (kDist) s[l] += trapezoid(substep, std::abs(xa), std::abs(xb));
                   xa = xb;
+                  // The substeps are points of the path too: their maxima count.
+                  if constexpr (kPeaks) {
+                    pv[l] = std::max(pv[l], std::abs(xa));
+                    if constexpr (kDisp) pu[l] = std::max(pu[l], std::abs(u[l]));
+                  }
                 }
               }
               x1 = xa;
@@ -183,6 +272,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
             }
             x[l] = x1;
           }
+          if constexpr (kPeaks) track_peaks<kDisp>(x, u, pv, pu);
         } else {
           // exact_step (exact_step.hpp) over all lanes, its parts in separate loops so that they
           // vectorise; the padding lanes of a partial group compute harmless values that are
@@ -238,10 +328,22 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
             }
           }
           for (int l = 0; l < kLanes; ++l) x[l] = x1[l];
+          // The fine grid's points only: the peaks are not extrapolated (Richardson's coarse
+          // grids are subsets of these points, and a maximum has no error expansion in the step
+          // that the extrapolation assumes).
+          if constexpr (kPeaks) track_peaks<kDisp>(x, u, pv, pu);
         }
       }
       if (seg.slot >= 0) {
         ws.times.add(static_cast<std::size_t>(seg.slot), x, u, s, lanes, ws.active);
+        if constexpr (kPeaks)
+          ws.peaks.add(static_cast<std::size_t>(seg.slot), pv, kDisp ? pu : zero, zero, lanes,
+                       ws.peak_active);
+        if (plan.histograms())
+          bin_slot(plan, ws.histograms, static_cast<std::size_t>(seg.slot),
+                   {x, kDisp ? u : nullptr, kDist ? s : nullptr, kPeaks ? pv : nullptr,
+                    kPeaks && kDisp ? pu : nullptr},
+                   lanes);
         if constexpr (kCoarse)
           for (int g = 1; g < kGrids; ++g)
             ws.coarse_times[g - 1].add(static_cast<std::size_t>(seg.slot), x, uc[g], sc[g], lanes,
@@ -251,7 +353,8 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
     if (ws.states)
       for (int l = 0; l < lanes; ++l) ws.states[path0 + l] = x[l];
     if (!plan.needs_switch_state()) continue;
-    add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop);
+    add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop,
+                         kPeaks ? pv : nullptr, kPeaks && kDisp ? pu : nullptr, &ws);
     if constexpr (kCoarse)
       for (int g = 1; g < kGrids; ++g)
         add_after_switch_off(plan, x, uc[g], sc[g], lanes, ws.active, ws.coarse_times[g - 1],
