@@ -291,7 +291,7 @@ def exceedance(edges, counts, under, over, level, confidence=0.95) -> Estimate:
         frac = 0.5
     value = (above + frac * inside) / n
     low, high = _clopper_pearson(above, above + inside, n, alpha)
-    return Estimate(min(max(value, 0.0), 1.0), low, high)
+    return Estimate(float(min(max(value, 0.0), 1.0)), low, high)
 
 
 def to_boost_histogram(edges, counts, under, over):
