@@ -80,3 +80,17 @@ def test_simulate_many_bad_input():
         crandall.simulate_many([], paths=10)
     with pytest.raises(ValueError, match=r"scenes\[1\]"):
         crandall.simulate_many([scene(), "x"], paths=10)
+
+
+def test_cluster_histograms_and_peaks_are_bitwise_the_local_ones(client):
+    s = crandall.Scene.scaled(tau0=1.0, times=[0.5, 1.5], observe=["velocity", "stop", "peaks"],
+                              distributions=True)
+    paths = 2 * CHUNK + 5
+    local = crandall.simulate(s, paths=paths, seed=8, method="exact")
+    remote = crandall.simulate(s, paths=paths, seed=8, method="exact", client=client)
+    hl, hr = local.accumulators.histograms, remote.accumulators.histograms
+    assert hl.index == hr.index
+    for a, b in zip(hl.edges + hl.counts, hr.edges + hr.counts):
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
+    assert local.mean("peak_speed").tobytes() == remote.mean("peak_speed").tobytes()
+    assert remote.quantile("stop_time", 0.99) == local.quantile("stop_time", 0.99)
