@@ -380,3 +380,44 @@ def test_nan_counts_warn():
     hist.counts[0][-1] += 1  # a NaN, as no sane run gives
     with pytest.warns(StatisticsWarning, match="NaN"):
         r.quantile("velocity", 0.5, time=0.5)
+
+
+def test_cli_prints_the_stop_quantiles_and_draws_the_run_s_distributions(tmp_path, capsys):
+    pytest.importorskip("matplotlib")
+    from crandall import cli
+
+    path = tmp_path / "s.toml"
+    path.write_text('[scene]\nunits = "scaled"\ntau0 = 1.0\ntimes = [0.5, 1.0, 2.0]\n'
+                    'distributions = true\n[run]\npaths = 4000\nseed = 3\ndt = 0.05\n')
+    out = tmp_path / "out"
+    assert cli.main(["run", str(path), "--out", str(out), "--threads", "1"]) == 0
+    text = capsys.readouterr().out
+    r = crandall.load(out / "result.nc")
+    assert "Quantiles at the stop" in text
+    for name in ("stop_time", "displacement_at_stop", "distance_at_stop",
+                 "dissipated_energy_at_stop"):
+        e = r.quantile(name, 0.999)
+        assert f"{e.value:.4g} [{e.low:.4g}, {e.high:.4g}]" in text, name
+        assert name in text
+    written = {p.name for p in out.iterdir()}
+    assert {"velocity_density.png", "stop_time_density.png",
+            "distance_at_stop_distribution.png", "displacement_at_stop_distribution.png",
+            "dissipated_energy_at_stop_distribution.png"} <= written
+    # A scene without distributions prints no quantiles.
+    assert cli.quantile_table(crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[1.0]),
+                                                paths=100, seed=1)) == ""
+
+
+def test_distribution_figure_bad_input():
+    pytest.importorskip("matplotlib")
+    from crandall import plots
+
+    r = crandall.simulate(velocity_scene(), paths=2_000, seed=1, method="exact")
+    fig = plots.distribution(r, "velocity")
+    assert len(fig.axes) == 2 and fig.axes[1].get_yscale() == "log"
+    with pytest.raises(ValueError, match="name"):
+        plots.distribution(r, "distance")
+    with pytest.raises(ValueError, match="times"):
+        plots.distribution(r, "stop_time", times=[1.0])
+    with pytest.raises(ValueError, match="time: 7.0 is not"):
+        plots.distribution(r, "velocity", times=[7.0])
