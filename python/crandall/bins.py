@@ -339,6 +339,20 @@ def axes(scene) -> List[Axis]:
     dist = getattr(scene, "distributions", ())
     if not dist:
         return []
+    # Worked out once per scene (the memory check and the plan both need them; a scene's
+    # times, observables and bins do not change once it is made).
+    cached = getattr(scene, "_histogram_axes", None)
+    if cached is not None:
+        return list(cached)
+    found = _axes(scene, dist)
+    try:
+        scene._histogram_axes = tuple(found)
+    except AttributeError:  # pragma: no cover - a scene-like object that takes no attribute
+        pass
+    return found
+
+
+def _axes(scene, dist) -> List[Axis]:
     per_octave, settings = scene.bin_settings
     recorded = _recorded(dist)
     times = [float(t) for t in scene.times]

@@ -127,8 +127,9 @@ _OVER_TIME = (
              twin="dissipated_energy_at_stop"),
     # The running maxima up to each output time (the design values of base isolation):
     # max |U1| and max |U2| over the grid points of [0, t]. They are maxima over a grid of a
-    # continuous path, so they fall short of the path's maxima (docs/methods/histograms.md,
-    # "Peaks": measured by bench/peaks.py).
+    # continuous path, so they fall short of the path's maxima: the peak speed by about 0.09
+    # scaled units at the default step, falling like sqrt(dt) (docs/distributions.md, "Peaks
+    # and their discretisation error", measured by bench/peaks.py).
     Quantity("peak_speed", 0, "m/s", "peak speed (largest |velocity| so far)", (PEAKS,),
              symbol="max|U1|", twin="peak_speed_at_stop", kind="velocity", peak=True),
     Quantity("peak_displacement", 1, "m", "peak displacement (largest |displacement| so far)",
