@@ -421,3 +421,13 @@ def test_distribution_figure_bad_input():
         plots.distribution(r, "stop_time", times=[1.0])
     with pytest.raises(ValueError, match="time: 7.0 is not"):
         plots.distribution(r, "velocity", times=[7.0])
+
+
+def test_the_layout_of_the_axes_is_the_cores():
+    assert bins.VARIABLE_COUNT == _core.HISTOGRAM_VARIABLES
+    scene = crandall.Scene.scaled(tau0=1.0, times=[0.5, 2.0], observe=["distance", "stop"],
+                                  distributions=["distance", "distance_at_stop"])
+    plan = engine.make_plan(RunSpec(scene, 10, 1, 0.1, "exact"))
+    axes = plan.options.histogram_axes
+    assert len(axes) == 3 * bins.VARIABLE_COUNT
+    assert [i for i, a in enumerate(axes) if a.bins] == [2, 7, 12]

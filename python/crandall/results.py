@@ -104,9 +104,17 @@ class Result:
     """Statistics of a simulated scene, in the scene's units.
 
     Time-resolved quantities ("velocity", "displacement", "distance", "kinetic_energy",
-    "dissipated_energy") give arrays over :attr:`times`; stop quantities ("stop_time",
-    "displacement_at_stop", "distance_at_stop", "dissipated_energy_at_stop") give floats.
-    Variances are the unbiased sample variances; ``stderr`` is the standard error of the mean.
+    "dissipated_energy", and with "peaks" observed "peak_speed", "peak_displacement") give
+    arrays over :attr:`times`; stop quantities ("stop_time", "displacement_at_stop",
+    "distance_at_stop", "dissipated_energy_at_stop", "peak_speed_at_stop",
+    "peak_displacement_at_stop") give floats. Variances are the unbiased sample variances;
+    ``stderr`` is the standard error of the mean. The peaks are maxima over the grid points:
+    the peak speed falls short of the path's by about 0.09 scaled units at the default step
+    (docs/distributions.md).
+
+    When the scene asked for distributions (``Scene(distributions=...)``),
+    :meth:`quantile`, :meth:`exceedance` and :meth:`histogram` answer from the run's own
+    histograms, with confidence intervals.
 
     With few paths:
 
@@ -547,8 +555,11 @@ class Result:
             ``statistics`` (time x observable x statistic: mean, var, std, stderr,
             var_stderr) for the time-resolved quantities, with their units in the coordinate
             ``units`` (``"1"`` in scaled units); ``stop_statistics`` (stop_quantity x statistic)
-            for the stop; the raw accumulators (``counts``, ``means``, ``central``) from
-            which :func:`crandall.load` rebuilds the result exactly. Attributes: the scene (as
+            for the stop; the raw accumulators (``counts``, ``means``, ``central``; with the
+            peaks ``peaks_*`` and ``stop_peaks_*``) from which :func:`crandall.load` rebuilds
+            the result exactly; with distributions, ``histogram_NAME_edges`` and
+            ``histogram_NAME_counts`` per binned quantity (over ``time`` for a quantity over
+            time; cells underflow, one per bin, overflow, NaN; NaN-padded). Attributes: the scene (as
             JSON and one ``scene_*`` attribute per parameter), paths, seed (a string: it may
             not fit a netCDF-3 integer), dt, method, crandall version.
         """
