@@ -431,3 +431,89 @@ def test_the_layout_of_the_axes_is_the_cores():
     axes = plan.options.histogram_axes
     assert len(axes) == 3 * bins.VARIABLE_COUNT
     assert [i for i, a in enumerate(axes) if a.bins] == [2, 7, 12]
+
+
+def test_physical_scene_quantiles_are_the_scaled_law_in_si():
+    # mu = 0.3, h = 1: the automatic bins come from scaled scales converted to SI; the
+    # quantiles must be the scaled laws' times the scales (stop time: from the start).
+    scene = crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=[1.0, 2.0],
+                           observe=["velocity", "kinetic_energy", "stop"],
+                           distributions=True)
+    s = scene.scaling
+    tau0 = s.to_tau(2.0)
+    r = crandall.simulate(scene, paths=200_000, seed=6, method="exact", threads=2)
+    for q in (0.5, 0.99):
+        est = r.quantile("stop_time", q)
+        true = s.to_t(float(analytic.stop_time_quantile(q, tau0)))
+        assert est.low <= true <= est.high, (q, est, true)
+        v = r.quantile("velocity", q, time=1.0)
+        true_v = s.to_si(float(analytic.velocity_quantile(q, s.to_tau(1.0))), "velocity")
+        assert v.low <= true_v <= v.high, (q, v, true_v)
+    k = r.quantile("kinetic_energy", 0.99, time=1.0)
+    speed = s.to_si(float(analytic.velocity_quantile(0.995, s.to_tau(1.0))), "velocity")
+    assert k.low <= 0.5 * scene.mass * speed ** 2 <= k.high
+
+
+def test_dissipated_energy_without_friction_has_no_distribution():
+    scene = crandall.Scene(mu=0.0, h=1.0, t0=1.0, times=[1.0], distributions=True)
+    r = crandall.simulate(scene, paths=500, seed=1)
+    assert math.isfinite(r.quantile("distance", 0.9, time=1.0).value)
+    with pytest.raises(ValueError, match="name: dissipated_energy is 0 on every path"):
+        r.quantile("dissipated_energy", 0.9, time=1.0)
+
+
+def test_old_or_damaged_checkpoints_are_refused(tmp_path):
+    import json
+
+    path = tmp_path / "run.ckpt"
+    scene = velocity_scene()
+    crandall.simulate(scene, paths=1000, seed=1, method="exact", checkpoint=path)
+    with np.load(path) as f:
+        arrays = {k: f[k] for k in f.files}
+
+    def write(**changes):
+        bad = dict(arrays, **changes)
+        with open(path, "wb") as f:
+            np.savez(f, **bad)
+
+    ident = json.loads(str(arrays["identity"]))
+    write(identity=np.array(json.dumps(dict(ident, format_version=2))))
+    with pytest.raises(ValueError, match="checkpoint format 2.*cannot be continued"):
+        crandall.simulate(scene, paths=1000, seed=1, method="exact", checkpoint=path)
+    counts = arrays["histogram_counts"].copy()
+    counts[5] += 1
+    write(histogram_counts=counts)
+    with pytest.raises(ValueError, match="histogram_counts of axis 0 add up to 1001"):
+        crandall.simulate(scene, paths=1000, seed=1, method="exact", checkpoint=path)
+    edges = arrays["histogram_edges"].copy()
+    edges[3] = np.nextafter(edges[3], np.inf)
+    write(histogram_edges=edges)
+    with pytest.raises(ValueError, match="histogram_edges of axis 0 differ"):
+        crandall.simulate(scene, paths=1000, seed=1, method="exact", checkpoint=path)
+    write(histogram_index=np.array([0, 5, 10, 16]))  # 16: the displacement at the stop
+    with pytest.raises(ValueError, match="histogram_index"):
+        crandall.simulate(scene, paths=1000, seed=1, method="exact", checkpoint=path)
+    bad = {k: v for k, v in arrays.items() if k != "histogram_counts"}
+    with open(path, "wb") as f:
+        np.savez(f, **bad)
+    with pytest.raises(ValueError, match="histogram_counts is missing"):
+        crandall.simulate(scene, paths=1000, seed=1, method="exact", checkpoint=path)
+
+
+def test_damaged_saved_histograms_are_refused(tmp_path):
+    xr = pytest.importorskip("xarray")
+    r = crandall.simulate(velocity_scene(), paths=1000, seed=1, method="exact")
+    ds = r.to_xarray()
+    for change, match in (
+            (lambda d: d["histogram_velocity_counts"].values.__setitem__((0, 3), 2.5),
+             "histogram_velocity_counts of slot 0"),
+            (lambda d: d["histogram_stop_time_counts"].values.__setitem__(4, 7.0),
+             "add up to"),
+            (lambda d: d.__delitem__("histogram_stop_time_edges"),
+             "histogram_stop_time_edges is missing")):
+        bad = ds.copy(deep=True)
+        change(bad)
+        path = tmp_path / "bad.nc"
+        bad.to_netcdf(path, engine="scipy", format="NETCDF3_64BIT")
+        with pytest.raises(ValueError, match=match):
+            crandall.load(path)

@@ -375,6 +375,9 @@ class Result:
             edges, cells = _fold(edges, cells)
             edges = edges * edges
         f = self._factor(name)
+        if f == 0.0:
+            raise ValueError(f"name: {name} is 0 on every path of this scene (its factor is "
+                             "0: no friction, mu = 0), so it has no distribution to bin")
         if f != 1.0:
             edges = edges * f
         if not (np.diff(edges) > 0).all():
