@@ -130,6 +130,10 @@ def to_xarray(result):
     }
     for k, v in sc.params.items():
         attrs["scene_" + k] = float(v)
+    if sc.distributions:
+        # For netCDF tools (the scene's JSON above is what load reads).
+        attrs["scene_distributions"] = " ".join(sc.distributions)
+        attrs["scene_bins"] = json.dumps(sc.bins)
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
 
 

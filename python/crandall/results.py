@@ -427,6 +427,13 @@ class Result:
             boost-histogram is not installed.
         """
         _, cells, _, shown = self._binned(name, time)
+        if not (np.diff(shown) > 0).all():
+            # The core bins the stop time from the switch-off; edges far finer than t0's
+            # rounding collide once t0 is added back. Quantiles and exceedances are computed
+            # from the switch-off and are not affected.
+            raise ValueError(f"name: {name}'s bin edges plus t0 = {self.scene.t0!r} are not "
+                             "distinct in doubles; use quantile or exceedance, or give "
+                             "coarser bins")
         return distributions.to_boost_histogram(shown, cells[1:-2], int(cells[0]), int(cells[-2]))
 
     def quantile(self, name: str, q: float, time=None,
