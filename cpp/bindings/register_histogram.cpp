@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
 #include <stdexcept>
@@ -72,6 +73,22 @@ void register_histogram(py::module_& m) {
           },
           py::arg("x"),
           "The cell of x: 0 underflow, 1 + j for bin j, bins + 1 overflow, bins + 2 NaN.")
+      .def(
+          "count",
+          [](const BinEdges& e, const InArray& values) {
+            if (e.bins() == 0) throw std::invalid_argument("BinEdges.count: the axis has no bins");
+            if (values.ndim() != 1) throw std::invalid_argument("values must be a 1-D array");
+            py::array_t<std::uint64_t> out(static_cast<py::ssize_t>(e.cells()));
+            std::uint64_t* c = out.mutable_data();
+            std::fill(c, c + e.cells(), std::uint64_t{0});
+            const double* x = values.data();
+            const std::size_t n = static_cast<std::size_t>(values.size());
+            for (std::size_t i = 0; i < n; ++i) ++c[e.cell(x[i])];
+            return out;
+          },
+          py::arg("values"),
+          "Counts of the values in the cells (underflow, the bins, overflow, NaN), with the "
+          "lookup the run uses: the same counts a run gives for the same values.")
       .def(py::self == py::self)
       .def(py::self != py::self)
       .def("__repr__",

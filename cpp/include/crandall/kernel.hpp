@@ -95,9 +95,9 @@ inline void sqrt_lanes(double* v) {
 
 // Bins the values of one output slot (Options::histogram_axes): values[v] holds the lanes of
 // variable v, or is null for a variable that is not simulated (Options::validate allows no
-// axis there). Called at output slots only, never in the step loop; kept out of line so that
-// its lookups do not count against the inlining of the step's own functions into the path
-// loop (inlined, it stopped the loop's vectorisation: 2.6 times slower without any histogram).
+// axis there). Called at output slots only, never in the step loop, and kept out of line: it
+// runs once per slot and lane group, and inlined it would only make the path loop larger (GCC
+// inlines less into large functions).
 [[gnu::noinline]] inline void bin_slot(const Plan& plan, Histograms& histograms, std::size_t slot,
                      const double* const (&values)[kHistogramVariables], int lanes) {
   for (int v = 0; v < kHistogramVariables; ++v) {
