@@ -248,7 +248,12 @@ class Axis:
 
 
 def _pow2_at_least(x: float) -> int:
-    return 1 << max(0, math.ceil(math.log2(x))) if x > 1 else 1
+    """The least power of two >= x (capped at MAX_PER_OCTAVE; 1 for x <= 1 or NaN)."""
+    if not x > 1:
+        return 1
+    if x >= MAX_PER_OCTAVE:
+        return MAX_PER_OCTAVE
+    return 1 << math.ceil(math.log2(x))
 
 
 def _scaled_scales(tau: float, tau0: float):
@@ -275,10 +280,12 @@ def _brownian_scales(t: float, t0: float, h: float):
     """The same scales without friction (mu = 0, or scales beyond doubles): a Brownian
     velocity h W while the noise is on, constant after (scene units)."""
     on = min(t, t0)
+    # Products, not powers: they overflow to inf (then the unit scale is used), where ``**``
+    # raises.
     v_sd = h * math.sqrt(on)
-    x_sd = h * on ** 1.5 / math.sqrt(3.0) + v_sd * max(t - on, 0.0) if math.isfinite(t) else 0.0
-    d_mean = math.sqrt(2.0 / math.pi) * (2.0 / 3.0 * h * on ** 1.5 + v_sd * max(t - on, 0.0)) \
-        if math.isfinite(t) else 0.0
+    coast = max(t - on, 0.0)
+    x_sd = h * on * math.sqrt(on) / math.sqrt(3.0) + v_sd * coast
+    d_mean = math.sqrt(2.0 / math.pi) * (2.0 / 3.0 * h * on * math.sqrt(on) + v_sd * coast)
     return v_sd, x_sd, d_mean, x_sd
 
 
@@ -363,7 +370,14 @@ def _axes(scene, dist) -> List[Axis]:
         wanted = sorted(v for s, v in recorded if s == at_stop)
         if not wanted:
             continue
-        v_sd, x_sd, d_mean, d_sd, stop = _slot_scales(scene, t)
+        try:
+            with np.errstate(all="ignore"):
+                v_sd, x_sd, d_mean, d_sd, stop = _slot_scales(scene, t)
+        except (OverflowError, ValueError, ZeroDivisionError):
+            # Times or scales beyond what the analytic layer evaluates: the scales are only
+            # hints (the edges need them within a factor of about 2), so the scene's units
+            # stand in, and every value is still counted (under- and overflow included).
+            v_sd = x_sd = d_mean = d_sd = stop = math.nan
         for var in wanted:
             name = axis_name(at_stop, var)
             given = settings.get(name)
