@@ -68,3 +68,35 @@ def test_any_scene_with_distributions_answers_or_refuses(mu, h, t0, g, mass, tim
             assert 0.0 <= p.low <= p.value <= p.high <= 1.0, (name, p)
     for counts in r.accumulators.histograms.counts:
         assert int(counts.sum()) == 3
+
+
+@SETTINGS
+@given(tau0=st.sampled_from([0.0, 1e-300, 1e-12, 0.5, 5.0, 1e3, 1e12, 1e300, math.inf]),
+       times=st.lists(st.sampled_from([0.0, 1e-300, 1e-8, 0.5, 5.0, 1e6, 1e300]), min_size=1,
+                      max_size=3, unique=True).map(sorted),
+       peaks=st.booleans())
+def test_any_scaled_scene_with_distributions_answers_or_refuses(tau0, times, peaks):
+    try:
+        observe = None if not peaks else (
+            ["velocity", "displacement", "distance", "peaks"]
+            + (["stop"] if math.isfinite(tau0) else []))
+        scene = crandall.Scene.scaled(tau0=tau0, times=times, observe=observe,
+                                      distributions=True)
+    except ValueError as exc:
+        assert names_a_parameter(exc), str(exc)
+        return
+    horizon = max([x for x in (scene.times[-1], scene.t0) if math.isfinite(x)] + [0.0])
+    dt = horizon / 20 if horizon > 0 else 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            r = crandall.simulate(scene, paths=3, seed=1, dt=dt, method="exact", threads=1)
+        except ValueError as exc:
+            assert names_a_parameter(exc), str(exc)
+            return
+        for name in r.distributions:
+            t = None if quantity(name).at_stop else float(r.times[-1])
+            est = r.quantile(name, 0.5, time=t)
+            assert not math.isnan(est.value) and est.low <= est.high, (name, est)
+    for counts in r.accumulators.histograms.counts:
+        assert int(counts.sum()) == 3
