@@ -517,3 +517,27 @@ def test_damaged_saved_histograms_are_refused(tmp_path):
         bad.to_netcdf(path, engine="scipy", format="NETCDF3_64BIT")
         with pytest.raises(ValueError, match=match):
             crandall.load(path)
+
+
+def test_every_histogram_brackets_its_quantity_s_mean():
+    """The histograms count the values the moments average: each value lies in its bin, so the
+    mean lies between the count-weighted lower and upper edges (no statistics: an exact
+    bound, up to rounding), for every quantity, time and the stop, energies and peaks too."""
+    scene = crandall.Scene(mu=0.3, h=1.0, t0=1.5, mass=3.0, times=[0.0, 0.5, 1.5, 2.5],
+                           observe=["velocity", "displacement", "distance", "kinetic_energy",
+                                    "dissipated_energy", "stop", "peaks"],
+                           distributions=True)
+    r = crandall.simulate(scene, paths=30_000, seed=2, dt=0.01, method="exact")
+    assert set(r.distributions) == set(r.names)
+    for name in r.names:
+        q = crandall.quantities.quantity(name)
+        for i, t in enumerate([None] if q.at_stop else r.times):
+            h = r.histogram(name, t)
+            cells = h.view(flow=True)
+            edges = h.axes[0].edges
+            assert cells[0] == 0 and cells[-1] == 0, (name, t)  # the reach holds them all
+            lower = float(np.dot(cells[1:-1], edges[:-1])) / r.paths
+            upper = float(np.dot(cells[1:-1], edges[1:])) / r.paths
+            mean = r.mean(name) if q.at_stop else r.mean(name)[i]
+            slack = 1e-12 * max(abs(lower), abs(upper), 1e-300)
+            assert lower - slack <= mean <= upper + slack, (name, t, lower, mean, upper)
