@@ -43,14 +43,17 @@ def same_counts(a, b):
 
 def chi_square_p(edges, cells, cdf, n):
     """p-value of Pearson's chi-square of binned counts against a continuous CDF, the cells
-    [under, bins, over] grouped left to right until each expects at least 20 values (so that
-    the statistic's chi-square law holds to a fraction of the level)."""
+    [under, bins, over] grouped left to right until each expects at least n / 100 values (and
+    at least 20, so that the statistic's chi-square law holds to a fraction of the level):
+    about 100 groups, which keeps the power against a smooth misfit (fine bins split into
+    hundreds of groups would spread it over as many degrees of freedom)."""
     probs = np.diff(np.concatenate(([0.0], cdf(edges), [1.0])))
     observed = np.asarray(cells[:-1], dtype=float)  # the NaN count is checked to be 0
     groups_o, groups_e, o, e = [], [], 0.0, 0.0
+    least = max(20.0, n / 100)
     for ob, pr in zip(observed, probs):
         o, e = o + ob, e + n * pr
-        if e >= 20:
+        if e >= least:
             groups_o.append(o)
             groups_e.append(e)
             o = e = 0.0
@@ -147,9 +150,10 @@ def test_intervals_cover_at_their_stated_rate():
     floor = stats.binom.ppf(1e-4, seeds, conf)
     assert (cover >= floor).all(), (cover, floor)
     # Not trivially wide: the sampling half-width of the 0.9 quantile of tau_s at 2000 paths
-    # is about 1.645 sqrt(0.09 / 2000) / f(q) with f = 4 e^(-4 (q - tau0)) ~ 0.4: 0.03. The
-    # intervals must stay within a few times that (plus two bins of 1/64 to 1/32 of ~0.6).
-    assert np.median(widths) < 0.15, np.median(widths)
+    # is about 1.645 sqrt(0.09 / 2000) / f(q) with f = 4 e^(-4 (q - tau0)) ~ 0.4: 0.03, so
+    # the interval about 0.06 wide (plus two bins of at most 1/128 of ~0.6: 0.01). Median
+    # measured 0.059; intervals twice too wide would fail.
+    assert np.median(widths) < 0.1, np.median(widths)
 
 
 def test_histograms_are_bitwise_the_same_for_threads_chunks_checkpoints_and_files(tmp_path):
@@ -541,3 +545,21 @@ def test_every_histogram_brackets_its_quantity_s_mean():
             mean = r.mean(name) if q.at_stop else r.mean(name)[i]
             slack = 1e-12 * max(abs(lower), abs(upper), 1e-300)
             assert lower - slack <= mean <= upper + slack, (name, t, lower, mean, upper)
+
+
+def test_intervals_say_whether_the_bins_limit_them():
+    paths = 200_000
+    coarse = crandall.Scene.scaled(tau0=2.0, times=[2.0], observe=["velocity", "stop"],
+                                   distributions=["stop_time"], bins={"stop_time": 1})
+    fine = crandall.Scene.scaled(tau0=2.0, times=[2.0], observe=["velocity", "stop"],
+                                 distributions=["stop_time"], bins={"stop_time": 1024})
+    rc = crandall.simulate(coarse, paths=paths, seed=1, method="exact")
+    rf = crandall.simulate(fine, paths=paths, seed=1, method="exact")
+    c, f = rc.quantile("stop_time", 0.5), rf.quantile("stop_time", 0.5)
+    # One bin per octave: the interval is the median's whole bin (resolution = its widths).
+    assert c.bin_limited and c.resolution >= c.high - c.low - 1e-12
+    # 1024 per octave: the bins (~0.0002 wide) are far below the sampling interval (~0.003).
+    assert not f.bin_limited and f.resolution < 0.2 * (f.high - f.low)
+    assert f.high - f.low < c.high - c.low
+    e = rf.exceedance("stop_time", 2.3)
+    assert 0 < e.resolution < 0.01 and not e.bin_limited

@@ -287,16 +287,22 @@ def quantile_table(result, names=plots.STOP_DISTRIBUTIONS, probabilities=QUANTIL
     if not names:
         return ""
     sc = result.scene
-    head = f"  {'quantity':<28}" + "".join(f"{f'{100 * p:g} %':>28}" for p in probabilities)
+    head = f"  {'quantity':<28}" + "".join(f"{f'{100 * p:g} %':>28} " for p in probabilities)
     lines = ["Quantiles at the stop, from the run's histograms (value [95 % interval]; the "
              "interval is distribution-free and includes the bins' width):", head]
+    limited = False
     for n in names:
         unit = sc.units_of(n)
         row = f"  {n + (f' [{unit}]' if unit else ''):<28}"
         for p in probabilities:
             e = result.quantile(n, p)
-            row += f"{f'{e.value:.4g} [{e.low:.4g}, {e.high:.4g}]':>28}"
+            mark = "*" if e.bin_limited else " "
+            limited |= e.bin_limited
+            row += f"{f'{e.value:.4g} [{e.low:.4g}, {e.high:.4g}]{mark}':>29}"
         lines.append(row)
+    if limited:
+        lines.append("  * the bins account for at least half of this interval: finer bins "
+                     "(Scene(bins=...)) would narrow it")
     return "\n".join(lines)
 
 

@@ -459,11 +459,14 @@ class Result:
             distribution-free interval for the law's quantile, coverage at least
             ``confidence`` for any law: the order statistics bracketing the quantile
             (binomial ranks), widened to the edges of the bins that hold them. The bin width
-            limits the interval at each end by at most one bin (1/32 to 1/64 of the value
+            limits the interval at each end by at most one bin (1/128 to 1/256 of the value
             with the default bins beyond the quantity's scale); once the sampling interval
             is a few bins wide it is the paths, not the bins, that limit it
             (docs/methods/histograms.md, "Intervals"). Infinite where the quantile lies
             beyond the bins (user edges that do not reach it). In the quantity's units.
+            ``resolution``: the widths of the two bins at the interval's ends, the most the
+            bins can have widened it; ``bin_limited``: whether that is at least half the
+            interval (then finer ``bins`` would narrow it; more paths, not much).
 
         Raises
         ------
@@ -476,7 +479,10 @@ class Result:
         edges, cells, offset, _ = self._binned(name, time)
         est = distributions.quantile(edges, cells[1:-2], int(cells[0]), int(cells[-2]),
                                      float(q), confidence)
-        return est if not offset else distributions.Estimate(*(x + offset for x in est))
+        if not offset:
+            return est
+        return est._replace(value=est.value + offset, low=est.low + offset,
+                            high=est.high + offset)
 
     def exceedance(self, name: str, level: float, time=None,
                    confidence: float = 0.95) -> distributions.Estimate:
@@ -501,7 +507,8 @@ class Result:
             bounds, coverage at least ``confidence``, taken at the fewest and the most paths
             that can be above the level given the bins: the bin holding the level is where
             the histogram limits the interval (a level on an edge still leaves that bin
-            undecided).
+            undecided). ``resolution``: the fraction of paths in that bin; ``bin_limited``:
+            whether it is at least half the interval's width.
 
         Raises
         ------

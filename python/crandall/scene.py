@@ -159,7 +159,7 @@ class Scene:
         Default None: none (nothing is binned, nothing costs).
     bins : int or mapping, optional
         The histograms' bins (docs/methods/histograms.md). Default: automatic log-linear edges
-        from each quantity's scale, ``bins.DEFAULT_PER_OCTAVE`` (32) bins per octave, reaching
+        from each quantity's scale, ``bins.DEFAULT_PER_OCTAVE`` (128) bins per octave, reaching
         50 scales from 0. An int: that many bins per octave (a power of two, 1 to 4096). A
         mapping from a quantity to an int (its bins per octave) or to a list of edges
         (strictly increasing, in the scene's units; values beyond them are counted in the
