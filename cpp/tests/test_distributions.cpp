@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -371,6 +372,49 @@ TEST(Distributions, BadAxesAreRefusedNamingHistogramAxes) {
   o.distance = true;
   o.stop = false;  // the stop slot goes: 20 axes needed
   expect_refused(o, "20");
+}
+
+TEST(Distributions, TheKernelsLookupEqualsCellInEveryVariant) {
+  // The kernel bins with count_lanes (a vectorised first guess, then the edge comparisons);
+  // every variant must put every value where BinEdges::cell does: on every edge and its
+  // mirror, one ulp either side, the midpoints, the ends of the axis, +-0, +-inf, NaN,
+  // subnormals, huge values, and random values at the axis's scale.
+  KeepKernel keep;
+  std::vector<BinEdges> axes;
+  for (double scale : {1e-3, 0.3, 0.7, 1.0, 5.5})
+    for (int m : {1, 2, 16, 256})
+      for (double reach : {1.0, 4.5, 50.0})
+        for (bool symmetric : {false, true}) axes.push_back(BinEdges::log_linear(scale, m, reach, symmetric));
+  axes.push_back(BinEdges::from_edges({-3.0, -0.5, 0.0, 0.1, 2.0}));
+  const double inf = std::numeric_limits<double>::infinity();
+  std::uint64_t state = 12345;
+  auto uniform = [&state] {  // a fixed LCG: the values need no statistical quality
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    return static_cast<double>(state >> 11) * 0x1.0p-53;
+  };
+  for (const BinEdges& axis : axes) {
+    std::vector<double> x = {0.0, -0.0, inf, -inf, std::numeric_limits<double>::quiet_NaN(),
+                             5e-324, -5e-324, 1e300, -1e300};
+    const auto& e = axis.edges();
+    for (std::size_t i = 0; i < e.size(); ++i)
+      for (double v : {e[i], -e[i]}) {
+        x.push_back(v);
+        x.push_back(std::nextafter(v, inf));
+        x.push_back(std::nextafter(v, -inf));
+        if (i + 1 < e.size()) x.push_back(0.5 * (v + (v == e[i] ? e[i + 1] : -e[i + 1])));
+      }
+    for (int i = 0; i < 1000; ++i) x.push_back((uniform() - 0.5) * 4.0 * e.back());
+    x.push_back(1.0);  // an odd count: a partial lane group at the end
+    std::vector<std::uint64_t> want(axis.cells(), 0);
+    for (double v : x) ++want[axis.cell(v)];
+    for (const crandall::KernelTable* kernel : crandall::compiled_kernels()) {
+      if (!crandall::kernel_supported(*kernel)) continue;
+      std::vector<std::uint64_t> got(axis.cells(), 0);
+      kernel->count_values(axis, x.data(), x.size(), got.data());
+      EXPECT_EQ(got, want) << kernel->name << " bins=" << axis.bins() << " base=" << axis.base()
+                           << " m=" << axis.per_octave() << " symmetric=" << axis.symmetric();
+    }
+  }
 }
 
 TEST(Distributions, ASceneWithoutThemHasNoHistogramsInItsWorkspace) {

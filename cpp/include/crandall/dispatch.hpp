@@ -4,6 +4,7 @@
 // only the speed differs.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 namespace crandall {
 
 struct Workspace;
+class BinEdges;
 
 using BlockFn = void (*)(const Plan&, std::uint64_t, std::uint64_t, Workspace&);
 
@@ -33,6 +35,11 @@ struct KernelTable {
   // low 32 bits of out[j * kLanes + l] (tests of the vector Philox against Random123).
   void (*philox_words)(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair, int count,
                        std::uint64_t* out);
+  // Adds the counts of x[0, n) on axis `edges` to counts (edges.cells() of them) with the
+  // kernel's own lookup (count_lanes, kernel.hpp), for the tests that check it against
+  // BinEdges::cell in every variant.
+  void (*count_values)(const BinEdges& edges, const double* x, std::size_t n,
+                       std::uint64_t* counts);
 };
 
 // Variants compiled into this build, lowest first (baseline only on non-x86 hosts).
