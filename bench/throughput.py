@@ -9,7 +9,9 @@ Measures, in one run (scaled units, the exact method unless stated):
   physics (crandall._core.random_floor);
 - a velocity-and-stop scene in paths per second at several tau0 (one exact step per path);
 - the cost of each observable set at tau0 = 5, dt = 0.01 (velocity; + stop; + displacement;
-  + distance; all), in paths per second and relative to velocity only.
+  + distance; all; all with distributions, with peaks, with both), in paths per second and
+  relative to velocity only (bench/distribution_cost.py times the last three against "all"
+  directly).
 
 The path-step rates (full kernel, velocity only, random floor) are measured for every kernel
 variant the CPU supports (baseline, avx2, avx512: docs/random-numbers.md), each in a subprocess
@@ -103,9 +105,14 @@ def main() -> None:
            "tau0": TAU0, "dt": DT, "steps_per_path": STEPS, "paths": paths, "repeat": args.repeat,
            "targets": TARGETS}
 
-    def sim(observe, threads, n=paths, tau0=TAU0, times=None, dt=DT, method="exact"):
+    def sim(observe, threads, n=paths, tau0=TAU0, times=None, dt=DT, method="exact",
+            distributions=None):
+        extra = {} if distributions is None else {"distributions": distributions}
         scene = crandall.Scene.scaled(tau0=tau0, times=times if times is not None else [tau0],
-                                      observe=observe)
+                                      observe=observe, **extra)
+        if distributions is not None:
+            # The bins' scales (the analytic layer, once per scene) are not the kernel's cost.
+            crandall.bins.axes(scene)
         return lambda: crandall.simulate(scene, paths=n, seed=1, dt=dt, method=method,
                                          threads=threads)
 
@@ -169,11 +176,21 @@ def main() -> None:
     sets = {"velocity": ["velocity"], "+ stop": ["velocity", "stop"],
             "+ displacement": ["velocity", "stop", "displacement"],
             "+ distance": ["velocity", "stop", "distance"],
-            "all": ["velocity", "stop", "displacement", "distance"]}
+            "all": ["velocity", "stop", "displacement", "distance"],
+            "all + distributions": ["velocity", "stop", "displacement", "distance"],
+            "all + peaks": ["velocity", "stop", "displacement", "distance", "peaks"],
+            "all + distributions + peaks": ["velocity", "stop", "displacement", "distance",
+                                            "peaks"]}
     n_cost = int(100_000 * scale)
     for name, obs in sets.items():
         n = n_cost * (20 if obs in (["velocity"], ["velocity", "stop"]) else 1)
-        t = best_of(sim(obs, 1, n=n, times=[1.0, TAU0]), args.repeat)
+        dist = True if "distributions" in name else None
+        try:
+            run = sim(obs, 1, n=n, times=[1.0, TAU0], distributions=dist)
+        except (TypeError, ValueError) as exc:  # a build (--module-path) without them
+            print(f"cost of {name}: not measured ({exc})", flush=True)
+            continue
+        t = best_of(run, args.repeat)
         costs[name] = {"observe": obs, "paths_per_second": n / t, "seconds_per_million_paths": t / n * 1e6}
         print(f"cost of {name}: {n / t / 1e6:.3f} M paths/s", flush=True)
     base = costs["velocity"]["seconds_per_million_paths"]

@@ -91,3 +91,17 @@ def test_run_to_an_accuracy_on_the_cluster_is_bitwise_local(client):
     np.testing.assert_array_equal(remote.to_pandas()[cols].to_numpy(),
                                   local.to_pandas()[cols].to_numpy())
     assert remote.cost["paths"] == local.cost["paths"]
+
+
+def test_cluster_histograms_and_peaks_are_bitwise_the_local_ones(client):
+    s = crandall.Scene.scaled(tau0=1.0, times=[0.5, 1.5], observe=["velocity", "stop", "peaks"],
+                              distributions=True)
+    paths = 2 * CHUNK + 5
+    local = crandall.simulate(s, paths=paths, seed=8, method="exact")
+    remote = crandall.simulate(s, paths=paths, seed=8, method="exact", client=client)
+    hl, hr = local.accumulators.histograms, remote.accumulators.histograms
+    assert hl.index == hr.index
+    for a, b in zip(hl.edges + hl.counts, hr.edges + hr.counts):
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
+    assert local.mean("peak_speed").tobytes() == remote.mean("peak_speed").tobytes()
+    assert remote.quantile("stop_time", 0.99) == local.quantile("stop_time", 0.99)

@@ -46,7 +46,7 @@ def test_checkpoint_identity_is_what_it_was():
     # The keys and values checkpoints have always stored, so that existing ones still resume.
     spec = RunSpec(SCENE, 10, 7, 0.1, "exact", 4)
     ident = checkpoint.identity(spec)
-    assert ident == {"format": "crandall-checkpoint", "format_version": 2,
+    assert ident == {"format": "crandall-checkpoint", "format_version": 3,
                      "crandall": crandall.__version__, "random_stream": _core.RANDOM_STREAM,
                      "scene": SCENE.to_dict(), "paths": 10, "seed": 7, "dt": 0.1,
                      "method": "exact", "min_steps": 4}

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <pybind11/numpy.h>
+#include <pybind11/operators.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
@@ -21,6 +22,7 @@ namespace py = pybind11;
 // One per area, each in register_<area>.cpp.
 void register_plan(py::module_& m);         // Options, Plan, the partition constants
 void register_moments(py::module_& m);      // Moments, monomial_exponents
+void register_histogram(py::module_& m);    // BinEdges
 void register_run(py::module_& m);          // run_chunk, ChunkResult, cancelling a run
 void register_diagnostics(py::module_& m);  // exact_steps, random_floor, build_info, ...
 void register_levels(py::module_& m);       // run_samples, sum_products (adaptive runs)

@@ -12,6 +12,7 @@ PYBIND11_MODULE(_core, m) {
   } catch (const std::invalid_argument& e) {
     throw py::import_error(e.what());
   }
+  register_histogram(m);  // before register_plan: Options holds BinEdges
   register_plan(m);
   register_moments(m);
   register_run(m);

@@ -7,6 +7,7 @@ void register_plan(py::module_& m) {
   m.attr("CHUNK_PATHS") = crandall::kChunkPaths;
   m.attr("BLOCK_PATHS") = crandall::kBlockPaths;
   m.attr("LANES") = crandall::kLanes;
+  m.attr("HISTOGRAM_VARIABLES") = crandall::kHistogramVariables;
   // The methods, in the core's order, with the number of grids each walks (plan.hpp's
   // grids()): the Python layer reads both from here instead of keeping a copy.
   py::dict method_grids;
@@ -36,6 +37,10 @@ void register_plan(py::module_& m) {
       .def_readwrite("displacement", &crandall::Options::displacement)
       .def_readwrite("distance", &crandall::Options::distance)
       .def_readwrite("stop", &crandall::Options::stop)
+      .def_readwrite("peaks", &crandall::Options::peaks)
+      // A list of BinEdges, index slot * 5 + variable (plan.hpp); assign a whole list (the
+      // attribute returns a copy, so appending to it changes nothing).
+      .def_readwrite("histogram_axes", &crandall::Options::histogram_axes)
       .def_readwrite("seed", &crandall::Options::seed)
       .def_readwrite("paths", &crandall::Options::paths)
       .def("validate", &crandall::Options::validate);

@@ -1,4 +1,6 @@
 #include <chrono>
+#include <cstdint>
+#include <cstring>
 #include <exception>
 #include <new>
 #include <stdexcept>
@@ -25,7 +27,21 @@ void register_run(py::module_& m) {
 
   py::class_<crandall::ChunkResult>(m, "ChunkResult")
       .def_readonly("times", &crandall::ChunkResult::times)
-      .def_readonly("stop", &crandall::ChunkResult::stop);
+      .def_readonly("stop", &crandall::ChunkResult::stop)
+      .def_readonly("peaks", &crandall::ChunkResult::peaks)
+      .def_readonly("peaks_stop", &crandall::ChunkResult::peaks_stop)
+      .def_property_readonly(
+          "histogram_counts",
+          [](const crandall::ChunkResult& r) {
+            // One uint64 array per axis of Options.histogram_axes (empty if not recorded).
+            py::list out;
+            for (const auto& c : r.histogram_counts) {
+              py::array_t<std::uint64_t> a(static_cast<py::ssize_t>(c.size()));
+              if (!c.empty()) std::memcpy(a.mutable_data(), c.data(), c.size() * sizeof(std::uint64_t));
+              out.append(a);
+            }
+            return out;
+          });
 
   m.def(
       "run_chunk",

@@ -28,7 +28,7 @@ std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint
   const std::size_t slots = o.times.size() + (o.stop ? 1 : 0);
   const int grids = o.grids();
   std::vector<double> out(count * slots * static_cast<std::size_t>(grids) * 3, 0.0);
-  BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance);
+  BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks);
   if (controls_out) {
     if (o.method != Method::exact || !o.integrals())
       throw std::invalid_argument("run_samples: controls need the exact method and an observed integral");

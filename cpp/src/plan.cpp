@@ -91,6 +91,30 @@ void Options::validate() const {
     require(std::isfinite(switch_off), "the stop needs a finite switch_off (t0)");
     require(drift > 0.0 || noise == 0.0, "without friction the body never stops");
   }
+  if (!histogram_axes.empty()) {
+    const std::size_t slots = histogram_slots();
+    require(histogram_axes.size() == slots * kHistogramVariables,
+            "histogram_axes must be empty or hold (len(times) + (1 if stop else 0)) * " +
+                std::to_string(kHistogramVariables) + " = " +
+                std::to_string(slots * kHistogramVariables) + " axes, got " +
+                std::to_string(histogram_axes.size()));
+    static const char* const names[kHistogramVariables] = {
+        "velocity (the time to stop at the stop slot)", "displacement", "distance",
+        "peak speed", "peak displacement"};
+    for (std::size_t i = 0; i < histogram_axes.size(); ++i) {
+      if (histogram_axes[i].bins() == 0) continue;
+      const int v = static_cast<int>(i % kHistogramVariables);
+      const bool simulated = v == 0                   ? true
+                             : v == 1                 ? displacement
+                             : v == 2                 ? distance
+                             : v == 3                 ? peaks
+                                                      : peaks && displacement;
+      require(simulated, "histogram_axes[" + std::to_string(i) + "] asks for the " + names[v] +
+                             (v == 4   ? ", which needs peaks and displacement"
+                              : v == 3 ? ", which needs peaks"
+                                       : ", which is not observed"));
+    }
+  }
 }
 
 Plan::Plan(Options options) : options_(std::move(options)) {
@@ -101,7 +125,8 @@ Plan::Plan(Options options) : options_(std::move(options)) {
   const double end = needs_switch_state_ ? o.switch_off : o.times.back();
   // Internal steps are needed for the time integrals, and for Euler-Maruyama always; the
   // exact velocity step is exact for any length, so velocity-only scenes jump.
-  const bool fine = o.integrals() || o.method == Method::euler;
+  // A peak is a maximum over the grid's points, so peaks need the fine grid too.
+  const bool fine = o.integrals() || o.method == Method::euler || o.peaks;
   double previous = 0.0;
   long slot = 0;
   auto add = [&](double until, long s) {
@@ -138,6 +163,12 @@ Plan::Plan(Options options) : options_(std::move(options)) {
     coast_slots_.push_back(slot);
     coast_elapsed_.push_back(o.times[slot] - o.switch_off);
   }
+  histogram_slot_.assign(o.histogram_axes.size(), -1);
+  for (std::size_t i = 0; i < o.histogram_axes.size(); ++i)
+    if (o.histogram_axes[i].bins() > 0) {
+      histogram_slot_[i] = static_cast<long>(recorded_axes_.size());
+      recorded_axes_.push_back(o.histogram_axes[i]);
+    }
 }
 
 std::uint64_t Plan::chunk_paths(std::uint64_t chunk) const {

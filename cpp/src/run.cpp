@@ -19,7 +19,17 @@ namespace {
 struct BlockOut {
   BlockSums times, stop;
   std::vector<BlockSums> coarse_times, coarse_stop;
+  BlockSums peaks, peaks_stop;
 };
+
+ChunkResult empty_result(const Options& o) {
+  ChunkResult r;
+  r.times = Moments(o.times.size());
+  r.stop = Moments(o.stop ? 1 : 0);
+  r.peaks = Moments(o.peaks ? o.times.size() : 0);
+  r.peaks_stop = Moments(o.peaks && o.stop ? 1 : 0);
+  return r;
+}
 
 }  // namespace
 
@@ -35,11 +45,12 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   const std::uint64_t first = chunk * kChunkPaths;
   const std::uint64_t count = plan.chunk_paths(chunk);
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
-  const BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance);
+  const BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks);
   const int coupled = o.grids();
-  ChunkResult result{Moments(o.times.size()), Moments(o.stop ? 1 : 0)};
-  std::vector<ChunkResult> coarse_result(
-      static_cast<std::size_t>(coupled - 1), ChunkResult{Moments(o.times.size()), Moments(o.stop ? 1 : 0)});
+  ChunkResult result = empty_result(o);
+  std::vector<ChunkResult> coarse_result(static_cast<std::size_t>(coupled - 1), empty_result(o));
+  // The threads' histograms, added up as each thread finishes (integer counts: any order).
+  Histograms histograms(plan.recorded_axes());
   std::atomic<bool> cancelled{false};
   std::atomic<long> next_claim{0}, finished{0};
   std::exception_ptr error;
@@ -99,11 +110,14 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
         block_fn(plan, start, n, *ws);
         if (ws->cancelled()) break;
         std::lock_guard<std::mutex> lock(merge_mutex);
-        pending.emplace(b, BlockOut{ws->times, ws->stop, ws->coarse_times, ws->coarse_stop});
+        pending.emplace(b, BlockOut{ws->times, ws->stop, ws->coarse_times, ws->coarse_stop,
+                                    ws->peaks, ws->peaks_stop});
         for (auto it = pending.begin(); it != pending.end() && it->first == next_block;
              it = pending.erase(it), ++next_block) {
           it->second.times.merge_into(result.times);
           it->second.stop.merge_into(result.stop);
+          it->second.peaks.merge_into(result.peaks);
+          it->second.peaks_stop.merge_into(result.peaks_stop);
           for (std::size_t g = 0; g < coarse_result.size(); ++g) {
             it->second.coarse_times[g].merge_into(coarse_result[g].times);
             it->second.coarse_stop[g].merge_into(coarse_result[g].stop);
@@ -128,6 +142,14 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
         done.wait_for(lock, std::chrono::milliseconds(10));
       }
     }
+    if (ws && plan.histograms() && !cancelled.load()) {
+      try {
+        std::lock_guard<std::mutex> lock(merge_mutex);
+        histograms.merge(ws->histograms);
+      } catch (...) {
+        fail(std::current_exception());
+      }
+    }
   }
   if (error) std::rethrow_exception(error);
   if (cancelled.load()) throw Cancelled();
@@ -141,8 +163,16 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
       stop.push_back(&c.stop);
     }
     const auto w = richardson_weights(o.method);
-    ChunkResult combined{combine(times, w), combine(stop, w)};
-    result = std::move(combined);
+    // The peaks and the histograms stay those of the fine grid.
+    result.times = combine(times, w);
+    result.stop = combine(stop, w);
+  }
+  result.histogram_counts.resize(o.histogram_axes.size());
+  for (std::size_t i = 0; i < o.histogram_axes.size(); ++i) {
+    const long h = plan.histogram_slot(i / kHistogramVariables, static_cast<int>(i % kHistogramVariables));
+    if (h < 0) continue;
+    const std::uint64_t* c = histograms.slot_counts(static_cast<std::size_t>(h));
+    result.histogram_counts[i].assign(c, c + histograms.axis(static_cast<std::size_t>(h)).cells());
   }
   return result;
 }

@@ -18,6 +18,7 @@ import numpy as np
 from . import _core
 from ._version import __version__
 from ._files import check_moments, write_atomic
+from .bins import Histograms, check_histograms, recorded
 from .methods import METHODS
 from .quantities import VARIABLES, quantity
 from .scene import Scene
@@ -91,10 +92,15 @@ def to_xarray(result):
         table = np.stack([_stats(result, n) for n in stop_names], axis=0)
         data_vars["stop_statistics"] = (("stop_quantity", "statistic"), table,
                                         {"long_name": "statistics over paths at the stop"})
-    acc_times, acc_stop = result.accumulators
+    held = result.accumulators
+    acc_times, acc_stop = held.times, held.stop
     accs = [("", acc_times, "slot")]
     if acc_stop is not None:
         accs.append(("stop_", acc_stop, "stop_slot"))
+    if held.peaks is not None:
+        accs.append(("peaks_", held.peaks, "slot"))
+    if held.stop_peaks is not None:
+        accs.append(("stop_peaks_", held.stop_peaks, "stop_slot"))
     for prefix, acc, dim in accs:
         if acc.slots == 0:
             continue
@@ -104,6 +110,8 @@ def to_xarray(result):
                                                      "distance), SI or scaled as the scene"})
         data_vars[prefix + "central"] = ((dim, "monomial"), acc.central,
                                          {"long_name": "central sums, powers as in exponents"})
+    if held.histograms is not None:
+        _histogram_vars(result, held.histograms, data_vars)
     spec = result.spec  # the run's fields, checked
     attrs = {
         "title": f"crandall result: {sc!r}",
@@ -122,7 +130,92 @@ def to_xarray(result):
     }
     for k, v in sc.params.items():
         attrs["scene_" + k] = float(v)
+    if sc.distributions:
+        # For netCDF tools (the scene's JSON above is what load reads).
+        attrs["scene_distributions"] = " ".join(sc.distributions)
+        attrs["scene_bins"] = json.dumps(sc.bins)
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+
+# Counts are stored as doubles (netCDF-3 has no 64-bit integers): exact below 2^53.
+_EXACT_COUNT = 2.0 ** 53
+
+
+def _histogram_vars(result, hist: Histograms, data_vars) -> None:
+    """One pair of variables per binned quantity: ``histogram_NAME_edges`` and
+    ``histogram_NAME_counts`` (over time for a quantity over time), padded with NaN where
+    one time has fewer bins than another."""
+    by_name: Dict[str, list] = {}
+    for (index, slot, var, name), e, c in zip(recorded(result.scene), hist.edges, hist.counts):
+        by_name.setdefault(name, []).append((slot, e, c))
+    for name, items in by_name.items():
+        if any(np.any(np.asarray(c, dtype=np.uint64) >= np.uint64(2 ** 53)) for _, _, c in items):
+            raise ValueError(f"path: a count of {name}'s histogram is 2^53 or more, beyond "
+                             "what the file's doubles hold exactly")
+        width = max(e.size for _, e, _ in items)
+        edges = np.full((len(items), width), np.nan)
+        counts = np.full((len(items), width + 2), np.nan)
+        for i, (_, e, c) in enumerate(items):
+            edges[i, :e.size] = e
+            counts[i, :c.size] = np.asarray(c, dtype=np.float64)
+        unit = ("1" if result.scene.units == "scaled"
+                else result.scene.units_of(name) or "1")
+        note = " (time from the switch-off)" if name == "stop_time" else ""
+        at_stop = name.endswith("_at_stop") or name == "stop_time"
+        dims_e = (f"{name}_edge",) if at_stop else ("time", f"{name}_edge")
+        dims_c = (f"{name}_cell",) if at_stop else ("time", f"{name}_cell")
+        data_vars[f"histogram_{name}_edges"] = (
+            dims_e, edges[0] if at_stop else edges,
+            {"long_name": f"bin edges of {name}{note}, NaN-padded", "units": unit})
+        data_vars[f"histogram_{name}_counts"] = (
+            dims_c, counts[0] if at_stop else counts,
+            {"long_name": f"paths per cell of {name}: underflow, one per bin [e_j, e_j+1), "
+                          "overflow, NaN; NaN-padded"})
+
+
+def _read_histograms(ds, scene, where: str, paths: int) -> Optional[Histograms]:
+    axes = recorded(scene)
+    present = [k for k in ds.data_vars if k.startswith("histogram_")]
+    if not axes:
+        if present:
+            raise _Invalid(f"{present[0]} is present, but the scene asks for no distributions")
+        return None
+    index, edges, counts = [], [], []
+    names = {name for _, _, _, name in axes}
+    extra = sorted(set(present) - {f"histogram_{n}_{k}" for n in names
+                                   for k in ("edges", "counts")})
+    if extra:
+        raise _Invalid(f"{extra[0]} is not a histogram of the scene's distributions")
+    n_times = scene.times.size
+    for i, slot, var, name in axes:
+        for k in ("edges", "counts"):
+            if f"histogram_{name}_{k}" not in ds:
+                raise _Invalid(f"histogram_{name}_{k} is missing")
+        e_all = np.asarray(ds[f"histogram_{name}_edges"].values, dtype=np.float64)
+        c_all = np.asarray(ds[f"histogram_{name}_counts"].values, dtype=np.float64)
+        at_stop = slot == n_times
+        row = 0 if at_stop else slot
+        if at_stop:
+            e_all, c_all = e_all[None, :], c_all[None, :]
+        if e_all.ndim != 2 or c_all.ndim != 2 or e_all.shape[0] != (1 if at_stop else n_times) \
+                or c_all.shape != (e_all.shape[0], e_all.shape[1] + 2):
+            raise _Invalid(f"histogram_{name}_edges/counts have shapes {e_all.shape}, "
+                           f"{c_all.shape}: not one row per slot with len(edges) + 2 cells")
+        e = e_all[row]
+        e = e[~np.isnan(e)]
+        c = c_all[row, :e.size + 2]
+        if np.isnan(c).any() or (c < 0).any() or (c != np.floor(c)).any() \
+                or (c >= _EXACT_COUNT).any() or not np.isnan(c_all[row, e.size + 2:]).all():
+            raise _Invalid(f"histogram_{name}_counts of slot {slot} are not whole counts >= 0 "
+                           "(one per edge plus 2)")
+        index.append(i)
+        edges.append(e)
+        counts.append(c.astype(np.uint64))
+    try:
+        check_histograms(where, index, edges, counts, [a[0] for a in axes], paths=paths)
+    except ValueError as exc:
+        raise _Invalid(str(exc).split(": ", 1)[-1]) from None
+    return Histograms(tuple(index), tuple(edges), tuple(counts))
 
 
 def to_pandas(result):
@@ -204,14 +297,18 @@ def _check_fields(ds, where: str) -> Dict[str, Any]:
         stored = np.asarray(ds["time"].values)
         if stored.shape != scene.times.shape or not np.array_equal(stored, scene.times):
             raise _Invalid("time does not match the scene's output times")
+    peaks = "peaks" in scene.observe
     for prefix, n, needed in (("", slots, slots > 0),
-                              ("stop_", 1, "stop" in scene.observe)):
+                              ("stop_", 1, "stop" in scene.observe),
+                              ("peaks_", slots, peaks and slots > 0),
+                              ("stop_peaks_", 1, peaks and "stop" in scene.observe)):
         names = [prefix + k for k in ("counts", "means", "central")]
         if not needed:
             extra = [k for k in names if k in ds]
             if extra:
                 raise _Invalid(f"{extra[0]} is present, but the scene has no such slots")
-            out[prefix + "moments"] = _core.Moments(n) if prefix == "" else None
+            out[prefix + "moments"] = (_core.Moments(n) if prefix in ("", "peaks_") and
+                                       (prefix == "" or peaks) else None)
             continue
         arrays = {k: ds[prefix + k].values for k in ("counts", "means", "central")
                   if prefix + k in ds}
@@ -219,6 +316,7 @@ def _check_fields(ds, where: str) -> Dict[str, Any]:
                       method=out["method"], counted=" of the attribute paths")
         out[prefix + "moments"] = _core.Moments(n, arrays["counts"], arrays["means"],
                                                 arrays["central"])
+    out["histograms"] = _read_histograms(ds, scene, where, out["paths"])
     return out
 
 
@@ -257,4 +355,5 @@ def read(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
     return dict(scene=f["scene"], paths=f["paths"], seed=f["seed"], dt=f["dt"],
                 method=f["method"], moments=f["moments"], stop_moments=f["stop_moments"],
                 steps_per_path=f["steps_per_path"], min_steps=f["min_steps"],
-                random_stream=_core.RANDOM_STREAM)
+                random_stream=_core.RANDOM_STREAM, peaks=f["peaks_moments"],
+                stop_peaks=f["stop_peaks_moments"], histograms=f["histograms"])

@@ -24,6 +24,8 @@ import numpy as np
 
 from . import _core
 from ._version import __version__
+from .bins import check_histograms
+from .engine import Chunk
 from .spec import RunSpec
 from ._files import check_file_writable, check_folder_writable, check_moments, write_atomic
 
@@ -31,10 +33,17 @@ __all__ = ["identity", "load", "save", "stored_seed", "check_writable", "make_fo
 
 FORMAT = "crandall-checkpoint"
 # 2: the stop slot holds the time after the switch-off; the identity has the random stream.
-FORMAT_VERSION = 2
+# 3: the peaks' moments and the histograms' edges and counts, when the scene asks for them.
+FORMAT_VERSION = 3
 
 _ARRAYS = ("identity", "next_chunk", "times_counts", "times_means", "times_central",
            "stop_counts", "stop_means", "stop_central")
+_PEAK_ARRAYS = tuple(f"{p}_{k}" for p in ("peaks", "peaks_stop")
+                     for k in ("counts", "means", "central"))
+# Histograms: the recorded axes' indices, their edges end to end (edge_sizes says where one
+# ends), their counts end to end (each axis has len(edges) + 2).
+_HIST_ARRAYS = ("histogram_index", "histogram_edge_sizes", "histogram_edges",
+                "histogram_counts")
 
 
 def identity(spec, **fields) -> Dict[str, Any]:
@@ -162,7 +171,7 @@ def _read(path) -> Tuple[Dict[str, Any], Dict[str, np.ndarray]]:
     missing = [k for k in _ARRAYS if k not in arrays]
     if missing:
         raise _refuse(path, f"{', '.join(missing)} missing")
-    extra = sorted(set(arrays) - set(_ARRAYS))
+    extra = sorted(set(arrays) - set(_ARRAYS) - set(_PEAK_ARRAYS) - set(_HIST_ARRAYS))
     if extra:
         raise _refuse(path, f"unknown fields {', '.join(extra)}")
     raw = arrays.pop("identity")
@@ -183,15 +192,19 @@ def stored_seed(path) -> Optional[int]:
     return int(_read(path)[0]["seed"])
 
 
-def load(path, ident: Dict[str, Any], chunks: int):
-    """Resume point of a run: (next chunk, merged times accumulator, merged stop accumulator).
+def load(path, ident: Dict[str, Any], chunks: int, histograms=((), ())):
+    """Resume point of a run: (next chunk, merged accumulators as an ``engine.Chunk``).
 
-    Returns ``(0, None, None)`` if there is no file. Raises ValueError if the file belongs to
+    ``histograms``: the run's recorded axes, ``(indices, edges)``; a checkpoint whose edges
+    differ (bit for bit) is refused: counts on other bins cannot be merged.
+
+    Returns ``(0, None)`` if there is no file. Raises ValueError if the file belongs to
     another run (the message names what differs) or is not a valid checkpoint of it (the
-    message names the file and the field: identity, next_chunk, counts, means, central).
+    message names the file and the field: identity, next_chunk, counts, means, central,
+    the peaks' and the histograms' fields).
     """
     if not os.path.exists(path):
-        return 0, None, None
+        return 0, None
     stored, arrays = _read(path)
     # Round-trip through JSON so that both sides compare as stored (inf, floats, lists).
     expected = json.loads(json.dumps(ident))
@@ -220,26 +233,86 @@ def load(path, ident: Dict[str, Any], chunks: int):
     # Chunks hold CHUNK_PATHS paths each, the last one the rest.
     done_paths = min(done * _core.CHUNK_PATHS, paths)
     scene = ident["scene"]
-    slots = {"times_": len(scene.get("times", ())),
-             "stop_": 1 if "stop" in scene.get("observe", ()) else 0}
+    observe = scene.get("observe", ())
+    stop = "stop" in observe
+    peaks = "peaks" in observe
+    slots = {"times_": len(scene.get("times", ())), "stop_": 1 if stop else 0}
+    if peaks:
+        # The peaks' moments: the same layout; an unused third variable stays 0.
+        slots["peaks_"] = len(scene.get("times", ()))
+        if stop:
+            slots["peaks_stop_"] = 1
+    indices, edges = histograms
+    expected = set(_ARRAYS) | {p + k for p in slots for k in ("counts", "means", "central")}
+    if indices:
+        expected |= set(_HIST_ARRAYS)
     where = f"checkpoint: {os.fspath(path)} is not a crandall checkpoint of this run"
+    present = set(arrays) | {"identity"}
+    if present != expected:
+        odd = sorted((present - expected) | (expected - present))[0]
+        raise ValueError(f"{where}: {odd} is {'missing' if odd in expected else 'unexpected'} "
+                         "for this scene's observables and distributions")
     for prefix, n in slots.items():
         check_moments(where, prefix, {k: arrays[prefix + k] for k in ("counts", "means",
                                                                       "central")},
                       slots=n, paths=float(done_paths), method=str(ident["method"]),
                       counted=f" of the {done} finished chunks (next_chunk is {done})")
+    counts = None
+    if indices:
+        counts = _read_histograms(where, arrays, indices, edges, done_paths)
     if done == 0:
-        return 0, None, None
-    moments = [_core.Moments(n, arrays[p + "counts"], arrays[p + "means"], arrays[p + "central"])
-               for p, n in slots.items()]
-    return done, moments[0], moments[1]
+        return 0, None
+    moments = {p: _core.Moments(n, arrays[p + "counts"], arrays[p + "means"],
+                                arrays[p + "central"]) for p, n in slots.items()}
+    return done, Chunk(moments["times_"], moments["stop_"], moments.get("peaks_"),
+                       moments.get("peaks_stop_"), counts)
 
 
-def save(path, ident: Dict[str, Any], next_chunk: int, times_acc, stop_acc) -> None:
-    """Atomically replace the checkpoint with the merge of chunks 0..next_chunk-1."""
+def _read_histograms(where, arrays, indices, edges, paths):
+    index = arrays["histogram_index"]
+    sizes = arrays["histogram_edge_sizes"]
+    flat_edges = arrays["histogram_edges"]
+    flat_counts = arrays["histogram_counts"]
+    for name, a, kind in (("histogram_index", index, "iu"), ("histogram_edge_sizes", sizes, "iu"),
+                          ("histogram_edges", flat_edges, "f"),
+                          ("histogram_counts", flat_counts, "u")):
+        if a.ndim != 1 or a.dtype.kind not in kind:
+            raise ValueError(f"{where}: {name} must be a 1-D array of "
+                             f"{'unsigned integers' if kind == 'u' else 'numbers'}")
+    if sizes.size != index.size or (sizes < 2).any() \
+            or int(sizes.sum()) != flat_edges.size \
+            or int(sizes.sum()) + 2 * sizes.size != flat_counts.size:
+        raise ValueError(f"{where}: histogram_edge_sizes do not match histogram_edges and "
+                         "histogram_counts")
+    cuts = np.cumsum(sizes)[:-1]
+    stored_edges = np.split(flat_edges, cuts)
+    counts = tuple(np.array(c, dtype=np.uint64)
+                   for c in np.split(flat_counts, np.cumsum(sizes + 2)[:-1]))
+    check_histograms(where, index, stored_edges, counts, indices, paths=paths)
+    for i, (a, b) in enumerate(zip(stored_edges, edges)):
+        if a.shape != b.shape or not np.array_equal(a.view(np.uint64), np.asarray(b).view(np.uint64)):
+            raise ValueError(f"{where}: histogram_edges of axis {indices[i]} differ from this "
+                             "run's bins (written by another crandall or SciPy?); remove it to "
+                             "start again")
+    return counts
+
+
+def save(path, ident: Dict[str, Any], next_chunk: int, acc, histograms=((), ())) -> None:
+    """Atomically replace the checkpoint with the merge of chunks 0..next_chunk-1 (``acc``,
+    an ``engine.Chunk``), with the run's histogram axes ``(indices, edges)``."""
     arrays = {"identity": np.array(json.dumps(ident)), "next_chunk": np.array(next_chunk)}
-    for prefix, acc in (("times", times_acc), ("stop", stop_acc)):
-        arrays[prefix + "_counts"] = acc.counts
-        arrays[prefix + "_means"] = acc.means
-        arrays[prefix + "_central"] = acc.central
+    parts = [("times", acc.times), ("stop", acc.stop), ("peaks", acc.peaks),
+             ("peaks_stop", acc.peaks_stop)]
+    for prefix, moments in parts:
+        if moments is None:
+            continue
+        arrays[prefix + "_counts"] = moments.counts
+        arrays[prefix + "_means"] = moments.means
+        arrays[prefix + "_central"] = moments.central
+    indices, edges = histograms
+    if indices:
+        arrays["histogram_index"] = np.asarray(indices, dtype=np.int64)
+        arrays["histogram_edge_sizes"] = np.array([len(e) for e in edges], dtype=np.int64)
+        arrays["histogram_edges"] = np.concatenate(edges).astype(np.float64)
+        arrays["histogram_counts"] = np.concatenate(acc.counts).astype(np.uint64)
     write_atomic(path, lambda f: np.savez(f, **arrays))

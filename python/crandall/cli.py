@@ -38,7 +38,10 @@ MANIFEST = ".crandall-files.json"
 # Names crandall writes into an output folder: a folder holding any of them (without a
 # manifest, e.g. a run that was killed while writing) holds another run's files.
 _OUTPUT_NAMES = (("result.nc", "result.csv") + tuple(c.figure + ".png" for c in paper.CURVES)
-                 + ("velocity_density.png", "stop_time_density.png", MANIFEST))
+                 + ("velocity_density.png", "stop_time_density.png", MANIFEST)
+                 + tuple(f"{n}_distribution.png" for n in plots.STOP_DISTRIBUTIONS[1:]))
+#: The probabilities whose quantiles ``crandall run`` prints for the stop quantities.
+QUANTILES = (0.5, 0.9, 0.99, 0.999)
 
 
 def _positive_int(text: str) -> int:
@@ -266,6 +269,10 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     if is_paper:
         print()
         print(paper.comparison(result))
+    table = quantile_table(result)
+    if table:
+        print()
+        print(table)
     print(f"\n{result.paths:,} paths x {result.steps_per_path} steps in {elapsed:.1f} s "
           f"(seed {result.seed})")
     if files:
@@ -325,6 +332,32 @@ def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, thre
             print(f"wrote {len(written)} files to {out}{os.sep}: "
                   + ", ".join(os.path.basename(p) for p in written))
     return 0
+
+
+def quantile_table(result, names=plots.STOP_DISTRIBUTIONS, probabilities=QUANTILES) -> str:
+    """The quantiles of the stop quantities the run holds distributions of, with 95 %
+    intervals ("" if none): what ``crandall run`` prints."""
+    names = [n for n in names if n in result.distributions]
+    if not names:
+        return ""
+    sc = result.scene
+    head = f"  {'quantity':<28}" + "".join(f"{f'{100 * p:g} %':>28} " for p in probabilities)
+    lines = ["Quantiles at the stop, from the run's histograms (value [95 % interval]; the "
+             "interval is distribution-free and includes the bins' width):", head]
+    limited = False
+    for n in names:
+        unit = sc.units_of(n)
+        row = f"  {n + (f' [{unit}]' if unit else ''):<28}"
+        for p in probabilities:
+            e = result.quantile(n, p)
+            mark = "*" if e.bin_limited else " "
+            limited |= e.bin_limited
+            row += f"{f'{e.value:.4g} [{e.low:.4g}, {e.high:.4g}]{mark}':>29}"
+        lines.append(row)
+    if limited:
+        lines.append("  * the bins account for at least half of this interval: finer bins "
+                     "(Scene(bins=...)) would narrow it")
+    return "\n".join(lines)
 
 
 def _analytic_table(scene: Scene) -> str:

@@ -33,11 +33,26 @@ class Estimate(NamedTuple):
         histogram's edges, in the underflow or the overflow).
     low, high : float
         The confidence interval; may be infinite where the histogram's range limits it.
+    resolution : float
+        The most by which the bins can have widened the interval: for a quantile, the widths
+        of the two bins that hold the bracketing order statistics (infinite for a flow cell);
+        for an exceedance, the fraction of values in the bin that holds the level (the count
+        it leaves undecided). Where it is a large part of ``high - low`` the bins, not the
+        number of values, limit the interval: finer bins would narrow it.
     """
 
     value: float
     low: float
     high: float
+    resolution: float = math.nan
+
+    @property
+    def bin_limited(self) -> bool:
+        """Whether the bins account for at least half the interval's width (finer bins would
+        narrow it noticeably; more values would not, by much)."""
+        width = self.high - self.low
+        return bool(self.resolution >= 0.5 * width) if math.isfinite(width) else bool(
+            math.isinf(self.resolution))
 
 
 def _count(value, name: str) -> int:
@@ -176,6 +191,8 @@ def quantile(edges, counts, under, over, q, confidence=0.95) -> Estimate:
         or ``+inf`` when it lies in the underflow or the overflow, where the bins cannot place
         it. ``q = 0`` gives the lower edge of the lowest non-empty bin, ``q = 1`` the upper
         edge of the highest.
+        ``resolution``: the widths of the two bins that widened the interval (see
+        :class:`Estimate`).
         ``low``, ``high``: a distribution-free interval for the population quantile
         ``inf{x : P(X <= x) >= q}``: the order statistics ``X_(l) <= X_(u)`` chosen from the
         binomial law of the number of values below the quantile (equal tails, each at most
@@ -219,9 +236,17 @@ def quantile(edges, counts, under, over, q, confidence=0.95) -> Estimate:
             frac = min(max((r - before) / float(cells[i]), 0.0), 1.0)
             value = min(max(lower[i] + frac * (upper[i] - lower[i]), lower[i]), upper[i])
     lo_rank, hi_rank = _order_statistic_ranks(n, q, alpha)
-    low = -math.inf if lo_rank == 0 else float(lower[cell_of_rank(lo_rank)])
-    high = math.inf if hi_rank == n + 1 else float(upper[cell_of_rank(hi_rank)])
-    return Estimate(float(value), low, high)
+    resolution = 0.0
+    low, high = -math.inf, math.inf
+    if lo_rank != 0:
+        c = cell_of_rank(lo_rank)
+        low = float(lower[c])
+        resolution += float(upper[c] - lower[c])
+    if hi_rank != n + 1:
+        c = cell_of_rank(hi_rank)
+        high = float(upper[c])
+        resolution += float(upper[c] - lower[c])
+    return Estimate(float(value), low, high, resolution)
 
 
 def _clopper_pearson(k_low: int, k_high: int, n: int, alpha: float):
@@ -257,6 +282,7 @@ def exceedance(edges, counts, under, over, level, confidence=0.95) -> Estimate:
         ``level`` in proportion to the part of it above ``level`` (bins taken as uniformly
         filled). If ``level`` lies in the underflow or the overflow, which have no width to
         interpolate in, that cell counts half.
+        ``resolution``: the fraction of values in the level's cell (see :class:`Estimate`).
         ``low``, ``high``: the number K of values above ``level`` is only known to lie between
         K_min (the cells wholly above the level) and K_max (those plus the cell holding it:
         a level on an edge ``edges[j]`` still leaves bin j's values equal to it undecided);
@@ -279,7 +305,7 @@ def exceedance(edges, counts, under, over, level, confidence=0.95) -> Estimate:
     alpha = 1.0 - _confidence(confidence)
     if level == math.inf:
         low, high = _clopper_pearson(0, 0, n, alpha)
-        return Estimate(0.0, low, high)
+        return Estimate(0.0, low, high, 0.0)
     # The cell holding the level: the number of edges <= level (0 underflow, len(e) overflow).
     i = int(np.searchsorted(e, level, side="right"))
     above = int(cells[i + 1:].sum())
@@ -291,7 +317,7 @@ def exceedance(edges, counts, under, over, level, confidence=0.95) -> Estimate:
         frac = 0.5
     value = (above + frac * inside) / n
     low, high = _clopper_pearson(above, above + inside, n, alpha)
-    return Estimate(min(max(value, 0.0), 1.0), low, high)
+    return Estimate(float(min(max(value, 0.0), 1.0)), low, high, inside / n)
 
 
 def to_boost_histogram(edges, counts, under, over):

@@ -9,17 +9,19 @@ chunk order. This is the only module besides persistence (``crandall.io``,
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from typing import Any, Dict, List, Optional, Tuple, Union
+from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _core
+from .bins import REACH, VARIABLE_COUNT, Axis, axes as _scene_axes
 from .quantities import core_flags
 from .spec import RunSpec
 
-__all__ = ["make_plan", "run_chunk", "run_chunks", "velocity_samples", "RANDOM_STREAM",
-           "CHUNK_PATHS"]
+__all__ = ["make_plan", "run_chunk", "run_chunks", "velocity_samples", "histogram_axes",
+           "axis_edges", "plain_axes", "Chunk", "RANDOM_STREAM", "CHUNK_PATHS"]
 
 #: Version of the random stream this build draws (docs/random-numbers.md).
 RANDOM_STREAM: int = int(_core.RANDOM_STREAM)
@@ -27,8 +29,57 @@ RANDOM_STREAM: int = int(_core.RANDOM_STREAM)
 CHUNK_PATHS: int = int(_core.CHUNK_PATHS)
 
 
-def make_plan(spec: RunSpec) -> "_core.Plan":
-    """The core's validated plan of a run: its time grid and its partition into chunks."""
+class Chunk(NamedTuple):
+    """One chunk's accumulators (picklable: what a Dask task sends back).
+
+    ``times`` and ``stop`` are the moments of (U1, U2, U3) per output time and at the stop;
+    ``peaks`` and ``peaks_stop`` those of the running maxima (None unless the scene observes
+    "peaks"); ``counts`` the histograms' counts, one uint64 array per recorded axis in the
+    order of :func:`histogram_axes` (None without distributions).
+    """
+
+    times: Any
+    stop: Any
+    peaks: Any = None
+    peaks_stop: Any = None
+    counts: Optional[Tuple[np.ndarray, ...]] = None
+
+
+def histogram_axes(spec: Union[RunSpec, Any], axes: Optional[Sequence] = None) -> List[Axis]:
+    """The recorded histogram axes of a run (``crandall.bins.axes`` of its scene), or
+    ``axes`` as given: a list of :class:`~crandall.bins.Axis` or of their plain dicts (a Dask
+    task gets the client's, so that every worker bins with the client's bits whatever its
+    SciPy computes for the scales)."""
+    if axes is None:
+        scene = spec.scene if isinstance(spec, RunSpec) else spec
+        return _scene_axes(scene)
+    out = []
+    for a in axes:
+        if isinstance(a, dict):
+            a = dict(a)
+            if a.get("edges") is not None:
+                a["edges"] = tuple(float(x) for x in a["edges"])
+            a = Axis(**a)
+        out.append(a)
+    return out
+
+
+def _bin_edges(axis: Axis) -> "_core.BinEdges":
+    if axis.edges is not None:
+        return _core.BinEdges.from_edges(np.asarray(axis.edges, dtype=np.float64))
+    return _core.BinEdges.log_linear(axis.scale, axis.per_octave, REACH, axis.symmetric)
+
+
+def axis_edges(axes: Sequence[Axis]) -> List[np.ndarray]:
+    """The edges (float64) the core bins with on each axis."""
+    return [np.asarray(_bin_edges(a).edges, dtype=np.float64) for a in axes]
+
+
+def make_plan(spec: RunSpec, axes: Optional[Sequence[Axis]] = None) -> "_core.Plan":
+    """The core's validated plan of a run: its time grid and its partition into chunks.
+
+    ``axes``: the histogram axes (default: :func:`histogram_axes` of the spec).
+    """
     scene = spec.scene
     o = _core.Options()
     o.drift = scene.drift
@@ -40,26 +91,55 @@ def make_plan(spec: RunSpec) -> "_core.Plan":
     o.method = spec.method
     for flag, on in core_flags(scene.observe).items():
         setattr(o, flag, on)
+    recorded = histogram_axes(spec, axes)
+    if recorded:
+        # Only a scene that asks sets the option: one that does not runs as before.
+        slots = scene.times.size + (1 if "stop" in scene.observe else 0)
+        full = [_core.BinEdges() for _ in range(slots * VARIABLE_COUNT)]
+        for a in recorded:
+            full[a.index] = _bin_edges(a)
+        o.histogram_axes = full
     o.seed = spec.seed
     o.paths = spec.paths
     return _core.Plan(o)
 
 
-def run_chunk(plan: "_core.Plan", chunk: int, threads: int) -> Tuple[Any, Any]:
-    """Chunk ``chunk`` of a plan: its ``(times, stop)`` accumulators."""
+def _recorded_indices(plan: "_core.Plan") -> List[int]:
+    axes = getattr(plan.options, "histogram_axes", None) or []
+    return [i for i, a in enumerate(axes) if a.bins > 0]
+
+
+def run_chunk(plan: "_core.Plan", chunk: int, threads: int,
+              recorded: Optional[Sequence[int]] = None) -> Chunk:
+    """Chunk ``chunk`` of a plan: its accumulators (a :class:`Chunk`; ``chunk[:2]`` is the
+    ``(times, stop)`` moments). ``recorded``: the indices of the recorded histogram axes
+    (default: worked out from the plan)."""
     part = _core.run_chunk(plan, chunk, threads)
-    return part.times, part.stop
+    options = plan.options
+    peaks = peaks_stop = counts = None
+    if getattr(options, "peaks", False):
+        peaks = part.peaks
+        peaks_stop = part.peaks_stop if options.stop else None
+    if recorded is None:
+        recorded = _recorded_indices(plan)
+    if recorded:
+        every = part.histogram_counts
+        counts = tuple(np.array(every[i], dtype=np.uint64) for i in recorded)
+    return Chunk(part.times, part.stop, peaks, peaks_stop, counts)
 
 
 def run_chunks(spec: Union[RunSpec, Dict[str, Any]], first: int, last: int, threads: int,
-               random_stream: Optional[int] = None) -> List[Tuple[Any, Any]]:
-    """Chunks ``first..last-1`` of a run, as a list of ``(times, stop)`` accumulators.
+               random_stream: Optional[int] = None,
+               axes: Optional[Sequence[Any]] = None) -> List[Chunk]:
+    """Chunks ``first..last-1`` of a run, as a list of :class:`Chunk` accumulators (each
+    starts with the ``(times, stop)`` moments).
 
     The task a Dask worker runs: plain data in (a spec or its ``to_dict()``), picklable
     accumulators out. The caller merges the lists of all tasks in chunk order, which makes the
     result bitwise that of a local run. ``random_stream``: the caller's random-stream version;
     a worker whose crandall draws another stream refuses the task, so that a cluster never
-    mixes two streams' numbers.
+    mixes two streams' numbers. ``axes``: the caller's histogram axes (plain dicts of
+    :class:`~crandall.bins.Axis`), so that every worker bins on the caller's edges.
     """
     if random_stream is not None and random_stream != RANDOM_STREAM:
         raise ValueError(
@@ -68,8 +148,14 @@ def run_chunks(spec: Union[RunSpec, Dict[str, Any]], first: int, last: int, thre
             "every worker")
     if not isinstance(spec, RunSpec):
         spec = RunSpec.from_dict(spec)
-    plan = make_plan(spec)
-    return [run_chunk(plan, chunk, threads) for chunk in range(first, last)]
+    plan = make_plan(spec, histogram_axes(spec, axes))
+    recorded = _recorded_indices(plan)
+    return [run_chunk(plan, chunk, threads, recorded) for chunk in range(first, last)]
+
+
+def plain_axes(axes: Sequence[Axis]) -> List[Dict[str, Any]]:
+    """Axes as plain data (a Dask task's argument; :func:`histogram_axes` reads it back)."""
+    return [dataclasses.asdict(a) for a in axes]
 
 
 def velocity_samples(tau: float, paths: int, seed: int) -> np.ndarray:

@@ -15,10 +15,12 @@ import os
 from typing import Dict, List, Optional, Sequence
 
 import numpy as np
+from scipy.stats import beta
 
 from . import analytic
 from .engine import velocity_samples
 from .paper import CURVES, Curve, curve, scaled_factors
+from .quantities import quantity
 from .results import Result
 from .spec import MAX_SEED, check_int
 
@@ -29,6 +31,8 @@ __all__ = [
     "distance_var",
     "velocity_density",
     "stop_time_density",
+    "distribution",
+    "STOP_DISTRIBUTIONS",
     "figures",
     "write_figures",
 ]
@@ -254,12 +258,142 @@ def stop_time_density(tau0: float = 5.0, *, paths: int = 200_000, seed: int = 0)
     return fig
 
 
+#: The stop quantities whose distributions ``crandall run`` draws (and prints the quantiles
+#: of) when the run holds them: the file stem of each figure is ``NAME_distribution``.
+STOP_DISTRIBUTIONS = ("stop_time", "displacement_at_stop", "distance_at_stop",
+                      "dissipated_energy_at_stop")
+
+
+def _binned(result: Result, name: str, time):
+    """Edges, counts per bin, flows and total of the run's histogram of ``name``."""
+    h = result.histogram(name, time)
+    edges = np.asarray(h.axes[0].edges, dtype=float)
+    cells = np.asarray(h.view(flow=True), dtype=float)
+    return edges, cells[1:-1], cells[0], cells[-1], float(cells.sum())
+
+
+def _shown_range(counts):
+    """The bins from the first to the last non-empty one (the automatic edges reach 50
+    scales; the figure shows where the paths are)."""
+    filled = np.flatnonzero(counts)
+    if not filled.size:
+        return 0, len(counts)
+    return int(filled[0]), int(filled[-1]) + 1
+
+
+def _analytic_law(result: Result, name: str, time):
+    """(pdf(x), sf(x)) of ``name`` in the result's units where the analytic layer has the
+    law (the velocity while the noise is on, the stop time), else None."""
+    sc = result.scene
+    if sc.units == "SI" and sc.scaling is None:
+        return None
+    s = None if sc.units == "scaled" else sc.scaling
+    tau0 = sc.t0 if s is None else s.to_tau(sc.t0)
+    if name == "velocity" and time is not None:
+        tau = time if s is None else s.to_tau(time)
+        if not (0 < tau <= tau0):
+            return None
+        vs = 1.0 if s is None else s.velocity_scale
+        return (lambda x: analytic.velocity_pdf(x / vs, tau) / vs,
+                lambda x: analytic.velocity_sf(x / vs, tau))
+    if name == "stop_time" and math.isfinite(tau0) and tau0 > 0:
+        ts = 1.0 if s is None else s.time_scale
+        return (lambda x: analytic.stop_time_pdf(x / ts, tau0) / ts,
+                lambda x: analytic.stop_time_sf(x / ts, tau0))
+    return None
+
+
+def distribution(result: Result, name: str, times: Optional[Sequence[float]] = None):
+    """The density and the exceedance curve of a quantity, from the run's own histograms.
+
+    Left: the density (counts per bin over paths times the bin's width), with the analytic
+    density where the analytic layer has it (the velocity while the noise is on, the stop
+    time). Right: P(quantity > x) on a log scale down to the last counted path, with the
+    95 % Clopper-Pearson band of each edge's count (``Result.exceedance`` at the edges).
+
+    Parameters
+    ----------
+    result : Result
+        A run whose scene asked for the distribution of ``name``.
+    name : str
+        A quantity in ``result.distributions``.
+    times : sequence of float, optional
+        For a quantity over time, up to 3 output times (default: up to 3 of them); none for a
+        stop quantity.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if not isinstance(result, Result):
+        raise ValueError(f"result must be a crandall.Result, got {type(result).__name__}")
+    q = quantity(name) if name in result.names else None
+    if q is None or name not in result.distributions:
+        raise ValueError(f"name: the result holds no distribution of {name!r}")
+    if q.at_stop:
+        if times is not None:
+            raise ValueError(f"times: {name} is at the stop; give no times")
+        slots = [None]
+    else:
+        slots = list(result.times if times is None else times)
+        if len(slots) > 3:
+            slots = [slots[0], slots[len(slots) // 2], slots[-1]]
+    fig = _figure(width=10.0, height=4.0)
+    dens, tail = fig.subplots(1, 2)
+    unit = result.scene.units_of(name)
+    label = q.long_name_in(result.scene.units) + (f" [{unit}]" if unit else "")
+    for i, t in enumerate(slots):
+        edges, counts, under, _, n = _binned(result, name, t)
+        lo, hi = _shown_range(counts)
+        e = edges[lo:hi + 1]
+        width = np.diff(e)
+        colour = f"C{i + 1}"
+        tag = "" if t is None else f"{result.scene.time_name} = {t:g}"
+        dens.stairs(counts[lo:hi] / (n * width), e, color=colour, lw=1.2,
+                    label=(tag + ", " if tag else "") + f"run ({int(n):,} paths)")
+        above = n - under - np.cumsum(np.concatenate(([0.0], counts)))
+        keep = above[lo:hi + 1] > 0
+        p_edge = above[lo:hi + 1][keep] / n
+        tail.step(e[keep], p_edge, where="post", color=colour, lw=1.2,
+                  label=(tag + ", " if tag else "") + "run")
+        # 95 % Clopper-Pearson band of P(X >= edge) from the counts alone.
+        k = above[lo:hi + 1][keep]
+        low = np.where(k > 0, beta.ppf(0.025, k, n - k + 1), 0.0)
+        high = np.where(k < n, beta.ppf(0.975, k + 1, n - k), 1.0)
+        tail.fill_between(e[keep], low, high, step="post", color=colour, alpha=0.2, lw=0)
+        law = _analytic_law(result, name, t)
+        if law is not None:
+            grid = np.linspace(e[0], e[-1], 600)
+            pdf, sf = law
+            dens.plot(grid, pdf(grid), color="k", lw=0.9, ls="--",
+                      label="analytic" if i == 0 else None)
+            with np.errstate(divide="ignore"):
+                tail.plot(grid, sf(grid), color="k", lw=0.9, ls="--",
+                          label="analytic" if i == 0 else None)
+    dens.set_xlabel(label)
+    dens.set_ylabel("density")
+    tail.set_xlabel(label)
+    tail.set_ylabel("P(value > x)")
+    tail.set_yscale("log")
+    for ax in (dens, tail):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
+    where = "" if name == "stop_time" else " at the stop" if q.at_stop else " over time"
+    fig.suptitle(f"{q.long_name}{where}: density and exceedance from the run's histograms",
+                 fontsize=10)
+    return fig
+
+
 def figures(result: Result, *, paths: int = 200_000) -> Dict[str, object]:
     """Every figure that suits a result, by file stem.
 
     Figures 2-5 for the observed quantities; the velocity density at up to three of the
     scene's output times while the noise is on (or 0.25, 1, 5 if none); the stop-time density
-    when the scene stops. Densities use ``paths`` samples seeded by the result's seed.
+    when the scene stops. When the run holds the distributions (``Scene(distributions=...)``)
+    the densities are its own histograms, with their exceedance curves (:func:`distribution`),
+    and so are those of the stop quantities of ``STOP_DISTRIBUTIONS`` it holds
+    (``NAME_distribution``); otherwise the densities use ``paths`` samples of a separate
+    sampler seeded by the result's seed.
 
     Parameters
     ----------
@@ -272,7 +406,8 @@ def figures(result: Result, *, paths: int = 200_000) -> Dict[str, object]:
     -------
     dict of str to matplotlib.figure.Figure
         Keys among ``fig2_distance_mean``, ``fig3_velocity_var``, ``fig4_displacement_var``,
-        ``fig5_distance_var``, ``velocity_density``, ``stop_time_density``.
+        ``fig5_distance_var``, ``velocity_density``, ``stop_time_density``, and
+        ``NAME_distribution`` for the stop quantities.
     """
     tau, tau0, *_ = scaled_factors(result)  # raises ValueError for scenes without scaled units
     names = result.names
@@ -284,9 +419,22 @@ def figures(result: Result, *, paths: int = 200_000) -> Dict[str, object]:
         # first and is nearly stationary after tau ~ 2.
         mid = min(on[1:-1], key=lambda t: abs(math.log(t / math.sqrt(on[0] * on[-1]))))
         on = [on[0], mid, on[-1]]
-    out["velocity_density"] = velocity_density(on or (0.25, 1.0, 5.0), paths=paths, seed=seed)
+    held = result.distributions
+    if "velocity" in held and on:
+        # The run's own histograms at those times (the scene's times, in its units).
+        shown = [float(t) for t, s in zip(result.times, np.atleast_1d(tau)) if float(s) in on]
+        out["velocity_density"] = distribution(result, "velocity", shown)
+    else:
+        out["velocity_density"] = velocity_density(on or (0.25, 1.0, 5.0), paths=paths,
+                                                   seed=seed)
     if "stop" in result.scene.observe and tau0 > 0:
-        out["stop_time_density"] = stop_time_density(tau0, paths=paths, seed=seed)
+        if "stop_time" in held:
+            out["stop_time_density"] = distribution(result, "stop_time")
+        else:
+            out["stop_time_density"] = stop_time_density(tau0, paths=paths, seed=seed)
+    for name in STOP_DISTRIBUTIONS[1:]:
+        if name in held:
+            out[f"{name}_distribution"] = distribution(result, name)
     return out
 
 

@@ -11,14 +11,23 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Callable, Dict, Iterable, Optional, Tuple
 
-__all__ = ["Quantity", "QUANTITIES", "OBSERVABLES", "STOP_QUANTITIES", "VARIABLES", "quantity",
-           "find", "names_for", "core_flags", "simulated_variables"]
+__all__ = ["Quantity", "QUANTITIES", "OBSERVABLES", "DEFAULT_OBSERVE", "STOP_QUANTITIES",
+           "VARIABLES", "HISTOGRAM_VARIABLES", "quantity", "find", "names_for", "core_flags",
+           "simulated_variables"]
 
 #: The core's simulated variables, in the order of its accumulators (paper eq3: U1, U2, U3).
 VARIABLES = ("velocity", "displacement", "distance")
 VELOCITY, DISPLACEMENT, DISTANCE = 0, 1, 2
 #: The observable that asks the core for the stop (the stop time and the values there).
 STOP = "stop"
+#: The observable that asks the core for the running maxima of |U1| and |U2| (the peaks).
+PEAKS = "peaks"
+#: What the core bins per slot, in the order of its histogram axes (``slot * 5 + index``):
+#: over time U1, U2, U3, max |U1| and max |U2| up to the output time; in the stop slot the
+#: time from the switch-off to the stop, U2 and U3 there, and the peaks over the whole path.
+HISTOGRAM_VARIABLES = ("velocity", "displacement", "distance", "peak_speed",
+                       "peak_displacement")
+PEAK_SPEED, PEAK_DISPLACEMENT = 3, 4
 
 
 def _one(scene: Any) -> float:
@@ -58,6 +67,9 @@ class Quantity:
     offset : callable or None
         ``offset(scene)`` added to the mean: the core keeps the stop time from the switch-off,
         the result reports it from the start (exact at any t0).
+    peak : bool
+        A running maximum (of |U1| or |U2|): its moments are in the core's peaks accumulator
+        (``variable`` 0 for the speed, 1 for |U2|), not in the moments of (U1, U2, U3).
     """
 
     name: str
@@ -72,6 +84,13 @@ class Quantity:
     twin: Optional[str] = None
     kind: Optional[str] = None
     offset: Optional[Callable[[Any], float]] = None
+    peak: bool = False
+
+    @property
+    def histogram_variable(self) -> int:
+        """The index of its core variable among ``HISTOGRAM_VARIABLES`` (its histogram axis
+        is ``slot * 5 + histogram_variable``)."""
+        return self.variable + (PEAK_SPEED if self.peak else 0)
 
     def long_name_in(self, units: str) -> str:
         """The long name in a scene of ``units`` ("SI" or "scaled")."""
@@ -106,13 +125,23 @@ _OVER_TIME = (
     Quantity("dissipated_energy", DISTANCE, "J", "energy dissipated by friction",
              ("dissipated_energy",), factor=_energy_dissipated,
              twin="dissipated_energy_at_stop"),
+    # The running maxima up to each output time (the design values of base isolation):
+    # max |U1| and max |U2| over the grid points of [0, t]. They are maxima over a grid of a
+    # continuous path, so they fall short of the path's maxima: the peak speed by about 0.09
+    # scaled units at the default step, falling like sqrt(dt) (docs/distributions.md, "Peaks
+    # and their discretisation error", measured by bench/peaks.py).
+    Quantity("peak_speed", 0, "m/s", "peak speed (largest |velocity| so far)", (PEAKS,),
+             symbol="max|U1|", twin="peak_speed_at_stop", kind="velocity", peak=True),
+    Quantity("peak_displacement", 1, "m", "peak displacement (largest |displacement| so far)",
+             (PEAKS, "displacement"), symbol="max|U2|", twin="peak_displacement_at_stop",
+             kind="length", peak=True),
 )
 
 
 def _at_stop(q: Quantity) -> Quantity:
     return Quantity(q.twin, q.variable, q.si_unit, q.long_name, (STOP,) + q.needs,
                     factor=q.factor, power=q.power, symbol=q.symbol, at_stop=True, twin=q.name,
-                    kind=q.kind)
+                    kind=q.kind, peak=q.peak)
 
 
 def _stop_time_offset(scene) -> float:
@@ -125,9 +154,14 @@ QUANTITIES: Tuple[Quantity, ...] = _OVER_TIME + (
              offset=_stop_time_offset),
 ) + tuple(_at_stop(q) for q in _OVER_TIME if q.twin is not None)
 
-#: Everything a scene can observe: each time-resolved quantity, and "stop" (the stop time;
-#: with displacement, distance or dissipated energy also observed, their values at the stop).
-OBSERVABLES: Tuple[str, ...] = tuple(q.name for q in _OVER_TIME) + (STOP,)
+#: Everything a scene can observe: each time-resolved quantity but the peaks, "stop" (the
+#: stop time; with displacement, distance or dissipated energy also observed, their values at
+#: the stop) and "peaks" (the peak speed, and with the displacement the peak displacement, up
+#: to every output time and over the whole path).
+OBSERVABLES: Tuple[str, ...] = tuple(q.name for q in _OVER_TIME if not q.peak) + (STOP, PEAKS)
+#: What a scene observes by default: everything but the peaks (they cost a little in the
+#: kernel; a scene asks for them).
+DEFAULT_OBSERVE: Tuple[str, ...] = tuple(n for n in OBSERVABLES if n != PEAKS)
 
 #: Scalar quantities at the stop, and the observable each needs besides "stop".
 STOP_QUANTITIES: Dict[str, Optional[str]] = {
@@ -159,18 +193,23 @@ def simulated_variables(observe: Iterable[str], *, at_stop: bool) -> Tuple[int, 
     """The core variables that carry the observed quantities over time or at the stop."""
     held = names_for(observe)
     return tuple(sorted({q.variable for q in QUANTITIES
-                         if q.at_stop == at_stop and q.name in held}))
+                         if q.at_stop == at_stop and q.name in held and not q.peak}))
 
 
 def core_flags(observe: Iterable[str]) -> Dict[str, bool]:
-    """The core's ``Options`` flags (velocity, displacement, distance, stop) for ``observe``.
+    """The core's ``Options`` flags (velocity, displacement, distance, stop, and peaks when
+    observed) for ``observe``.
 
     The core always simulates the velocity; it records it when a quantity over time needs it,
-    or when nothing else is recorded (a scene observing only "stop").
+    or when nothing else is recorded (a scene observing only "stop" or "peaks"). The "peaks"
+    flag is present only when the peaks are observed, so that a scene without them sets no
+    option a core without peaks lacks.
     """
     variables = simulated_variables(observe, at_stop=False)
     integrals = [v for v in variables if v != VELOCITY]
     flags = {name: i in variables for i, name in enumerate(VARIABLES)}
     flags["velocity"] = VELOCITY in variables or not integrals
     flags[STOP] = STOP in set(observe)
+    if PEAKS in set(observe):
+        flags[PEAKS] = True
     return flags

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import math
+import numbers
 import warnings
 from typing import NamedTuple, Optional
 
 import numpy as np
 
-from . import _core, _dataset
+from . import _core, _dataset, distributions
+from .bins import Histograms
 from .quantities import core_flags, find, names_for, quantity
 from .scene import Scene
 from .spec import RunSpec
@@ -47,6 +49,32 @@ def _e(v: int, power: int) -> int:
     return _INDEX[tuple(exps)]
 
 
+def _times_text(times) -> str:
+    shown = ", ".join(f"{t:g}" for t in times[:8])
+    return shown + (f", ... ({len(times)} times)" if len(times) > 8 else "")
+
+
+def _fold(edges: np.ndarray, cells: np.ndarray):
+    """A symmetric axis folded at 0: the histogram of |x| (edges >= 0; cells [under = 0,
+    bins..., over, NaN]). Bin [a, b) of x goes to the bin of |x| starting at a (a >= 0), at
+    -b (b <= 0), or at 0 (a < 0 < b); both flows go to the overflow."""
+    if not np.array_equal(edges, -edges[::-1]):
+        raise ValueError("name: the velocity's bins are not symmetric about 0, so the kinetic "
+                         "energy's distribution cannot be folded from them")
+    pos = edges[edges >= 0]
+    if pos[0] != 0.0:
+        pos = np.concatenate(([0.0], pos))
+    n = edges.size - 1
+    a, b = edges[:-1], edges[1:]
+    start = np.where(a >= 0, a, np.where(b <= 0, -b, 0.0))
+    target = np.searchsorted(pos, start, side="left")
+    folded = np.zeros(pos.size + 2, dtype=np.uint64)
+    np.add.at(folded, 1 + target, np.asarray(cells[1:n + 1], dtype=np.uint64))
+    folded[-2] = np.uint64(cells[0]) + np.uint64(cells[n + 1])
+    folded[-1] = cells[n + 2]
+    return pos, folded
+
+
 class Accumulators(NamedTuple):
     """The merged accumulators a result's statistics come from (``Result.accumulators``).
 
@@ -61,15 +89,32 @@ class Accumulators(NamedTuple):
     #: One slot: the stop (time after the switch-off, and the integrals there); None when the
     #: scene does not observe "stop".
     stop: Optional[object]
+    #: The peaks (max |U1|, max |U2|, 0) per output time; None unless the scene observes
+    #: "peaks".
+    peaks: Optional[object] = None
+    #: The peaks over the whole path (one slot); None unless the scene observes "peaks" and
+    #: "stop".
+    stop_peaks: Optional[object] = None
+    #: The histograms (``crandall.bins.Histograms``: axis indices, edges, uint64 counts);
+    #: None unless the scene asks for distributions.
+    histograms: Optional[Histograms] = None
 
 
 class Result:
     """Statistics of a simulated scene, in the scene's units.
 
     Time-resolved quantities ("velocity", "displacement", "distance", "kinetic_energy",
-    "dissipated_energy") give arrays over :attr:`times`; stop quantities ("stop_time",
-    "displacement_at_stop", "distance_at_stop", "dissipated_energy_at_stop") give floats.
-    Variances are the unbiased sample variances; ``stderr`` is the standard error of the mean.
+    "dissipated_energy", and with "peaks" observed "peak_speed", "peak_displacement") give
+    arrays over :attr:`times`; stop quantities ("stop_time", "displacement_at_stop",
+    "distance_at_stop", "dissipated_energy_at_stop", "peak_speed_at_stop",
+    "peak_displacement_at_stop") give floats. Variances are the unbiased sample variances;
+    ``stderr`` is the standard error of the mean. The peaks are maxima over the grid points:
+    the peak speed falls short of the path's by about 0.09 scaled units at the default step
+    (docs/distributions.md).
+
+    When the scene asked for distributions (``Scene(distributions=...)``),
+    :meth:`quantile`, :meth:`exceedance` and :meth:`histogram` answer from the run's own
+    histograms, with confidence intervals.
 
     With few paths:
 
@@ -92,7 +137,8 @@ class Result:
 
     def __init__(self, *, scene: Scene, paths: int, seed: int, dt: float, method: str,
                  moments, stop_moments, steps_per_path: int, min_steps: int = 0,
-                 random_stream: Optional[int] = None) -> None:
+                 random_stream: Optional[int] = None, peaks=None, stop_peaks=None,
+                 histograms: Optional[Histograms] = None) -> None:
         self.scene = scene
         self.paths = int(paths)
         self.seed = int(seed)
@@ -105,6 +151,9 @@ class Result:
         self.steps_per_path = int(steps_per_path)
         self._moments = moments
         self._stop = stop_moments
+        self._peaks = peaks
+        self._stop_peaks = stop_peaks
+        self._histograms = histograms
         self._warned: set = set()
         self._raw = moments.raw() if moments.slots else np.zeros((0, len(_EXPONENTS)))
         self._stop_raw = stop_moments.raw() if stop_moments is not None else None
@@ -119,7 +168,8 @@ class Result:
     @property
     def accumulators(self) -> Accumulators:
         """The raw accumulators of the run (see :class:`Accumulators`)."""
-        return Accumulators(self._moments, self._stop)
+        return Accumulators(self._moments, self._stop, self._peaks, self._stop_peaks,
+                            self._histograms)
 
     @property
     def times(self) -> np.ndarray:
@@ -139,6 +189,11 @@ class Result:
                 f"name: {name!r} is not in this result; it holds {', '.join(self.names)}"
             )
         q = quantity(name)
+        if q.peak:
+            # Power 1: the raw moments are never needed.
+            if q.at_stop:
+                return self._stop_peaks, None, q.variable, True
+            return self._peaks, None, q.variable, False
         if q.at_stop:
             return self._stop, self._stop_raw, q.variable, True
         return self._moments, self._raw, q.variable, False
@@ -269,6 +324,204 @@ class Result:
             value = s.to_scaled(s.to_scaled(value, "velocity", j), "length", k + l)
         return value
 
+    # -- distributions ------------------------------------------------------------------
+
+    @property
+    def distributions(self) -> tuple:
+        """The quantities whose distributions this result holds (``Scene(distributions=...)``)."""
+        return tuple(self.scene.distributions) if self._histograms is not None else ()
+
+    def _slot(self, name: str, q, time) -> int:
+        if q.at_stop:
+            if time is not None:
+                raise ValueError(f"time: {name} is a value at the stop, with one distribution; "
+                                 f"give no time (got time={time!r})")
+            return self.times.size
+        if time is None:
+            raise ValueError(f"time: {name} has a distribution at every output time; give "
+                             f"time, one of {_times_text(self.times)}")
+        if isinstance(time, (bool, np.bool_)) or not isinstance(time, numbers.Real) \
+                or math.isnan(float(time)):
+            raise ValueError(f"time must be one of the output times, got {time!r}")
+        t = float(time)
+        hit = np.flatnonzero(self.times == t)
+        if not hit.size:
+            # A time typed again differs from the stored one by a rounding at most.
+            hit = np.flatnonzero(np.abs(self.times - t) <= 1e-12 * np.maximum(np.abs(self.times), abs(t)))
+        if not hit.size:
+            raise ValueError(f"time: {time!r} is not an output time of this result; give one "
+                             f"of {_times_text(self.times)}")
+        return int(hit[0])
+
+    def _binned(self, name: str, time):
+        """(edges, cells, offset, shown edges) of a quantity's distribution: edges and cells
+        [under, bins..., over, NaN] in the quantity's units less ``offset`` (the stop time's
+        t0), and the edges to show (the user's, when given)."""
+        if not isinstance(name, str) or name not in self.names:
+            raise ValueError(f"name: {name!r} is not in this result; it holds "
+                             f"{', '.join(self.names)}")
+        if name not in self.distributions:
+            asked = ", ".join(self.distributions) or "none"
+            raise ValueError(f"name: the scene did not ask for the distribution of {name!r} "
+                             f"(its distributions: {asked}); give Scene(..., "
+                             "distributions=[...]) and run it again")
+        q = quantity(name)
+        slot = self._slot(name, q, time)
+        found = self._histograms.find(slot, q.histogram_variable)
+        if found is None:  # pragma: no cover - the scene's axes are all recorded
+            raise ValueError(f"name: no histogram of {name!r} at this slot")
+        edges, cells = np.asarray(found[0], dtype=np.float64), np.asarray(found[1])
+        if q.power == 2:
+            edges, cells = _fold(edges, cells)
+            edges = edges * edges
+        f = self._factor(name)
+        if f == 0.0:
+            raise ValueError(f"name: {name} is 0 on every path of this scene (its factor is "
+                             "0: no friction, mu = 0), so it has no distribution to bin")
+        if f != 1.0:
+            edges = edges * f
+        if not (np.diff(edges) > 0).all():
+            raise ValueError(f"name: {name}'s bin edges are not distinct in doubles once "
+                             f"converted to its units (factor {f!r}); choose units nearer 1")
+        offset = q.offset(self.scene) if q.offset is not None else 0.0
+        shown = edges + offset if offset else edges
+        user = self.scene.bin_settings[1].get(name)
+        if isinstance(user, tuple) and len(user) == len(edges):
+            shown = np.asarray(user, dtype=np.float64)
+        if cells[-1]:
+            self._warn_nan(name, "the distribution", [math.nan],
+                           f"{int(cells[-1])} paths gave NaN (left out of quantiles and "
+                           "exceedances)", 3)
+        return edges, cells, offset, shown
+
+    def histogram(self, name: str, time=None):
+        """The run's histogram of a quantity as a ``boost_histogram.Histogram``.
+
+        Needs the ``hist`` extra (``pip install 'crandall[hist]'``) and a scene that asked for
+        the distribution (``Scene(..., distributions=[name])``).
+
+        Parameters
+        ----------
+        name : str
+            A quantity in :attr:`distributions`.
+        time : float, optional
+            For a quantity over time, one of the output times :attr:`times`; none for a
+            quantity at the stop.
+
+        Returns
+        -------
+        boost_histogram.Histogram
+            One ``Variable`` axis on the bins' edges in the quantity's units, with underflow
+            and overflow; ``Int64`` counts, every path counted once (a NaN value, which no
+            sane run gives, is left out: it warns). The kinetic energy's bins are the
+            velocity's folded at 0, the dissipated energy's the distance's times m mu g.
+            With "richardson" or "richardson2" the histograms are of the finest grid's paths
+            (counts cannot be extrapolated).
+
+        Raises
+        ------
+        ValueError
+            ``name`` not held or its distribution not asked for; ``time`` missing, given for a
+            stop quantity, or not an output time.
+        ImportError
+            boost-histogram is not installed.
+        """
+        _, cells, _, shown = self._binned(name, time)
+        if not (np.diff(shown) > 0).all():
+            # The core bins the stop time from the switch-off; edges far finer than t0's
+            # rounding collide once t0 is added back. Quantiles and exceedances are computed
+            # from the switch-off and are not affected.
+            raise ValueError(f"name: {name}'s bin edges plus t0 = {self.scene.t0!r} are not "
+                             "distinct in doubles; use quantile or exceedance, or give "
+                             "coarser bins")
+        return distributions.to_boost_histogram(shown, cells[1:-2], int(cells[0]), int(cells[-2]))
+
+    def quantile(self, name: str, q: float, time=None,
+                 confidence: float = 0.95) -> distributions.Estimate:
+        """The q-quantile of a quantity from the run's histogram, with a confidence interval.
+
+        Parameters
+        ----------
+        name : str
+            A quantity in :attr:`distributions`.
+        q : float
+            The probability, strictly between 0 and 1 (0.99: the value 99 % of paths stay at
+            or below).
+        time : float, optional
+            One of :attr:`times` for a quantity over time; none for one at the stop.
+        confidence : float
+            The interval's coverage, strictly between 0 and 1 (default 0.95).
+
+        Returns
+        -------
+        crandall.distributions.Estimate
+            ``value``: the sample quantile, interpolated within its bin. ``low``, ``high``: a
+            distribution-free interval for the law's quantile, coverage at least
+            ``confidence`` for any law: the order statistics bracketing the quantile
+            (binomial ranks), widened to the edges of the bins that hold them. The bin width
+            limits the interval at each end by at most one bin (1/128 to 1/256 of the value
+            with the default bins beyond the quantity's scale); once the sampling interval
+            is a few bins wide it is the paths, not the bins, that limit it
+            (docs/methods/histograms.md, "Intervals"). Infinite where the quantile lies
+            beyond the bins (user edges that do not reach it). In the quantity's units.
+            ``resolution``: the widths of the two bins at the interval's ends, the most the
+            bins can have widened it; ``bin_limited``: whether that is at least half the
+            interval (then finer ``bins`` would narrow it; more paths, not much).
+
+        Raises
+        ------
+        ValueError
+            As :meth:`histogram`, and ``q`` or ``confidence`` outside (0, 1).
+        """
+        if isinstance(q, (bool, np.bool_)) or not isinstance(q, numbers.Real) \
+                or not 0.0 < float(q) < 1.0:
+            raise ValueError(f"q must be a number strictly between 0 and 1, got {q!r}")
+        edges, cells, offset, _ = self._binned(name, time)
+        est = distributions.quantile(edges, cells[1:-2], int(cells[0]), int(cells[-2]),
+                                     float(q), confidence)
+        if not offset:
+            return est
+        return est._replace(value=est.value + offset, low=est.low + offset,
+                            high=est.high + offset)
+
+    def exceedance(self, name: str, level: float, time=None,
+                   confidence: float = 0.95) -> distributions.Estimate:
+        """P(quantity > level) from the run's histogram, with a confidence interval.
+
+        Parameters
+        ----------
+        name : str
+            A quantity in :attr:`distributions`.
+        level : float
+            The threshold, in the quantity's units (not NaN).
+        time : float, optional
+            One of :attr:`times` for a quantity over time; none for one at the stop.
+        confidence : float
+            The interval's coverage, strictly between 0 and 1 (default 0.95).
+
+        Returns
+        -------
+        crandall.distributions.Estimate
+            ``value``: the fraction of paths above ``level`` (the bin holding the level
+            counted in proportion to its part above it). ``low``, ``high``: Clopper-Pearson
+            bounds, coverage at least ``confidence``, taken at the fewest and the most paths
+            that can be above the level given the bins: the bin holding the level is where
+            the histogram limits the interval (a level on an edge still leaves that bin
+            undecided). ``resolution``: the fraction of paths in that bin; ``bin_limited``:
+            whether it is at least half the interval's width.
+
+        Raises
+        ------
+        ValueError
+            As :meth:`histogram`, and a bad ``level`` or ``confidence``.
+        """
+        if isinstance(level, (bool, np.bool_)) or not isinstance(level, numbers.Real) \
+                or math.isnan(float(level)):
+            raise ValueError(f"level must be a number (not NaN), got {level!r}")
+        edges, cells, offset, _ = self._binned(name, time)
+        return distributions.exceedance(edges, cells[1:-2], int(cells[0]), int(cells[-2]),
+                                        float(level) - offset, confidence)
+
     # -- presentation -------------------------------------------------------------------
 
     def summary(self) -> str:
@@ -319,8 +572,11 @@ class Result:
             ``statistics`` (time x observable x statistic: mean, var, std, stderr,
             var_stderr) for the time-resolved quantities, with their units in the coordinate
             ``units`` (``"1"`` in scaled units); ``stop_statistics`` (stop_quantity x statistic)
-            for the stop; the raw accumulators (``counts``, ``means``, ``central``) from
-            which :func:`crandall.load` rebuilds the result exactly. Attributes: the scene (as
+            for the stop; the raw accumulators (``counts``, ``means``, ``central``; with the
+            peaks ``peaks_*`` and ``stop_peaks_*``) from which :func:`crandall.load` rebuilds
+            the result exactly; with distributions, ``histogram_NAME_edges`` and
+            ``histogram_NAME_counts`` per binned quantity (over ``time`` for a quantity over
+            time; cells underflow, one per bin, overflow, NaN; NaN-padded). Attributes: the scene (as
             JSON and one ``scene_*`` attribute per parameter), paths, seed (a string: it may
             not fit a netCDF-3 integer), dt, method, crandall version.
         """

@@ -10,11 +10,13 @@ from typing import Any, Dict, Iterable, Mapping, Optional, Sequence, Union
 import numpy as np
 
 from . import scene_file
+from .bins import bins_to_plain, check_bins, check_distributions
 from .errors import ParameterError
-from .quantities import OBSERVABLES, STOP_QUANTITIES, quantity
+from .quantities import DEFAULT_OBSERVE, OBSERVABLES, STOP_QUANTITIES, quantity
 from .scene_file import MAX_RANGE_TIMES, RUN_SETTINGS
 from .scene_file import SCALED_KEYS as _SCALED_KEYS
 from .scene_file import SI_KEYS as _SI_KEYS
+from .scene_file import COMMON_KEYS as _COMMON_KEYS
 from .units import Scaling
 
 __all__ = ["Scene", "OBSERVABLES", "STOP_QUANTITIES", "RUN_SETTINGS", "MAX_RANGE_TIMES",
@@ -145,8 +147,23 @@ class Scene:
     observe : str or sequence of str
         Any of ``OBSERVABLES``: "velocity" (m/s), "displacement" (m), "distance" (m),
         "kinetic_energy" (J), "dissipated_energy" (J, friction loss mu m g S, eq4), "stop" (the
-        stop time, s, and the stop values of the other observed quantities). Default: all
-        (without "stop" when the body cannot stop: mu = 0 or t0 infinite).
+        stop time, s, and the stop values of the other observed quantities), "peaks" (the
+        largest speed, "peak_speed", and with the displacement the largest |displacement|,
+        "peak_displacement", up to every output time, and over the whole path with "stop").
+        Default: all but "peaks" (and without "stop" when the body cannot stop: mu = 0 or t0
+        infinite).
+    distributions : bool or str or sequence of str, optional
+        Ask for the distributions of quantities the scene holds (every one with True): the
+        run then keeps a histogram of each at every output time (and at the stop), from which
+        :meth:`Result.quantile`, :meth:`Result.exceedance` and :meth:`Result.histogram` come.
+        Default None: none (nothing is binned, nothing costs).
+    bins : int or mapping, optional
+        The histograms' bins (docs/methods/histograms.md). Default: automatic log-linear edges
+        from each quantity's scale, ``bins.DEFAULT_PER_OCTAVE`` (128) bins per octave, reaching
+        50 scales from 0. An int: that many bins per octave (a power of two, 1 to 4096). A
+        mapping from a quantity to an int (its bins per octave) or to a list of edges
+        (strictly increasing, in the scene's units; values beyond them are counted in the
+        underflow and overflow). The energies take the bins of the distance and the velocity.
 
     Use :meth:`Scene.scaled` for the paper's dimensionless units (eq3, eq8).
 
@@ -175,6 +192,8 @@ class Scene:
         mass: float = 1.0,
         times: Iterable[float],
         observe: Optional[Sequence[str]] = None,
+        distributions: Any = None,
+        bins: Any = None,
     ) -> None:
         mu = _number("mu", mu)
         h = _number("h", h)
@@ -194,6 +213,8 @@ class Scene:
             mass=mass,
             params={"mu": mu, "h": h, "t0": t0, "g": g, "mass": mass},
             scaling=_scaling(mu, h, g),
+            distributions=distributions,
+            bins=bins,
         )
 
     @classmethod
@@ -203,6 +224,8 @@ class Scene:
         tau0: float,
         times: Iterable[float],
         observe: Optional[Sequence[str]] = None,
+        distributions: Any = None,
+        bins: Any = None,
     ) -> "Scene":
         """A scene in the paper's scaled units (eq3): dU1 = -2 sign(U1) dtau + sqrt(2) dW.
 
@@ -214,8 +237,8 @@ class Scene:
         ----------
         tau0 : float
             Scaled switch-off time, >= 0, or ``math.inf``.
-        times, observe
-            As for :class:`Scene`, in scaled time.
+        times, observe, distributions, bins
+            As for :class:`Scene`, in scaled units.
         """
         self = cls.__new__(cls)
         tau0 = _number("tau0", tau0, allow_inf=True)
@@ -229,13 +252,17 @@ class Scene:
             mass=1.0,
             params={"tau0": tau0},
             scaling=None,
+            distributions=distributions,
+            bins=bins,
         )
         return self
 
-    def _setup(self, *, units, drift, noise, t0, times, observe, mass, params, scaling):
+    def _setup(self, *, units, drift, noise, t0, times, observe, mass, params, scaling,
+               distributions=None, bins=None):
         can_stop = math.isfinite(t0) and (drift > 0 or noise == 0)
         if observe is None:
-            observe = OBSERVABLES if can_stop else tuple(n for n in OBSERVABLES if n != "stop")
+            observe = (DEFAULT_OBSERVE if can_stop
+                       else tuple(n for n in DEFAULT_OBSERVE if n != "stop"))
         observe = _observe(observe)
         if "stop" in observe and not math.isfinite(t0):
             name = "t0" if units == "SI" else "tau0"
@@ -252,6 +279,10 @@ class Scene:
         self.mass = float(mass)
         self.params = dict(params)
         self.scaling = scaling
+        #: The quantities whose distributions the run keeps (table order; empty: none).
+        self.distributions = check_distributions(distributions, observe)
+        #: (bins per octave of the automatic edges, per-quantity settings), checked.
+        self.bin_settings = check_bins(bins, self.distributions, self.t0)
         #: Run settings (paths, seed, method, dt) read from a scene file; empty otherwise.
         #: ``crandall run`` uses them unless its options override them.
         self.run_settings: Dict[str, Any] = {}
@@ -268,7 +299,20 @@ class Scene:
         out.update(self.params)
         out["times"] = [float(t) for t in self.times]
         out["observe"] = list(self.observe)
+        # Only when asked: the dictionaries (and checkpoint identities) of scenes without
+        # distributions stay as they were.
+        if self.distributions:
+            out["distributions"] = list(self.distributions)
+            plain = self.bins
+            if plain is not None:
+                out["bins"] = plain
         return out
+
+    @property
+    def bins(self):
+        """The scene's ``bins`` as plain data: None (automatic, the default resolution), an
+        int (bins per octave) or a dict of quantity names to ints or lists of edges."""
+        return bins_to_plain(*self.bin_settings)
 
     @classmethod
     def from_dict(cls, data: Dict[str, Any]) -> "Scene":
@@ -285,9 +329,9 @@ class Scene:
         data = dict(data)
         units = data.pop("units", None)
         if units == "SI":
-            keys, required = _SI_KEYS + ("times", "observe"), ("mu", "h", "t0", "times")
+            keys, required = _SI_KEYS + _COMMON_KEYS, ("mu", "h", "t0", "times")
         elif units == "scaled":
-            keys, required = _SCALED_KEYS + ("times", "observe"), ("tau0", "times")
+            keys, required = _SCALED_KEYS + _COMMON_KEYS, ("tau0", "times")
         else:
             raise ValueError(f"units must be 'SI' or 'scaled', got {units!r}")
         for k in data:
@@ -313,7 +357,10 @@ class Scene:
             t0 = 2.0                 # inf (TOML's infinity) for never
             mass = 100.0
             times = [0.5, 1.0, 2.0]  # or a range {start, stop, num} or {start, stop, step}
-            observe = ["velocity", "distance", "stop"]   # optional; default all
+            observe = ["velocity", "distance", "stop"]   # optional; default all but "peaks"
+            distributions = ["distance_at_stop"]   # optional; true for every quantity
+            bins = 64                # optional: bins per octave, or a table
+                                     # {distance_at_stop = [0.0, 0.5, 1.0, 2.0]}
             [run]                    # optional: defaults for simulate / crandall run
             paths = 100_000
             seed = 1
@@ -361,4 +408,10 @@ class Scene:
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
         ctor = "Scene" if self.units == "SI" else "Scene.scaled"
-        return f"{ctor}({args}, times=<{self.times.size} times>, observe={list(self.observe)!r})"
+        extra = ""
+        if self.distributions:
+            extra = f", distributions={list(self.distributions)!r}"
+            if self.bins is not None:
+                extra += f", bins={self.bins!r}"
+        return (f"{ctor}({args}, times=<{self.times.size} times>, "
+                f"observe={list(self.observe)!r}{extra})")

@@ -16,7 +16,8 @@ import numpy as np
 
 from .methods import METHODS
 
-__all__ = ["read", "SceneFile", "RUN_SETTINGS", "MAX_RANGE_TIMES", "SI_KEYS", "SCALED_KEYS"]
+__all__ = ["read", "SceneFile", "RUN_SETTINGS", "MAX_RANGE_TIMES", "SI_KEYS", "SCALED_KEYS",
+           "COMMON_KEYS"]
 
 if sys.version_info >= (3, 11):
     import tomllib as _toml
@@ -33,6 +34,8 @@ MAX_RANGE_TIMES = 10_000_000
 #: A scene's parameters besides times and observe, in SI and in scaled units.
 SI_KEYS = ("mu", "h", "t0", "g", "mass")
 SCALED_KEYS = ("tau0",)
+#: Keys of either kind of scene.
+COMMON_KEYS = ("times", "observe", "distributions", "bins")
 _RANGE_KEYS = ("start", "stop", "num", "step")
 
 
@@ -161,7 +164,7 @@ def read(path) -> SceneFile:
     units = sc.pop("units", "SI")
     if units not in ("SI", "scaled"):
         raise _file_error(path, "scene.units", f"must be 'SI' or 'scaled', got {units!r}")
-    allowed = (SI_KEYS if units == "SI" else SCALED_KEYS) + ("times", "observe")
+    allowed = (SI_KEYS if units == "SI" else SCALED_KEYS) + COMMON_KEYS
     for k in sc:
         if k not in allowed:
             other = "SI" if units == "scaled" else "scaled"
@@ -182,6 +185,18 @@ def read(path) -> SceneFile:
                 v = [v]
             if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
                 raise _file_error(path, "scene.observe", f"must be a list of names, got {v!r}")
+            kwargs[k] = v
+        elif k == "distributions":
+            if isinstance(v, str):
+                v = [v]
+            if not (isinstance(v, bool) or (isinstance(v, list)
+                                            and all(isinstance(x, str) for x in v))):
+                raise _file_error(path, "scene.distributions",
+                                  f"must be true, false or a list of names, got {v!r}")
+            kwargs[k] = v
+        elif k == "bins":
+            # Checked by the scene (ints, lists of edges, a table of them); errors come back
+            # named scene.bins.
             kwargs[k] = v
         else:
             kwargs[k] = _real(path, f"scene.{k}", v)

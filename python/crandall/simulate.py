@@ -18,8 +18,9 @@ import numpy as np
 from . import checkpoint as _ckpt
 from . import engine
 from .adaptive import simulate_to_error
+from .bins import Histograms, axes as _histogram_axes
 from .methods import DEFAULT_METHOD, GRIDS, METHODS
-from .quantities import simulated_variables
+from .quantities import names_for, quantity, simulated_variables
 from .results import MONOMIALS, Result
 from .scene import Scene
 from .spec import MAX_PATHS, RunSpec, check_int, default_dt
@@ -116,7 +117,24 @@ def _memory_need(scene: Scene, threads: int, method: str) -> int:
     per_slot = 39 * 8
     grids = GRIDS[method]
     slots = scene.times.size
-    return slots * per_slot * (grids * (2 * threads + 1) + 5) + threads * (16 << 20)
+    if "peaks" in scene.observe:
+        per_slot *= 2  # the peaks' moments, laid out as the others
+    need = slots * per_slot * (grids * (2 * threads + 1) + 5) + threads * (16 << 20)
+    if scene.distributions:
+        # Histograms (the fine grid only): each thread's, the chunk's, the total and copies
+        # in Python; counts of 8 bytes, about (bins + 3) per axis. Fixed, not per path.
+        cells = sum(_axis_cells(a) for a in _histogram_axes(scene))
+        need += cells * 8 * (2 * threads + 6)
+    return need
+
+
+def _axis_cells(axis) -> int:
+    if axis.edges is not None:
+        return len(axis.edges) + 2
+    # Log-linear: m bins per octave from 0 to the first power of two >= REACH scales, one
+    # octave below the scale for [0, b): at most m (log2(REACH) + 3) per side.
+    return axis.per_octave * (math.ceil(math.log2(engine.REACH)) + 3) * (
+        2 if axis.symmetric else 1) + 3
 
 
 def _check_memory(scene: Scene, threads: int, method: str = DEFAULT_METHOD) -> None:
@@ -210,29 +228,67 @@ class _Run:
         self.scene = spec.scene
         self.paths = spec.paths
         self.threads = threads
-        self.plan = engine.make_plan(spec)
+        self.axes = engine.histogram_axes(spec)
+        self.plan = engine.make_plan(spec, self.axes)
+        self.indices = tuple(a.index for a in self.axes)
+        self.edges = tuple(engine.axis_edges(self.axes))
+        self.peaks = "peaks" in self.scene.observe
         self.checkpoint = checkpoint
-        self.done, self.times_acc, self.stop_acc = 0, None, None
+        self.done, self.acc = 0, None
         if checkpoint is not None:
             self.ident = _ckpt.identity(spec)
-            self.done, self.times_acc, self.stop_acc = _ckpt.load(checkpoint, self.ident,
-                                                                 self.plan.chunks)
+            self.done, self.acc = _ckpt.load(checkpoint, self.ident, self.plan.chunks,
+                                             histograms=(self.indices, self.edges))
             if self.done < self.plan.chunks:  # fail now, not after the first chunk
                 _ckpt.check_writable(checkpoint)
+
+    @property
+    def times_acc(self):
+        return None if self.acc is None else self.acc.times
+
+    @property
+    def stop_acc(self):
+        return None if self.acc is None else self.acc.stop
 
     def paths_in(self, first, last):
         return sum(self.plan.chunk_paths(c) for c in range(first, last))
 
-    def add(self, times, stop):
+    def add(self, chunk: engine.Chunk):
         """Merge the next chunk (chunk ``self.done``) and checkpoint."""
-        if self.times_acc is None:
-            self.times_acc, self.stop_acc = times, stop
+        self._check_chunk(chunk)
+        if self.acc is None:
+            counts = None if chunk.counts is None else tuple(
+                np.array(c, dtype=np.uint64) for c in chunk.counts)
+            self.acc = chunk._replace(counts=counts)
         else:
-            self.times_acc.merge(times)
-            self.stop_acc.merge(stop)
+            acc = self.acc
+            acc.times.merge(chunk.times)
+            acc.stop.merge(chunk.stop)
+            if acc.peaks is not None:
+                acc.peaks.merge(chunk.peaks)
+            if acc.peaks_stop is not None:
+                acc.peaks_stop.merge(chunk.peaks_stop)
+            if acc.counts is not None:
+                # Integer addition: exact and order-free, so any split of the paths into
+                # threads, chunks, checkpoints or Dask tasks gives the same counts.
+                for total, part in zip(acc.counts, chunk.counts):
+                    np.add(total, part, out=total)
         self.done += 1
         if self.checkpoint is not None:
-            _ckpt.save(self.checkpoint, self.ident, self.done, self.times_acc, self.stop_acc)
+            _ckpt.save(self.checkpoint, self.ident, self.done, self.acc,
+                       histograms=(self.indices, self.edges))
+
+    def _check_chunk(self, chunk) -> None:
+        """A chunk carries what this run records (a worker of another crandall might not)."""
+        if self.peaks and (chunk.peaks is None
+                           or ("stop" in self.scene.observe and chunk.peaks_stop is None)):
+            raise ValueError("peaks: a chunk came back without the peaks this run records "
+                             "(a Dask worker with another crandall version?)")
+        if self.indices:
+            sizes = None if chunk.counts is None else [len(c) for c in chunk.counts]
+            if sizes != [len(e) + 2 for e in self.edges]:
+                raise ValueError("distributions: a chunk's histograms do not have this run's "
+                                 "bins (a Dask worker with another crandall version?)")
 
     def ranges(self, tasks):
         """Split the chunks still to do into about ``tasks`` contiguous ranges."""
@@ -244,11 +300,19 @@ class _Run:
     def result(self):
         self._check_finite()
         spec = self.spec
+        acc = self.acc
+        stop = "stop" in self.scene.observe
+        hist = None
+        if self.indices:
+            hist = Histograms(self.indices, self.edges, tuple(acc.counts))
         return Result(scene=spec.scene, paths=spec.paths, seed=spec.seed, dt=spec.dt,
-                      method=spec.method, moments=self.times_acc,
-                      stop_moments=self.stop_acc if "stop" in self.scene.observe else None,
+                      method=spec.method, moments=acc.times,
+                      stop_moments=acc.stop if stop else None,
                       steps_per_path=self.plan.steps_per_path, min_steps=spec.min_steps,
-                      random_stream=engine.RANDOM_STREAM)
+                      random_stream=engine.RANDOM_STREAM,
+                      peaks=acc.peaks if self.peaks else None,
+                      stop_peaks=acc.peaks_stop if self.peaks and stop else None,
+                      histograms=hist)
 
     def _check_finite(self):
         # Means and variances must be numbers; only fourth moments may overflow (var_stderr
@@ -257,8 +321,16 @@ class _Run:
         at_times = list(simulated_variables(obs, at_stop=False))
         at_stop = list(simulated_variables(obs, at_stop=True))
         exps = MONOMIALS
+        held = [quantity(n) for n in names_for(obs)]
+        peak_times = sorted({q.variable for q in held if q.peak and not q.at_stop})
+        peak_stop = sorted({q.variable for q in held if q.peak and q.at_stop})
+        acc_all = self.acc
         for acc, variables, what in ((self.times_acc, at_times, "at the output times"),
                                      (self.stop_acc if "stop" in obs else None, at_stop,
+                                      "at the stop"),
+                                     (acc_all.peaks if self.peaks else None, peak_times,
+                                      "at the output times"),
+                                     (acc_all.peaks_stop if self.peaks else None, peak_stop,
                                       "at the stop")):
             if acc is None or acc.slots == 0 or not variables:
                 continue
@@ -292,8 +364,9 @@ def _run_distributed(runs, client, threads, bar):
     pending = []  # (run index, first, last, future)
     for i, run in enumerate(runs):
         for first, last in run.ranges(tasks):
+            # The run's own axes go with the task: every worker bins on the client's edges.
             fut = client.submit(engine.run_chunks, run.spec.to_dict(), first, last, per_task,
-                                engine.RANDOM_STREAM, pure=False)
+                                engine.RANDOM_STREAM, engine.plain_axes(run.axes), pure=False)
             pending.append((i, first, last, fut))
     by_future = {fut: (i, first, last) for i, first, last, fut in pending}
     waiting = [dict() for _ in runs]  # per run: first chunk -> (last, parts)
@@ -306,8 +379,8 @@ def _run_distributed(runs, client, threads, bar):
             # Merge whatever is now contiguous with what is merged already.
             while run.done in waiting[i]:
                 _, parts = waiting[i].pop(run.done)
-                for times, stop in parts:
-                    run.add(times, stop)
+                for part in parts:
+                    run.add(part)
             if bar is not None:
                 bar.update(run.paths_in(first, last))
     except BaseException:
@@ -317,7 +390,7 @@ def _run_distributed(runs, client, threads, bar):
 
 def _run_local(run, bar):
     for chunk in range(run.done, run.plan.chunks):
-        run.add(*engine.run_chunk(run.plan, chunk, run.threads))
+        run.add(engine.run_chunk(run.plan, chunk, run.threads, run.indices))
         if bar is not None:
             bar.update(run.plan.chunk_paths(chunk))
 

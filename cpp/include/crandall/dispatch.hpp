@@ -4,6 +4,7 @@
 // only the speed differs.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -13,6 +14,7 @@
 namespace crandall {
 
 struct Workspace;
+class BinEdges;
 
 using BlockFn = void (*)(const Plan&, std::uint64_t, std::uint64_t, Workspace&);
 
@@ -21,8 +23,8 @@ struct KernelTable {
   const char* name;                // "baseline", "avx2" or "avx512"
   int philox_paths_per_register;   // 1 (Random123's scalar code), 4 or 8
   int doubles_per_register;        // widest vector the variant targets: 2, 4 or 8
-  // simulate_block instantiation for a method and the observed integrals.
-  BlockFn (*block_fn)(Method method, bool displacement, bool distance);
+  // simulate_block instantiation for a method, the observed integrals and the peaks.
+  BlockFn (*block_fn)(Method method, bool displacement, bool distance, bool peaks);
   // The exact method's loop with control variates (kernel_controls.hpp).
   BlockFn (*controls_fn)(bool displacement, bool distance);
   // The noise of paths [path0, path0 + kLanes) for `steps` steps, summed (random_floor).
@@ -35,6 +37,11 @@ struct KernelTable {
   // low 32 bits of out[j * kLanes + l] (tests of the vector Philox against Random123).
   void (*philox_words)(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair, int count,
                        std::uint64_t* out);
+  // Adds the counts of x[0, n) on axis `edges` to counts (edges.cells() of them) with the
+  // kernel's own lookup (count_lanes, kernel.hpp), for the tests that check it against
+  // BinEdges::cell in every variant.
+  void (*count_values)(const BinEdges& edges, const double* x, std::size_t n,
+                       std::uint64_t* counts);
 };
 
 // Variants compiled into this build, lowest first (baseline only on non-x86 hosts).

@@ -71,6 +71,19 @@ class BinEdges {
     while (!(x < edges_[j + 1])) ++j;
     return j + 1;
   }
+  // The automatic scheme's constants, for a lookup of many values at once written elsewhere
+  // (the kernel's, vectorised over its lanes); outward() and cell() show their use.
+  struct Scheme {
+    double base, inv_width;
+    std::int64_t per_octave, half;
+    int shift;
+    std::uint64_t base_key;
+    bool symmetric;
+  };
+  Scheme scheme() const {
+    return {base_, inv_width_, per_octave_, static_cast<std::int64_t>(half_), shift_, base_key_,
+            symmetric_};
+  }
   // Parameters of the automatic scheme (0 for user-given edges).
   bool automatic() const { return per_octave_ != 0; }
   double base() const { return base_; }

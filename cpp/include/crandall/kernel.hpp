@@ -22,23 +22,38 @@ struct Workspace {
   explicit Workspace(const Plan& plan)
       : times(plan.options().times.size()),
         stop(plan.options().stop ? 1 : 0),
-        active(active_monomials(plan.options().displacement, plan.options().distance)) {
+        active(active_monomials(plan.options().displacement, plan.options().distance)),
+        peaks(plan.options().peaks ? plan.options().times.size() : 0),
+        peaks_stop(plan.options().peaks && plan.options().stop ? 1 : 0),
+        peak_active(active_monomials(plan.options().displacement, false)),
+        histograms(plan.recorded_axes()) {
     for (int j = 1; j < plan.options().grids(); ++j) {
       coarse_times.emplace_back(plan.options().times.size());
       coarse_stop.emplace_back(plan.options().stop ? 1 : 0);
     }
   }
+  // Clears the block's sums; the histograms keep counting across the blocks of a thread.
   void reset() {
     times.reset();
     stop.reset();
     for (auto& c : coarse_times) c.reset();
     for (auto& c : coarse_stop) c.reset();
+    peaks.reset();
+    peaks_stop.reset();
   }
   BlockSums times, stop;
   // Richardson's coarser grids (steps twice and four times the fine one), empty for the other
   // methods.
   std::vector<BlockSums> coarse_times, coarse_stop;
   std::vector<int> active;
+  // Peaks (Options::peaks; no slots without): the running maxima of |velocity| and
+  // |displacement| (0 when displacement is not observed) at each output time and at the stop,
+  // as the first two variables of a BlockSums.
+  BlockSums peaks, peaks_stop;
+  std::vector<int> peak_active;
+  // The thread's counts over all its blocks (Plan::recorded_axes); integer, so the threads'
+  // histograms merge exactly in any order.
+  Histograms histograms;
   // Returns true when the run is cancelled; polled every kPollSteps steps so that long paths
   // can be cancelled. May be empty.
   std::function<bool()> cancelled;
@@ -100,14 +115,108 @@ inline void sqrt_lanes(double* v) {
 #endif
 }
 
+// Counts x[0, n) (n <= kLanes) into `counts` (the cells of axis e): the same cells as
+// e.cell(x[l]), with the automatic scheme's first guess computed for all lanes at once (branch-
+// free arithmetic, vectorised) and then checked against the edges lane by lane, exactly as
+// cell() does, so the guess's arithmetic can never misplace a value.
+inline void count_lanes(const BinEdges& e, const double* x, int n, std::uint64_t* counts) {
+  if (!e.automatic()) {
+    for (int l = 0; l < n; ++l) ++counts[e.cell(x[l])];
+    return;
+  }
+  const BinEdges::Scheme k = e.scheme();
+  const double* edges = e.edges().data();
+  const std::size_t bins = e.bins();
+  const double lowest = edges[0], top = edges[bins];
+  alignas(64) std::int64_t guess[kLanes];
+#pragma omp simd
+  for (int l = 0; l < n; ++l) {
+    const double v = x[l];
+    // Out of range (and NaN): any in-range stand-in, so that the conversions stay defined.
+    const double a = v >= lowest && v < top ? std::abs(v) : 0.0;
+    const bool below = a < k.base;
+    // < per_octave <= 2^20: the 32-bit conversion, which every variant has in vector form.
+    const auto linear = static_cast<std::int64_t>(static_cast<std::int32_t>((below ? a : k.base) * k.inv_width));
+    const auto geometric = k.per_octave + static_cast<std::int64_t>((detmath::bits_of(a) >> k.shift) - k.base_key);
+    std::int64_t o = below ? linear : geometric;
+    o = o < k.half - 1 ? o : k.half - 1;
+    guess[l] = !k.symmetric ? o : (v < 0.0 ? k.half - 1 - o : k.half + o);
+  }
+  for (int l = 0; l < n; ++l) {
+    const double v = x[l];
+    std::size_t c;
+    if (v >= lowest && v < top) {
+      auto j = static_cast<std::size_t>(guess[l]);
+      while (v < edges[j]) --j;
+      while (!(v < edges[j + 1])) ++j;
+      c = j + 1;
+    } else {
+      c = v != v ? bins + 2 : v < lowest ? 0 : bins + 1;
+    }
+    ++counts[c];
+  }
+}
+
+// Bins the values of one output slot (Options::histogram_axes): values[v] holds the lanes of
+// variable v, or is null for a variable that is not simulated (Options::validate allows no
+// axis there). Called at output slots only, never in the step loop, and kept out of line: it
+// runs once per slot and lane group, and inlined it would only make the path loop larger (GCC
+// inlines less into large functions).
+[[gnu::noinline]] inline void bin_slot(const Plan& plan, Histograms& histograms, std::size_t slot,
+                     const double* const (&values)[kHistogramVariables], int lanes) {
+  for (int v = 0; v < kHistogramVariables; ++v) {
+    const long h = plan.histogram_slot(slot, v);
+    if (h >= 0 && values[v] != nullptr)
+      count_lanes(histograms.axis(static_cast<std::size_t>(h)), values[v], lanes,
+                  histograms.counts().data() + histograms.offset(static_cast<std::size_t>(h)));
+  }
+}
+
+// One step's update of the running maxima, over all lanes (the padding lanes of a partial group
+// compute harmless values that are never read). p < a ? a : p is exact and becomes a vector max,
+// so every variant gives the same bits. Not std::max: instantiated outside the variant's target
+// region, it kept this loop from vectorising (the peaks then cost 22 % of the full kernel's time
+// instead of 6 %).
+template <bool kDisp>
+inline void track_peaks(const double* x, const double* u, double* pv, double* pu) {
+#pragma omp simd
+  for (int l = 0; l < kLanes; ++l) {
+    const double ax = std::abs(x[l]);
+    pv[l] = pv[l] < ax ? ax : pv[l];
+    if constexpr (kDisp) {
+      const double au = std::abs(u[l]);
+      pu[l] = pu[l] < au ? au : pu[l];
+    }
+  }
+}
+
 // Outputs after the switch-off (closed-form coast) and at the stop, from the state at t0.
+// The fine grid also passes its peaks at t0 (pv: max |velocity|, pu: max |displacement| or
+// null) and its histograms; Richardson's coarse grids pass neither (their moments are only
+// extrapolated, the peaks and the distributions come from the fine grid).
+//
+// Peaks after the switch-off: the speed falls linearly to 0 and stays there (coast.hpp), so
+// |X(t)| <= |X(t0)| <= pv and the peak speed does not change. The displacement moves by
+// sign(X(t0)) times the distance travelled, which never decreases, so U2 is monotone on
+// [t0, t] and its largest modulus there is at an end: the peak of |U2| up to t is
+// max(pu, |U2(t)|), and at the stop max(pu, |U2(t_s)|).
 inline void add_after_switch_off(const Plan& plan, const double* x, const double* u,
                                  const double* s, int lanes, const std::vector<int>& active,
-                                 BlockSums& times, BlockSums& stop, const Workspace& ws,
-                                 int grid, std::uint64_t path0) {
+                                 BlockSums& times, BlockSums& stop, const double* pv = nullptr,
+                                 const double* pu = nullptr, Workspace* ws = nullptr,
+                                 const Workspace* recorder = nullptr, int grid = 0,
+                                 std::uint64_t path0 = 0) {
   const Options& o = plan.options();
   const auto& slots = plan.coast_slots();
   const auto& elapsed = plan.coast_elapsed();
+  const bool peaks = ws != nullptr && pv != nullptr;
+  const bool binned = ws != nullptr && plan.histograms();
+  double zero[kLanes] = {}, qv[kLanes], qu[kLanes];
+  if (peaks)
+    for (int l = 0; l < lanes; ++l) {
+      qv[l] = pv[l];
+      qu[l] = pu != nullptr ? pu[l] : 0.0;
+    }
   for (std::size_t j = 0; j < slots.size(); ++j) {
     double cx[kLanes] = {}, cu[kLanes] = {}, cs[kLanes] = {};
     for (int l = 0; l < lanes; ++l) {
@@ -116,8 +225,19 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
       cu[l] = st.displacement;
       cs[l] = st.distance;
     }
-    times.add(static_cast<std::size_t>(slots[j]), cx, cu, cs, lanes, active);
-    ws.record(static_cast<std::size_t>(slots[j]), grid, path0, cx, cu, cs, lanes);
+    const auto slot = static_cast<std::size_t>(slots[j]);
+    times.add(slot, cx, cu, cs, lanes, active);
+    if (recorder != nullptr) recorder->record(slot, grid, path0, cx, cu, cs, lanes);
+    if (peaks) {
+      if (pu != nullptr)
+        for (int l = 0; l < lanes; ++l) qu[l] = std::max(pu[l], std::abs(cu[l]));
+      ws->peaks.add(slot, qv, qu, zero, lanes, ws->peak_active);
+    }
+    if (binned)
+      bin_slot(plan, ws->histograms, slot,
+               {cx, o.displacement ? cu : nullptr, o.distance ? cs : nullptr, peaks ? qv : nullptr,
+                peaks && pu != nullptr ? qu : nullptr},
+               lanes);
   }
   if (o.stop) {
     double ts[kLanes] = {}, us[kLanes] = {}, ss[kLanes] = {};
@@ -132,12 +252,24 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
       ss[l] = st.distance;
     }
     stop.add(0, ts, us, ss, lanes, active);
-    ws.record(o.times.size(), grid, path0, ts, us, ss, lanes);
+    if (recorder != nullptr) recorder->record(o.times.size(), grid, path0, ts, us, ss, lanes);
+    if (peaks) {
+      if (pu != nullptr)
+        for (int l = 0; l < lanes; ++l) qu[l] = std::max(pu[l], std::abs(us[l]));
+      ws->peaks_stop.add(0, qv, qu, zero, lanes, ws->peak_active);
+    }
+    if (binned)
+      bin_slot(plan, ws->histograms, o.times.size(),
+               {ts, o.displacement ? us : nullptr, o.distance ? ss : nullptr, peaks ? qv : nullptr,
+                peaks && pu != nullptr ? qu : nullptr},
+               lanes);
   }
 }
 
 // Simulate paths [first, first + count) (count <= kBlockPaths) into ws (reset by the caller).
-template <Method M, bool kDisp, bool kDist>
+// kPeaks: track the running maxima of |velocity| and |displacement| (Options::peaks), compiled
+// in only when asked for. Histograms are a run-time choice made at output slots only.
+template <Method M, bool kDisp, bool kDist, bool kPeaks>
 void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, Workspace& ws) {
   constexpr int kGrids = grids(M, kDisp || kDist);
   constexpr bool kCoarse = kGrids > 1;
@@ -147,6 +279,9 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
     const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
     const std::uint64_t path0 = first + offset;
     double x[kLanes] = {}, u[kLanes] = {}, s[kLanes] = {};
+    // Running maxima of |x| and |u| over the points computed so far (the path starts at 0).
+    alignas(32) double pv[kLanes] = {}, pu[kLanes] = {};
+    [[maybe_unused]] const double zero[kLanes] = {};
     // Richardson's coarse grids g = 1, 2 (steps 2^g times the fine one): integrals, and x where
     // their step began.
     double xc[kGrids][kLanes] = {}, uc[kGrids][kLanes] = {}, sc[kGrids][kLanes] = {};
@@ -181,6 +316,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
             if constexpr (kDist) s[l] += step * std::abs(x0);
             x[l] = euler_step(x0, step, drift, noise, zn[l]);
           }
+          if constexpr (kPeaks) track_peaks<kDisp>(x, u, pv, pu);
         } else if constexpr (M == Method::refine) {
           for (int l = 0; l < lanes; ++l) {
             const double x0 = x[l];
@@ -198,6 +334,11 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
                   if constexpr (kDisp) u[l] += trapezoid(substep, xa, xb);
                   if constexpr (kDist) s[l] += trapezoid(substep, std::abs(xa), std::abs(xb));
                   xa = xb;
+                  // The substeps are points of the path too: their maxima count.
+                  if constexpr (kPeaks) {
+                    pv[l] = std::max(pv[l], std::abs(xa));
+                    if constexpr (kDisp) pu[l] = std::max(pu[l], std::abs(u[l]));
+                  }
                 }
               }
               x1 = xa;
@@ -208,6 +349,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
             }
             x[l] = x1;
           }
+          if constexpr (kPeaks) track_peaks<kDisp>(x, u, pv, pu);
         } else {
           // exact_step (exact_step.hpp) over all lanes, its parts in separate loops so that they
           // vectorise; the padding lanes of a partial group compute harmless values that are
@@ -263,11 +405,23 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
             }
           }
           for (int l = 0; l < kLanes; ++l) x[l] = x1[l];
+          // The fine grid's points only: the peaks are not extrapolated (Richardson's coarse
+          // grids are subsets of these points, and a maximum has no error expansion in the step
+          // that the extrapolation assumes).
+          if constexpr (kPeaks) track_peaks<kDisp>(x, u, pv, pu);
         }
       }
       if (seg.slot >= 0) {
         ws.times.add(static_cast<std::size_t>(seg.slot), x, u, s, lanes, ws.active);
         ws.record(static_cast<std::size_t>(seg.slot), 0, path0, x, u, s, lanes);
+        if constexpr (kPeaks)
+          ws.peaks.add(static_cast<std::size_t>(seg.slot), pv, kDisp ? pu : zero, zero, lanes,
+                       ws.peak_active);
+        if (plan.histograms())
+          bin_slot(plan, ws.histograms, static_cast<std::size_t>(seg.slot),
+                   {x, kDisp ? u : nullptr, kDist ? s : nullptr, kPeaks ? pv : nullptr,
+                    kPeaks && kDisp ? pu : nullptr},
+                   lanes);
         if constexpr (kCoarse)
           for (int g = 1; g < kGrids; ++g) {
             ws.coarse_times[g - 1].add(static_cast<std::size_t>(seg.slot), x, uc[g], sc[g], lanes,
@@ -279,11 +433,12 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
     if (ws.states)
       for (int l = 0; l < lanes; ++l) ws.states[path0 + l] = x[l];
     if (!plan.needs_switch_state()) continue;
-    add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop, ws, 0, path0);
+    add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop,
+                         kPeaks ? pv : nullptr, kPeaks && kDisp ? pu : nullptr, &ws, &ws, 0, path0);
     if constexpr (kCoarse)
       for (int g = 1; g < kGrids; ++g)
         add_after_switch_off(plan, x, uc[g], sc[g], lanes, ws.active, ws.coarse_times[g - 1],
-                             ws.coarse_stop[g - 1], ws, g, path0);
+                             ws.coarse_stop[g - 1], nullptr, nullptr, nullptr, &ws, g, path0);
   }
 }
 

@@ -123,7 +123,8 @@ void simulate_block_controls(const Plan& plan, std::uint64_t first, std::uint64_
       }
     }
     if (plan.needs_switch_state())
-      add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop, ws, 0, path0);
+      add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop, nullptr, nullptr,
+                           nullptr, &ws, 0, path0);
     for (int l = 0; l < lanes; ++l)
       for (std::size_t j = 0; j < slots; ++j)
         for (int q = 0; q < kControls; ++q)

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "crandall/histogram.hpp"
+
 namespace crandall {
 
 // exact: exact skeleton, trapezoid integrals (docs/integrals.md).
@@ -45,6 +47,9 @@ Method parse_method(const std::string& name);
 // is not). Options::validate and every entry point that takes them on their own check here.
 void validate_model(double drift, double noise);
 
+// Values binned per slot (Options::histogram_axes).
+constexpr int kHistogramVariables = 5;
+
 struct Options {
   // dX = -drift sign(X) dt + noise dW for t < switch_off; no noise afterwards.
   double drift = 2.0;        // friction deceleration (mu g; 2 in the paper's scaled units)
@@ -66,6 +71,18 @@ struct Options {
   bool displacement = false;
   bool distance = false;
   bool stop = false;  // stop time, and displacement/distance at the stop if observed
+  // Running maxima over [0, t] of |velocity| (and of |displacement| when it is observed) at
+  // every output time and at the stop. They are maxima over the points the path is computed
+  // at, so a peak needs the fine grid: with peaks on, even a velocity-only scene takes steps
+  // of at most dt (and min_steps), where it would otherwise jump one exact step per segment.
+  bool peaks = false;
+  // Distributions: empty (none; the kernel does no binning at all), or one axis per
+  // (slot, variable) at index slot * kHistogramVariables + variable, where slot is the index of
+  // an output time, or times.size() for the stop. An axis with no bins is not recorded.
+  // Variables at an output time: velocity, displacement, distance, peak speed, peak
+  // |displacement|; at the stop: the time from the switch-off to the stop, displacement,
+  // distance, and the two peaks over the whole path.
+  std::vector<BinEdges> histogram_axes;
   std::uint64_t seed = 0;
   std::uint64_t paths = 1;
 
@@ -73,7 +90,10 @@ struct Options {
   void validate() const;
   bool integrals() const { return displacement || distance; }
   int grids() const { return crandall::grids(method, integrals()); }
+  // Output slots that carry histograms: the output times, and the stop if observed.
+  std::size_t histogram_slots() const { return times.size() + (stop ? 1 : 0); }
 };
+
 
 // A stretch of the grid: `steps` equal steps of length `step`, then (if slot >= 0) an output.
 struct Segment {
@@ -103,6 +123,13 @@ class Plan {
   std::uint64_t steps_per_path() const { return steps_per_path_; }
   std::uint64_t chunks() const { return (options_.paths + kChunkPaths - 1) / kChunkPaths; }
   std::uint64_t chunk_paths(std::uint64_t chunk) const;
+  // Histograms: whether any axis is recorded; the recorded axes in index order (the slots of
+  // a Histograms); and for every index of Options::histogram_axes its slot there, or -1.
+  bool histograms() const { return !recorded_axes_.empty(); }
+  const std::vector<BinEdges>& recorded_axes() const { return recorded_axes_; }
+  long histogram_slot(std::size_t slot, int variable) const {
+    return histograms() ? histogram_slot_[slot * kHistogramVariables + static_cast<std::size_t>(variable)] : -1;
+  }
 
  private:
   Options options_;
@@ -111,6 +138,8 @@ class Plan {
   std::vector<double> coast_elapsed_;
   bool needs_switch_state_ = false;
   std::uint64_t steps_per_path_ = 0;
+  std::vector<BinEdges> recorded_axes_;
+  std::vector<long> histogram_slot_;
 };
 
 }  // namespace crandall

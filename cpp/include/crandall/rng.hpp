@@ -59,7 +59,7 @@ namespace detail {
 constexpr std::uint32_t kPhiloxM0 = 0xD2511F53u, kPhiloxM1 = 0xCD9E8D57u;
 constexpr std::uint32_t kPhiloxW0 = 0x9E3779B9u, kPhiloxW1 = 0xBB67AE85u;
 
-inline void philox_scalar(std::uint64_t seed, std::uint64_t path, std::uint64_t pair,
+CRANDALL_HOT void philox_scalar(std::uint64_t seed, std::uint64_t path, std::uint64_t pair,
                           std::uint64_t out[4]) {
   using Philox = r123::Philox4x32;
   const Philox::key_type key = {{static_cast<std::uint32_t>(seed),

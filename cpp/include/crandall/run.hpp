@@ -19,6 +19,16 @@ struct ChunkResult {
   // switch_off + means()[0], its central moments are those of the first variable. Kept
   // relative so that they stay exact to double precision at any switch_off.
   Moments stop;
+  // Options::peaks: one slot per output time, and one for the stop if observed (none without
+  // peaks). Variables: the largest speed max |U1| over [0, t], the largest |U2| over [0, t]
+  // (0 when displacement is not observed), and 0. Maxima over the fine grid's points, never
+  // extrapolated (Richardson's methods).
+  Moments peaks;
+  Moments peaks_stop;
+  // Options::histogram_axes: for each axis its counts (cells(): underflow, the bins, overflow,
+  // NaN), or nothing for an axis that is not recorded. Integer counts: chunks merge exactly by
+  // adding them. From the fine grid for Richardson's methods (not extrapolated).
+  std::vector<std::vector<std::uint64_t>> histogram_counts;
 };
 
 // Asks whether to cancel the run. Polled by the calling thread only: before the run, between
