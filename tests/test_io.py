@@ -88,7 +88,7 @@ def test_pandas_table(physical_result):
     r = physical_result
     df = r.to_pandas()
     assert list(df.columns) == ["quantity", "t", "units", "mean", "var", "std", "stderr",
-                                "var_stderr"]
+                                "var_stderr", "bias_mean", "error_mean", "bias_var", "error_var"]
     assert len(df) == 5 * 4 + 4
     rows = df[df.quantity == "distance"]
     np.testing.assert_array_equal(rows["t"].values, r.times)

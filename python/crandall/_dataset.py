@@ -47,6 +47,17 @@ def _stats(result, name):
     return np.stack([np.asarray(x, dtype=float) for x in out], axis=-1)
 
 
+def _accuracy(result, name):
+    """bias and total error of the mean and of the variance (the tables' last columns)."""
+    out = [result._bias(name, "mean", False), result._error(name, "mean", False),
+           result._bias(name, "var", False), result._error(name, "var", False)]
+    return np.stack([np.asarray(x, dtype=float) for x in out], axis=-1)
+
+
+#: The columns of _accuracy, in to_pandas and in the datasets' ``accuracy`` variables.
+ACCURACY = ("bias_mean", "error_mean", "bias_var", "error_var")
+
+
 def _long_name(result, name):
     return quantity(name).long_name_in(result.scene.units)
 
@@ -68,6 +79,7 @@ def to_xarray(result):
     data_vars = {}
     coords = {
         "statistic": ("statistic", list(STATISTICS)),
+        "accuracy_statistic": ("accuracy_statistic", list(ACCURACY)),
         "variable": ("variable", list(VARIABLES)),
         "monomial": ("monomial", np.arange(len(exps), dtype=np.int32)),
         "exponents": (("monomial", "variable"), np.array(exps, dtype=np.int32),
@@ -86,12 +98,20 @@ def to_xarray(result):
                                    {"long_name": "statistics over paths at each output time "
                                                  "(var: unbiased; stderr: of the mean; "
                                                  "var_stderr: of the variance)"})
+        acc = np.stack([_accuracy(result, n) for n in time_names], axis=1)
+        data_vars["accuracy"] = (("time", "observable", "accuracy_statistic"), acc,
+                                 {"long_name": "estimated discretisation bias and total error "
+                                               "sqrt(stderr^2 + bias^2) of the mean and of the "
+                                               "variance (Result.bias, Result.error)"})
     if stop_names:
         coords["stop_quantity"] = ("stop_quantity", stop_names)
         coords["stop_units"] = ("stop_quantity", [sc.units_of(n) or "1" for n in stop_names])
         table = np.stack([_stats(result, n) for n in stop_names], axis=0)
         data_vars["stop_statistics"] = (("stop_quantity", "statistic"), table,
                                         {"long_name": "statistics over paths at the stop"})
+        acc = np.stack([_accuracy(result, n) for n in stop_names], axis=0)
+        data_vars["stop_accuracy"] = (("stop_quantity", "accuracy_statistic"), acc,
+                                      {"long_name": "bias and total error at the stop"})
     held = result.accumulators
     acc_times, acc_stop = held.times, held.stop
     accs = [("", acc_times, "slot")]
@@ -128,6 +148,8 @@ def to_xarray(result):
         "random_stream": int(result.random_stream),
         "slots": int(acc_times.slots),
     }
+    if result.cost["wall_time"] is not None:
+        attrs["wall_time"] = float(result.cost["wall_time"])
     for k, v in sc.params.items():
         attrs["scene_" + k] = float(v)
     if sc.distributions:
@@ -224,13 +246,14 @@ def to_pandas(result):
     rows = []
     sc = result.scene
     for name in result.names:
-        table = _stats(result, name)
+        table = np.concatenate([_stats(result, name), _accuracy(result, name)], axis=-1)
         if quantity(name).at_stop:
-            rows.append((name, math.nan, sc.units_of(name), *table.tolist()))
+            rows.append((name, math.nan, sc.units_of(name), *np.ravel(table).tolist()))
         else:
             for t, stats in zip(result.times, table):
                 rows.append((name, float(t), sc.units_of(name), *stats.tolist()))
-    return pd.DataFrame(rows, columns=["quantity", sc.time_name, "units", *STATISTICS])
+    return pd.DataFrame(rows, columns=["quantity", sc.time_name, "units", *STATISTICS,
+                                       *ACCURACY])
 
 
 def save(result, path: Union[str, "os.PathLike[str]"]) -> None:
@@ -356,4 +379,14 @@ def read(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
                 method=f["method"], moments=f["moments"], stop_moments=f["stop_moments"],
                 steps_per_path=f["steps_per_path"], min_steps=f["min_steps"],
                 random_stream=_core.RANDOM_STREAM, peaks=f["peaks_moments"],
-                stop_peaks=f["stop_peaks_moments"], histograms=f["histograms"])
+                stop_peaks=f["stop_peaks_moments"], histograms=f["histograms"],
+                wall_time=_wall_time(ds))
+
+
+def _wall_time(ds):
+    """The run's wall time if the file records it (files from before it did: None)."""
+    value = ds.attrs.get("wall_time")
+    if isinstance(value, (int, float, np.floating, np.integer)) and math.isfinite(value) \
+            and value >= 0:
+        return float(value)
+    return None

@@ -10,6 +10,7 @@ from typing import NamedTuple, Optional
 import numpy as np
 
 from . import _core, _dataset, distributions
+from . import bias as _bias
 from .bins import Histograms
 from .quantities import core_flags, find, names_for, quantity
 from .scene import Scene
@@ -138,7 +139,8 @@ class Result:
     def __init__(self, *, scene: Scene, paths: int, seed: int, dt: float, method: str,
                  moments, stop_moments, steps_per_path: int, min_steps: int = 0,
                  random_stream: Optional[int] = None, peaks=None, stop_peaks=None,
-                 histograms: Optional[Histograms] = None) -> None:
+                 histograms: Optional[Histograms] = None,
+                 wall_time: Optional[float] = None) -> None:
         self.scene = scene
         self.paths = int(paths)
         self.seed = int(seed)
@@ -154,6 +156,8 @@ class Result:
         self._peaks = peaks
         self._stop_peaks = stop_peaks
         self._histograms = histograms
+        self._wall_time = None if wall_time is None else float(wall_time)
+        self._bias_cache = None
         self._warned: set = set()
         self._raw = moments.raw() if moments.slots else np.zeros((0, len(_EXPONENTS)))
         self._stop_raw = stop_moments.raw() if stop_moments is not None else None
@@ -522,6 +526,69 @@ class Result:
         return distributions.exceedance(edges, cells[1:-2], int(cells[0]), int(cells[-2]),
                                         float(level) - offset, confidence)
 
+    # -- accuracy -----------------------------------------------------------------------
+
+    @property
+    def cost(self) -> dict:
+        """What the run cost: ``wall_time`` (s, of the call that ran it; None for a result
+        loaded from a file written before it was recorded) and ``path_steps`` (paths times
+        steps per path on the finest grid)."""
+        return {"wall_time": self._wall_time, "path_steps": self.paths * self.steps_per_path}
+
+    def exact(self, name: str, stat: str = "mean") -> bool:
+        """Whether the statistic is exact in law at any step (its bias is 0, not estimated):
+        every statistic of the velocity, the kinetic energy and the stop time."""
+        self._check_stat(name, stat)
+        return _bias.exact_in_law(name)
+
+    def _check_stat(self, name: str, stat: str) -> None:
+        if stat not in ("mean", "var"):
+            raise ValueError(f"stat must be 'mean' or 'var', got {stat!r}")
+        self._source(name)
+
+    def _bias(self, name: str, stat: str, warn: bool):
+        self._check_stat(name, stat)
+        if self._bias_cache is None:
+            self._bias_cache = _bias.estimate(self)
+        values, _ = self._bias_cache[(name, stat)]
+        if warn and np.isnan(values).any():
+            self._warn_nan(name, f"the bias of the {stat}", values,
+                           f"not estimated for method {self.method!r} (no coupled grids; "
+                           "use 'exact' or 'richardson', or simulate(error=...))", 3)
+        return float(values[0]) if quantity(name).at_stop else values
+
+    def bias(self, name: str, stat: str = "mean"):
+        """The estimated magnitude of the discretisation bias of a statistic (``stat``: "mean"
+        or "var"), in the quantity's units (squared for "var").
+
+        0 for the statistics exact in law (:meth:`exact`). Otherwise estimated on coupled
+        grids by a separate run of the same scene and grid (up to 65 536 paths of a stream of
+        its own; run on the first call, then kept): see :mod:`crandall.bias` and
+        docs/methods/adaptive.md. Where the grids' difference is not resolved the value is its
+        bound. NaN, with a :class:`StatisticsWarning`, for "euler" and "refine".
+        """
+        return self._bias(name, stat, True)
+
+    def bias_is_bound(self, name: str, stat: str = "mean") -> bool:
+        """Whether :meth:`bias` is a bound (the coupled grids' difference was not resolved)."""
+        self._bias(name, stat, False)
+        return bool(self._bias_cache[(name, stat)][1])
+
+    def _error(self, name: str, stat: str, warn: bool):
+        b = self._bias(name, stat, warn)
+        if stat == "mean":
+            se = self.stderr(name)
+        else:
+            known = find(name)
+            se = (self.var_stderr(name) if known is None or known.has_var_stderr
+                  else np.full(np.shape(b), np.nan))
+        return np.hypot(se, b)
+
+    def error(self, name: str, stat: str = "mean"):
+        """The total error of a statistic, sqrt(stderr^2 + bias^2), with ``stderr`` the
+        standard error of the mean (:meth:`stderr`) or of the variance (:meth:`var_stderr`)."""
+        return self._error(name, stat, True)
+
     # -- presentation -------------------------------------------------------------------
 
     def summary(self) -> str:
@@ -535,6 +602,8 @@ class Result:
         ]
         if self.paths < 2:
             lines.append("  (n/a: a variance needs at least 2 paths)")
+        lines.append("  bias: estimated discretisation bias (0: exact in law; "
+                     "Result.bias, docs/methods/adaptive.md)")
         time_names = [n for n in self.names if not quantity(n).at_stop]
         if time_names and self.times.size:
             # One block per quantity: time, mean ± standard error, variance, standard deviation.
@@ -542,12 +611,15 @@ class Result:
                 u = sc.units_of(n)
                 lines.append(f"  {n}" + (f" [{u}]" if u else ""))
                 lines.append(f"    {sc.time_name:>10}  {'mean':>13}  {'± stderr':>10}  "
-                             f"{'var':>12}  {'std':>12}")
+                             f"{'bias':>9}  {'var':>12}  {'std':>12}  {'var bias':>9}")
                 mean, var, cnt = self._stats(n)
+                bm, bv = self._bias(n, "mean", False), self._bias(n, "var", False)
                 for i, t in enumerate(self.times):
                     lines.append(f"    {t:>10.4g}  {mean[i]:>13.6g}  "
                                  f"{_fmt(_sqrt(var[i] / cnt[i]), '10.2g')}  "
-                                 f"{_fmt(var[i], '12.6g')}  {_fmt(_sqrt(var[i]), '12.6g')}")
+                                 f"{_fmt(bm[i], '9.2g')}  "
+                                 f"{_fmt(var[i], '12.6g')}  {_fmt(_sqrt(var[i]), '12.6g')}  "
+                                 f"{_fmt(bv[i], '9.2g')}")
         stop_names = [n for n in self.names if quantity(n).at_stop]
         if stop_names:
             lines.append("  at the stop:")
@@ -555,7 +627,10 @@ class Result:
                 mean, var, cnt = self._stats(n)
                 u = sc.units_of(n)
                 lines.append(f"    {n:<26} mean {mean:.6g} ± {_fmt(_sqrt(var / cnt), '.2g')}"
-                             f"   var {_fmt(var, '.6g')}" + (f"   [{u}]" if u else ""))
+                             f" (bias {_fmt(self._bias(n, 'mean', False), '.2g')})"
+                             f"   var {_fmt(var, '.6g')}"
+                             f" (bias {_fmt(self._bias(n, 'var', False), '.2g')})"
+                             + (f"   [{u}]" if u else ""))
         return "\n".join(lines)
 
     def __str__(self) -> str:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+import time
 from typing import Any, List, Optional, Sequence, Union
 
 import numpy as np
@@ -224,6 +225,7 @@ class _Run:
     """One scene's run: the plan, the merge in chunk order, the checkpoint, the result."""
 
     def __init__(self, spec: RunSpec, *, threads: int, checkpoint):
+        self.started = time.perf_counter()
         self.spec = spec
         self.scene = spec.scene
         self.paths = spec.paths
@@ -312,7 +314,7 @@ class _Run:
                       random_stream=engine.RANDOM_STREAM,
                       peaks=acc.peaks if self.peaks else None,
                       stop_peaks=acc.peaks_stop if self.peaks and stop else None,
-                      histograms=hist)
+                      histograms=hist, wall_time=time.perf_counter() - self.started)
 
     def _check_finite(self):
         # Means and variances must be numbers; only fourth moments may overflow (var_stderr
