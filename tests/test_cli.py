@@ -77,7 +77,8 @@ def test_run_scene_file_prints_and_writes_everything(scene_file, tmp_path):
     assert sorted(json.loads((out / cli.MANIFEST).read_text())) == outputs
     assert same_result(crandall.load(out / "result.nc"), direct)
     csv = (out / "result.csv").read_text().splitlines()
-    assert csv[0] == "quantity,tau,units,mean,var,std,stderr,var_stderr"
+    assert csv[0] == ("quantity,tau,units,mean,var,std,stderr,var_stderr,"
+                      "bias_mean,error_mean,bias_var,error_var")
     assert len(csv) == 1 + 5 * 4 + 4
     for png in out.glob("*.png"):
         assert png.stat().st_size > 10_000
