@@ -9,8 +9,35 @@ void register_levels(py::module_& m) {
   m.def(
       "run_samples",
       [](const crandall::Plan& plan, std::uint64_t first, std::uint64_t count, int threads,
-         bool controls) -> py::object {
+         bool controls, py::object out, py::object controls_out) -> py::object {
         using clock = std::chrono::steady_clock;
+        const crandall::Options& o = plan.options();
+        const std::size_t slots = o.times.size() + (o.stop ? 1 : 0);
+        const auto grids = static_cast<std::size_t>(o.grids());
+        const auto n = static_cast<std::size_t>(count);
+        // The arrays written: the caller's (reused between calls), or new ones. Every element
+        // is written, so neither is cleared first.
+        auto buffer = [n](py::object given, std::vector<std::size_t> shape, const char* name) {
+          if (given.is_none()) return py::array_t<double>(shape);
+          auto a = py::cast<py::array>(given);
+          std::vector<py::ssize_t> want(shape.begin(), shape.end());
+          bool ok = a.dtype().is(py::dtype::of<double>()) && a.ndim() == static_cast<py::ssize_t>(shape.size()) &&
+                    (a.flags() & py::array::c_style) && a.writeable();
+          for (std::size_t i = 0; ok && i < shape.size(); ++i)
+            ok = a.shape(static_cast<py::ssize_t>(i)) == want[i];
+          if (!ok)
+            throw std::invalid_argument(std::string(name) + " must be a writable C-contiguous "
+                                        "float64 array of the samples' shape");
+          return py::array_t<double>(a);
+        };
+        py::array_t<double> values = buffer(out, {n, slots, grids, std::size_t{3}}, "out");
+        py::array_t<double> ctl;
+        if (controls)
+          ctl = buffer(controls_out,
+                       {n, slots, static_cast<std::size_t>(crandall::control_count())},
+                       "controls_out");
+        double* values_ptr = values.mutable_data();
+        double* ctl_ptr = controls ? ctl.mutable_data() : nullptr;
         const bool main = bindings::on_main_thread();
         auto last = clock::now();
         // As run_chunk: the calling thread checks for Ctrl-C (main thread) or the exit.
@@ -22,35 +49,51 @@ void register_levels(py::module_& m) {
           py::gil_scoped_acquire gil;
           return PyErr_CheckSignals() != 0;
         };
-        std::vector<double> out, ctl;
         try {
-          out = bindings::without_gil([&] {
-            return crandall::run_samples(plan, first, count, threads, cancel,
-                                         controls ? &ctl : nullptr);
+          bindings::without_gil([&] {
+            crandall::run_samples(plan, first, count, threads, values_ptr, ctl_ptr, cancel);
+            return 0;
           });
         } catch (const crandall::Cancelled&) {
           if (PyErr_Occurred()) throw py::error_already_set();
           throw std::runtime_error("run cancelled: the interpreter is exiting");
         }
-        const crandall::Options& o = plan.options();
-        const std::size_t slots = o.times.size() + (o.stop ? 1 : 0);
-        const auto grids = static_cast<std::size_t>(o.grids());
-        py::array_t<double> a({static_cast<std::size_t>(count), slots, grids, std::size_t{3}});
-        std::memcpy(a.mutable_data(), out.data(), out.size() * sizeof(double));
-        if (!controls) return std::move(a);
-        py::array_t<double> c({static_cast<std::size_t>(count), slots,
-                               static_cast<std::size_t>(crandall::control_count())});
-        std::memcpy(c.mutable_data(), ctl.data(), ctl.size() * sizeof(double));
-        return py::make_tuple(a, c);
+        if (!controls) return std::move(values);
+        return py::make_tuple(values, ctl);
       },
       py::arg("plan"), py::arg("first"), py::arg("count"), py::arg("threads") = 0,
-      py::arg("controls") = false,
+      py::arg("controls") = false, py::arg("out") = py::none(), py::arg("controls_out") = py::none(),
       "Per-path values of paths first .. first + count - 1, shape (count, slots, grids, 3): "
       "at each output time (velocity, displacement, distance) on each coupled grid, and at the "
       "stop (time from the switch-off, displacement, distance). The same bits for any thread "
       "count. With controls=True (exact method, an integral observed), returns (values, "
-      "controls) with the base level's control sums, shape (count, slots, CONTROLS).");
+      "controls) with the base level's control sums, shape (count, slots, CONTROLS). out and "
+      "controls_out: arrays of exactly those shapes to write into (reused between calls).");
   m.attr("CONTROLS") = crandall::control_count();
+
+  m.def(
+      "subtract_controls",
+      [](py::array_t<double> column, py::array_t<double, py::array::c_style> controls,
+         std::size_t slot, const std::vector<double>& beta) {
+        // column[i] -= beta[0] c[i, slot, 0], then beta[1] c[i, slot, 1], ... in that order:
+        // plain multiplies and subtractions (no BLAS), the same bits on every machine.
+        if (column.ndim() != 1 || controls.ndim() != 3 || controls.shape(0) != column.shape(0) ||
+            static_cast<std::size_t>(controls.shape(1)) <= slot ||
+            static_cast<std::size_t>(controls.shape(2)) != beta.size())
+          throw std::invalid_argument("subtract_controls: shapes do not match");
+        auto f = column.mutable_unchecked<1>();
+        auto c = controls.unchecked<3>();
+        const auto n = column.shape(0);
+        const auto k = static_cast<py::ssize_t>(beta.size());
+        const auto j = static_cast<py::ssize_t>(slot);
+        for (py::ssize_t i = 0; i < n; ++i) {
+          double v = f(i);
+          for (py::ssize_t q = 0; q < k; ++q) v -= beta[static_cast<std::size_t>(q)] * c(i, j, q);
+          f(i) = v;
+        }
+      },
+      py::arg("column"), py::arg("controls"), py::arg("slot"), py::arg("beta"),
+      "In place: column -= controls[:, slot, :] . beta, term by term in a fixed order.");
 
   m.def(
       "sum_products",

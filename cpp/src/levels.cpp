@@ -17,9 +17,8 @@ namespace crandall {
 
 int control_count() { return kControls; }
 
-std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count,
-                                int threads, const CancelCheck& cancel,
-                                std::vector<double>* controls_out) {
+void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int threads,
+                 double* out, double* controls_out, const CancelCheck& cancel) {
   const Options& o = plan.options();
   if (count == 0 || first >= o.paths || count > o.paths - first)
     throw std::invalid_argument("run_samples: paths [first, first + count) must lie in the plan's paths");
@@ -27,12 +26,10 @@ std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint
   const int team = thread_count(threads);
   const std::size_t slots = o.times.size() + (o.stop ? 1 : 0);
   const int grids = o.grids();
-  std::vector<double> out(count * slots * static_cast<std::size_t>(grids) * 3, 0.0);
   BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks);
   if (controls_out) {
     if (o.method != Method::exact || !o.integrals())
       throw std::invalid_argument("run_samples: controls need the exact method and an observed integral");
-    controls_out->assign(count * slots * kControls, 0.0);
     block_fn = active_kernel().controls_fn(o.displacement, o.distance);
   }
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
@@ -47,11 +44,11 @@ std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint
     std::unique_ptr<Workspace> ws;
     try {
       ws = std::make_unique<Workspace>(plan);
-      ws->samples = out.data();
+      ws->samples = out;
       ws->sample_first = first;
       ws->sample_slots = slots;
       ws->sample_grids = grids;
-      if (controls_out) ws->controls = controls_out->data();
+      ws->controls = controls_out;
       ws->cancelled = [&stop]() { return stop.load(std::memory_order_relaxed); };
     } catch (...) {
       std::lock_guard<std::mutex> lock(error_mutex);
@@ -79,7 +76,11 @@ std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint
   }
   if (error) std::rethrow_exception(error);
   if (stop.load()) throw Cancelled();
-  return out;
+}
+
+std::size_t sample_size(const Plan& plan) {
+  const Options& o = plan.options();
+  return (o.times.size() + (o.stop ? 1 : 0)) * static_cast<std::size_t>(o.grids()) * 3;
 }
 
 std::vector<double> sum_products(const double* values, std::uint64_t rows, std::uint64_t cols,

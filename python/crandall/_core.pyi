@@ -166,3 +166,7 @@ def run_samples(plan: Plan, first: int, count: int, threads: int = 0,
 def sum_products(values: npt.NDArray[np.float64], widths: List[int],
                  threads: int = 0) -> npt.NDArray[np.float64]:
     """Per group of consecutive columns: column sums and the upper triangle of F^T F."""
+
+def subtract_controls(column: npt.NDArray[np.float64], controls: npt.NDArray[np.float64],
+                      slot: int, beta: List[float]) -> None:
+    """In place: column -= controls[:, slot, :] . beta, term by term in a fixed order."""

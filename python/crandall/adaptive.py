@@ -174,11 +174,30 @@ class _Level:
         self.threads = threads
         #: Steps a path of this level takes (its cost unit).
         self.cost = max(int(self.plan.steps_per_path), 1)
+        #: (slots, grids, 3): one path's values.
+        self.shape = (len(scene.times) + (1 if "stop" in scene.observe else 0),
+                      2 if level > 0 else 1, 3)
         self.sums: Optional[_Sums] = None
         #: Whether the level runs with control variates, and the first path its sums hold
         #: (the paths before it fitted the control coefficients).
         self.controls = False
         self.start = 0
+        self._buffers = None
+
+    def samples(self, first: int, n: int):
+        """The per-path values (and control sums) of paths [first, first + n), written into
+        buffers kept between batches (fresh arrays per batch cost more in page faults than
+        a short grid's paths)."""
+        if self._buffers is None:
+            values = np.empty((BATCH_PATHS,) + tuple(self.shape))
+            ctl = (np.empty((BATCH_PATHS, self.shape[0], _core.CONTROLS)) if self.controls
+                   else None)
+            self._buffers = (values, ctl)
+        values, ctl = self._buffers
+        if self.controls:
+            return _core.run_samples(self.plan, first, n, self.threads, True, values[:n],
+                                     ctl[:n])
+        return _core.run_samples(self.plan, first, n, self.threads, False, values[:n]), None
 
 
 def _solve(a: np.ndarray, b: np.ndarray) -> List[float]:
@@ -279,10 +298,10 @@ class _Engine:
                 f[:, c] = fine ** power
                 if controls is not None and self.beta is not None:
                     # Minus fixed multiples of the controls (mean exactly 0): still unbiased.
-                    # Elementwise, in a fixed order (no BLAS), for the same bits everywhere.
-                    for k, b in enumerate(self.beta[c]):
-                        if b != 0.0:
-                            f[:, c] -= b * controls[:, t.slot, k]
+                    # In a fixed order without BLAS, for the same bits everywhere.
+                    col = np.ascontiguousarray(f[:, c])
+                    _core.subtract_controls(col, controls, t.slot, self.beta[c])
+                    f[:, c] = col
             elif not t.exact:
                 coarse = self._values(block, t, 1) - centre
                 f[:, c] = fine ** power - coarse ** power
@@ -309,11 +328,7 @@ class _Engine:
     def _batch(self, lev: _Level, first: int, n: int) -> np.ndarray:
         """The flat sums of paths [first, first + n) of a level (centre and coefficients
         known): a pure function of the engine's configuration, run here or on a Dask worker."""
-        controls = None
-        if lev.controls:
-            block, controls = _core.run_samples(lev.plan, first, n, self.threads, True)
-        else:
-            block = _core.run_samples(lev.plan, first, n, self.threads)
+        block, controls = lev.samples(first, n)
         return _core.sum_products(self._features(block, lev.level, controls), self.widths,
                                   self.threads)
 
@@ -337,11 +352,7 @@ class _Engine:
             # estimate) and, on the base level, the control coefficients (then its paths are
             # left out of the estimate).
             start, n = batches.pop(0)
-            controls = None
-            if lev.controls:
-                block, controls = _core.run_samples(lev.plan, start, n, self.threads, True)
-            else:
-                block = _core.run_samples(lev.plan, start, n, self.threads)
+            block, controls = lev.samples(start, n)
             if self.centre is None:
                 self.centre = np.array([self._mean(self._values(block, t, 0))
                                         for t in self.targets])

@@ -13,18 +13,21 @@
 
 namespace crandall {
 
-// Paths [first, first + count) of the plan (within its `paths`). Returns
+// Paths [first, first + count) of the plan (within its `paths`):
 // count x slots x grids x 3 doubles, path-major: slot k < times.size() holds (velocity,
 // displacement, distance) at output time k on each grid (grid g: steps 2^g times the fine
 // one, as many grids as the method walks), slot times.size() (when the stop is observed) the
 // time from the switch-off to the stop and the displacement and distance there. Variables not
 // observed are 0. `cancel` is polled by the calling thread between blocks; returning true
 // throws Cancelled.
-// With `controls` (exact method only, at least one integral observed), also the control sums
-// of kernel_controls.hpp, count x slots x kControls doubles, into *controls_out.
-std::vector<double> run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count,
-                                int threads, const CancelCheck& cancel = {},
-                                std::vector<double>* controls_out = nullptr);
+// Written into out (count x sample_size(plan) doubles, every one of them written), and with
+// controls_out (exact method only, at least one integral observed) the control sums of
+// kernel_controls.hpp, count x slots x kControls doubles. The caller's buffers are reused
+// between calls: a fresh allocation per call cost more in page faults than the paths.
+void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int threads,
+                 double* out, double* controls_out = nullptr, const CancelCheck& cancel = {});
+// Doubles per path of run_samples' out: slots x grids x 3.
+std::size_t sample_size(const Plan& plan);
 // Number of control sums per path and slot.
 int control_count();
 
