@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import time
 
 import numpy as np
@@ -107,6 +108,8 @@ def main():
     t = time.perf_counter()
     data = run(a.seeds, a.error, threads=a.threads)
     data["wall_time_total"] = time.perf_counter() - t
+    data["command"] = " ".join(["bench/calibration.py"] + sys.argv[1:])
+    data["crandall"] = crandall.__version__
     for n, row in data["statistics"].items():
         print(f"{n:28s} coverage {row['coverage']:.3f}  rms z {row['rms_z']:.2f}  "
               f"max error {row['max_error']:.2g}")

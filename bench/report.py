@@ -98,7 +98,8 @@ def render_time_to_answer() -> list:
         c = json.loads(cal.read_text())
         lines += [
             f"Calibration ({c['seeds']} seeds, error = {c['error']:g}; "
-            "`.venv/bin/python bench/calibration.py --publish`): how often the analytic value "
+            f"`.venv/bin/python {c.get('command', 'bench/calibration.py --publish')}`): how "
+            "often the analytic value "
             "lies in the reported 95 % interval (target 93-97 %; binomial standard deviation "
             f"{100 * c['binomial_sd_of_coverage']:.1f} %):",
             "",

@@ -29,6 +29,7 @@ import json
 import math
 import os
 import platform
+import sys
 import time
 from pathlib import Path
 
@@ -153,8 +154,7 @@ def main():
     budget = 10.0 if a.quick else a.budget
     rate = euler_seconds_per_path_step()
     out = {"script": "bench/time_to_answer.py",
-           "command": "bench/time_to_answer.py " + " ".join(
-               f"--{k}={v}" for k, v in vars(a).items() if v not in (False, None)),
+           "command": " ".join(["bench/time_to_answer.py"] + sys.argv[1:]),
            "crandall": crandall.__version__, "build": crandall._core.build_info(),
            "machine": {"cpus": os.cpu_count(), "platform": platform.platform(),
                        "load_before": os.getloadavg()[0]},
