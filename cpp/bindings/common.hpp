@@ -13,6 +13,8 @@
 #include <cstddef>
 #include <cstring>
 #include <exception>
+#include <functional>
+#include <memory>
 #include <optional>
 #include <thread>
 #include <vector>
@@ -76,6 +78,25 @@ inline py::array_t<double> to_array(const std::vector<double>& v, std::size_t ro
                                                                static_cast<py::ssize_t>(cols)});
   if (!v.empty()) std::memcpy(out.mutable_data(), v.data(), v.size() * sizeof(double));
   return out;
+}
+
+// The cancel check of a run driven from Python (run.hpp's CancelCheck), called by the run's
+// calling thread only. Python runs signal handlers on the main thread alone, so elsewhere there
+// is nothing to check but the interpreter's exit; on the main thread, at most every 50 ms, a
+// signal (Ctrl-C) cancels the run and its exception (KeyboardInterrupt) propagates. Needs the
+// GIL when made.
+inline std::function<bool()> python_cancel_check() {
+  using clock = std::chrono::steady_clock;
+  const bool main = on_main_thread();
+  auto last = std::make_shared<clock::time_point>(clock::now());
+  return [last, main]() {
+    if (!main) return g_exiting.load();
+    const auto now = clock::now();
+    if (now - *last < std::chrono::milliseconds(50)) return false;
+    *last = now;
+    py::gil_scoped_acquire gil;
+    return PyErr_CheckSignals() != 0;
+  };
 }
 
 }  // namespace bindings

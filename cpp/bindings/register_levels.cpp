@@ -10,7 +10,6 @@ void register_levels(py::module_& m) {
       "run_samples",
       [](const crandall::Plan& plan, std::uint64_t first, std::uint64_t count, int threads,
          bool controls, py::object out, py::object controls_out) -> py::object {
-        using clock = std::chrono::steady_clock;
         const crandall::Options& o = plan.options();
         const std::size_t slots = o.times.size() + (o.stop ? 1 : 0);
         const auto grids = static_cast<std::size_t>(o.grids());
@@ -38,17 +37,7 @@ void register_levels(py::module_& m) {
                        "controls_out");
         double* values_ptr = values.mutable_data();
         double* ctl_ptr = controls ? ctl.mutable_data() : nullptr;
-        const bool main = bindings::on_main_thread();
-        auto last = clock::now();
-        // As run_chunk: the calling thread checks for Ctrl-C (main thread) or the exit.
-        auto cancel = [&last, main]() {
-          if (!main) return bindings::g_exiting.load();
-          const auto now = clock::now();
-          if (now - last < std::chrono::milliseconds(50)) return false;
-          last = now;
-          py::gil_scoped_acquire gil;
-          return PyErr_CheckSignals() != 0;
-        };
+        const auto cancel = bindings::python_cancel_check();
         try {
           bindings::without_gil([&] {
             crandall::run_samples(plan, first, count, threads, values_ptr, ctl_ptr, cancel);

@@ -46,20 +46,7 @@ void register_run(py::module_& m) {
   m.def(
       "run_chunk",
       [](const crandall::Plan& plan, std::uint64_t chunk, int threads) {
-        using clock = std::chrono::steady_clock;
-        const bool main = bindings::on_main_thread();
-        auto last = clock::now();
-        // Called by the run's calling thread only. Python runs signal handlers on the main
-        // thread alone, so elsewhere there is nothing to check but the interpreter's exit. A
-        // signal (Ctrl-C) cancels the run, and its exception (KeyboardInterrupt) propagates.
-        auto cancel = [&last, main]() {
-          if (!main) return bindings::g_exiting.load();
-          const auto now = clock::now();
-          if (now - last < std::chrono::milliseconds(50)) return false;
-          last = now;
-          py::gil_scoped_acquire gil;
-          return PyErr_CheckSignals() != 0;
-        };
+        const auto cancel = bindings::python_cancel_check();
         try {
           // Pure C++ on data owned by the plan and the result: safe without the GIL, and other
           // Python threads (a progress bar) keep running.

@@ -276,11 +276,15 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     print(f"\n{result.paths:,} paths x {result.steps_per_path} steps in {elapsed:.1f} s "
           f"(seed {result.seed})")
     if files:
-        written = _write_outputs(result, out, figures, earlier)
-        if written:
-            print(f"wrote {len(written)} files to {out}{os.sep}: "
-                  + ", ".join(os.path.basename(p) for p in written))
+        _write_and_tell(result, out, figures, earlier)
     return 0
+
+
+def _write_and_tell(result, out: str, figures: bool, earlier: Sequence[str]) -> None:
+    written = _write_outputs(result, out, figures, earlier)
+    if written:
+        print(f"wrote {len(written)} files to {out}{os.sep}: "
+              + ", ".join(os.path.basename(p) for p in written))
 
 
 def _client(scheduler: Optional[str]):
@@ -327,10 +331,7 @@ def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, thre
     print(f"\n{c['path_steps']:.3g} path-steps in {c['wall_time']:.1f} s "
           f"(levels {len(c['paths'])}, paths per level {c['paths']}, seed {result.seed})")
     if files:
-        written = _write_outputs(result, out, False, earlier)
-        if written:
-            print(f"wrote {len(written)} files to {out}{os.sep}: "
-                  + ", ".join(os.path.basename(p) for p in written))
+        _write_and_tell(result, out, False, earlier)
     return 0
 
 
