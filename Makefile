@@ -63,9 +63,15 @@ pytest: install
 	$(VPY) -m pytest
 
 # The published figures (bench/results, rendered into the README by bench/report.py); long.
+# numba is the Euler-Maruyama peer's (bench/peers), a dependency of the benchmarks only.
 bench: install
+	$(VPY) -m pip install -q numba
 	$(VPY) bench/throughput.py --publish
 	$(VPY) bench/work_precision.py --publish
+	$(VPY) bench/distribution_cost.py --publish
+	$(VPY) bench/peaks.py --publish
+	$(VPY) bench/calibration.py --seeds 200 --error 1e-2 --publish
+	$(VPY) bench/time_to_answer.py --threads 1 --publish
 	$(VPY) bench/analytic_speed.py
 	$(VPY) bench/report.py
 
