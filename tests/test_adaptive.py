@@ -369,3 +369,14 @@ def test_cli_error(tmp_path, capsys):
     assert "--checkpoint: give --seed with --error" in capsys.readouterr().err
     assert cli.main(["run", str(scene), "--error", "-1", "--no-files"]) == 2
     assert "error must be finite and > 0" in capsys.readouterr().err
+
+
+def test_to_xarray(run):
+    xr = pytest.importorskip("xarray")
+    ds = run.to_xarray()
+    assert isinstance(ds, xr.Dataset)
+    got = ds["accuracy"].sel(observable="distance", stat="var", field="error").values
+    np.testing.assert_array_equal(got, run.error("distance", "var"))
+    got = ds["stop_accuracy"].sel(stop_quantity="stop_time", stat="mean", field="estimate")
+    assert float(got) == run.mean("stop_time")
+    assert ds.attrs["seed"] == "11"

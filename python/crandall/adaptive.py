@@ -767,6 +767,54 @@ class AdaptiveResult:
     def __str__(self) -> str:
         return self.summary()
 
+    def to_xarray(self):
+        """The statistics as an ``xarray.Dataset`` (needs ``crandall[io]``): ``accuracy``
+        (time x observable x stat x field) for the quantities over time and
+        ``stop_accuracy`` (stop_quantity x stat x field) at the stop, with stat in
+        (mean, var) and field in (estimate, stderr, bias, error); NaN where a statistic was
+        not asked for. Attributes: the scene (JSON), the target, the seed, the cost."""
+        try:
+            import xarray as xr
+        except ImportError:  # pragma: no cover - depends on the environment
+            raise ImportError("this needs xarray: pip install 'crandall[io]'") from None
+        fields = ("estimate", "stderr", "bias", "error")
+        sc = self.scene
+
+        def table(name):
+            out = np.full((len(STATS), len(fields), 1 if quantity(name).at_stop
+                           else len(self.times)), np.nan)
+            for i, stat in enumerate(self._stats_of(name)):
+                i = STATS.index(stat)
+                out[i, 0] = np.atleast_1d(self._get(name, stat, 0))
+                out[i, 1] = np.atleast_1d(self.stderr(name, stat))
+                out[i, 2] = np.atleast_1d(self.bias(name, stat))
+                out[i, 3] = np.atleast_1d(self.error(name, stat))
+            return out
+
+        over_time = [n for n in self.names if not quantity(n).at_stop]
+        at_stop = [n for n in self.names if quantity(n).at_stop]
+        data, coords = {}, {"stat": list(STATS), "field": list(fields)}
+        if over_time:
+            coords["time"] = np.asarray(self.times, dtype=float)
+            coords["observable"] = over_time
+            coords["units"] = ("observable", [sc.units_of(n) or "1" for n in over_time])
+            data["accuracy"] = (("observable", "stat", "field", "time"),
+                                np.stack([table(n) for n in over_time]))
+        if at_stop:
+            coords["stop_quantity"] = at_stop
+            data["stop_accuracy"] = (("stop_quantity", "stat", "field"),
+                                     np.stack([table(n)[:, :, 0] for n in at_stop]))
+        attrs = {"title": f"crandall result to an accuracy: {sc!r}",
+                 "scene": json.dumps(sc.to_dict()), "seed": str(self.seed),
+                 "error_target": math.nan if self.error_target is None else self.error_target,
+                 "rel_error_target": (math.nan if self.rel_error_target is None
+                                      else self.rel_error_target),
+                 "wall_time": float(self.cost["wall_time"]),
+                 "path_steps": str(self.cost["path_steps"]),
+                 "paths_per_level": json.dumps(self.cost["paths"]),
+                 "crandall_version": __version__, "random_stream": self.random_stream}
+        return xr.Dataset(data_vars=data, coords=coords, attrs=attrs)
+
     def to_pandas(self):
         """One row per quantity, time and statistic: estimate, stderr, bias, error, exact."""
         import pandas as pd
