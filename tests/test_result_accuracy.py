@@ -89,3 +89,14 @@ def test_bad_arguments(coarse_exact):
         coarse_exact.bias("distance", "median")
     with pytest.raises(ValueError, match="name: 'speed' is not in this result"):
         coarse_exact.error("speed")
+
+
+def test_peaks_are_not_exact_and_not_estimated():
+    sc = crandall.Scene.scaled(tau0=1.0, times=[0.5, 1.0], observe=["velocity", "peaks"])
+    r = crandall.simulate(sc, paths=5000, seed=4, method="exact")
+    assert not r.exact("peak_speed")
+    with pytest.warns(StatisticsWarning, match="not estimated for the peaks"):
+        assert np.all(np.isnan(r.bias("peak_speed")))
+    assert np.all(r.bias("velocity", "var") == 0.0)
+    with pytest.raises(ValueError, match="observe: 'peaks' is not available with error="):
+        crandall.simulate(sc, error=0.1, seed=1)

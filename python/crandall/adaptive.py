@@ -859,6 +859,10 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
     rel = _check_target("rel_error", rel_error) if rel_error is not None else None
     seed = check_int("seed", seed, 0, MAX_SEED)
     start = time.perf_counter()
+    if "peaks" in scene.observe:
+        raise ValueError("observe: 'peaks' is not available with error= or rel_error= (the "
+                         "peaks are maxima over the grid, whose shortfall the levels do not "
+                         "estimate); run the peaks with paths=")
     chosen = _check_statistics(scene, statistics)
     engine = _Engine(scene, eps=eps, rel=rel, seed=seed, threads=threads, statistics=chosen)
     if checkpoint is not None:

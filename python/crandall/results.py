@@ -552,9 +552,11 @@ class Result:
             self._bias_cache = _bias.estimate(self)
         values, _ = self._bias_cache[(name, stat)]
         if warn and np.isnan(values).any():
-            self._warn_nan(name, f"the bias of the {stat}", values,
-                           f"not estimated for method {self.method!r} (no coupled grids; "
-                           "use 'exact' or 'richardson', or simulate(error=...))", 3)
+            why = ("not estimated for the peaks (maxima over the grid: their shortfall is "
+                   "measured in docs/distributions.md)" if quantity(name).peak else
+                   f"not estimated for method {self.method!r} (no coupled grids; "
+                   "use 'exact' or 'richardson', or simulate(error=...))")
+            self._warn_nan(name, f"the bias of the {stat}", values, why, 3)
         return float(values[0]) if quantity(name).at_stop else values
 
     def bias(self, name: str, stat: str = "mean"):
@@ -565,7 +567,8 @@ class Result:
         grids by a separate run of the same scene and grid (up to 65 536 paths of a stream of
         its own; run on the first call, then kept): see :mod:`crandall.bias` and
         docs/methods/adaptive.md. Where the grids' difference is not resolved the value is its
-        bound. NaN, with a :class:`StatisticsWarning`, for "euler" and "refine".
+        bound. NaN, with a :class:`StatisticsWarning`, for "euler" and "refine" and for the
+        peaks.
         """
         return self._bias(name, stat, True)
 
