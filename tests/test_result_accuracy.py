@@ -100,3 +100,15 @@ def test_peaks_are_not_exact_and_not_estimated():
     assert np.all(r.bias("velocity", "var") == 0.0)
     with pytest.raises(ValueError, match="observe: 'peaks' is not available with error="):
         crandall.simulate(sc, error=0.1, seed=1)
+
+
+def test_bias_run_is_never_larger_than_the_run():
+    # A tiny run's bias estimate uses its own number of paths (a wide bound), never more:
+    # a long-horizon scene of 10 paths must not start a run of thousands.
+    from crandall import bias
+    r = crandall.simulate(SCENE, paths=10, seed=5, method="exact", dt=0.1)
+    assert bias._samples(r, 1).shape[0] == 10
+    assert np.all(np.isfinite(r.bias("distance", "var")))
+    one = crandall.simulate(SCENE, paths=1, seed=5, method="exact", dt=0.1)
+    with pytest.warns(StatisticsWarning, match="needs at least 2 paths"):
+        assert np.all(np.isnan(one.bias("distance")))

@@ -2,7 +2,8 @@
 coupled grids (docs/methods/adaptive.md, "Fixed-step runs").
 
 A fixed-step run keeps the moments of its (extrapolated) estimator only. Its bias is
-estimated by a separate, smaller run of the same scene and grid in which every path is also
+estimated by a separate run of the same scene and grid (as many paths as the run, at most
+BIAS_PATHS) in which every path is also
 integrated on every second and every fourth point of its grid (the coupled grids of
 docs/methods/richardson.md: the same exact path, so differences between grids have a small
 variance):
@@ -35,10 +36,11 @@ from . import _core
 from .adaptive import _level_seed  # the same key derivation as the levels of a run
 from .quantities import VELOCITY, core_flags, quantity
 
-__all__ = ["estimate", "BIAS_PATHS", "EXACT_IN_LAW"]
+__all__ = ["estimate", "exact_in_law", "BIAS_PATHS"]
 
-#: Paths of the coupled run: the run's own number, within these bounds.
-BIAS_PATHS = (4096, 65536)
+#: Paths of the coupled run: the run's own number, at most this (so that the estimate never
+#: costs more than about 1/16 of a run of a million paths, nor more than the run itself).
+BIAS_PATHS = 65536
 #: The trapezoid rule's leading bias exponent on the exact skeleton (docs/integrals.md).
 TRAPEZOID_ALPHA = 1.5
 #: The key of the coupled run's paths is splitmix64 of (seed, this).
@@ -67,7 +69,7 @@ def _samples(result, threads: int) -> np.ndarray:
     for flag, on in core_flags(scene.observe).items():
         setattr(o, flag, on)
     o.seed = _level_seed(result.seed, _STREAM)
-    n = int(min(max(result.paths, BIAS_PATHS[0]), BIAS_PATHS[1]))
+    n = int(min(result.paths, BIAS_PATHS))
     o.paths = n
     return _core.run_samples(_core.Plan(o), 0, n, threads)
 
@@ -78,7 +80,7 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
     method = result.method
     out: Dict[Tuple[str, str], Tuple[np.ndarray, bool]] = {}
     names = result.names
-    needs_run = method in ("exact", "richardson", "richardson2") and any(
+    needs_run = result.paths >= 2 and method in ("exact", "richardson", "richardson2") and any(
         not exact_in_law(n) and not quantity(n).peak for n in names)
     samples = _samples(result, threads) if needs_run else None
     w3 = np.array(_core.richardson_weights("richardson"))

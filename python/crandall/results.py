@@ -554,6 +554,7 @@ class Result:
         if warn and np.isnan(values).any():
             why = ("not estimated for the peaks (maxima over the grid: their shortfall is "
                    "measured in docs/distributions.md)" if quantity(name).peak else
+                   "a bias estimate needs at least 2 paths" if self.paths < 2 else
                    f"not estimated for method {self.method!r} (no coupled grids; "
                    "use 'exact' or 'richardson', or simulate(error=...))")
             self._warn_nan(name, f"the bias of the {stat}", values, why, 3)
@@ -564,8 +565,8 @@ class Result:
         or "var"), in the quantity's units (squared for "var").
 
         0 for the statistics exact in law (:meth:`exact`). Otherwise estimated on coupled
-        grids by a separate run of the same scene and grid (up to 65 536 paths of a stream of
-        its own; run on the first call, then kept): see :mod:`crandall.bias` and
+        grids by a separate run of the same scene and grid (as many paths as the run, at most
+        65 536, of a stream of its own; run on the first call, then kept): see :mod:`crandall.bias` and
         docs/methods/adaptive.md. Where the grids' difference is not resolved the value is its
         bound. NaN, with a :class:`StatisticsWarning`, for "euler" and "refine" and for the
         peaks.
