@@ -380,3 +380,19 @@ def test_to_xarray(run):
     got = ds["stop_accuracy"].sel(stop_quantity="stop_time", stat="mean", field="estimate")
     assert float(got) == run.mean("stop_time")
     assert ds.attrs["seed"] == "11"
+
+
+def test_many_output_times_keep_batches_small():
+    # 1000 output times: a batch of 65 536 paths would hold gigabytes of per-path values;
+    # the batch shrinks with the slots (a function of the scene only, so still reproducible),
+    # down to one block of 256 paths.
+    from crandall import adaptive
+    times = np.linspace(0.001, 2.0, 1000)
+    sc = crandall.Scene.scaled(tau0=2.0, times=times, observe=["distance"])
+    engine = adaptive._Engine(sc, eps=0.1, rel=None, seed=1, threads=1)
+    assert engine.batch * (1000 * (6 + _core.CONTROLS) + 2 * len(engine.widths)) * 8 \
+        <= adaptive.BATCH_BYTES
+    assert engine.batch >= 256 and engine.batch % 256 == 0
+    r = crandall.simulate(sc, error=0.2, seed=1, threads=2,
+                          statistics=["distance:mean", "distance:var"])
+    assert np.all(r.error("distance", "var") <= 0.2)

@@ -46,8 +46,10 @@ __all__ = ["AdaptiveResult", "simulate_to_error", "BASE_DT_FACTOR", "BASE_MIN_ST
 #: at least BASE_MIN_STEPS steps.
 BASE_DT_FACTOR = 25
 BASE_MIN_STEPS = 4
-#: Paths per call of the core; and the pilot sample of a new level.
+#: Paths per call of the core (fewer when a path's values and features would take more than
+#: BATCH_BYTES in a batch: scenes with many output times); and the pilot of a new level.
 BATCH_PATHS = 1 << 16
+BATCH_BYTES = 64 << 20
 PILOT_PATHS = 4096
 #: Levels beyond the base (the finest grid is 2^MAX_LEVELS times finer than the base).
 MAX_LEVELS = 14
@@ -182,6 +184,7 @@ class _Level:
         #: (the paths before it fitted the control coefficients).
         self.controls = False
         self.start = 0
+        self.batch = BATCH_PATHS
         self._buffers = None
 
     def samples(self, first: int, n: int):
@@ -189,8 +192,8 @@ class _Level:
         buffers kept between batches (fresh arrays per batch cost more in page faults than
         a short grid's paths)."""
         if self._buffers is None:
-            values = np.empty((BATCH_PATHS,) + tuple(self.shape))
-            ctl = (np.empty((BATCH_PATHS, self.shape[0], _core.CONTROLS)) if self.controls
+            values = np.empty((self.batch,) + tuple(self.shape))
+            ctl = (np.empty((self.batch, self.shape[0], _core.CONTROLS)) if self.controls
                    else None)
             self._buffers = (values, ctl)
         values, ctl = self._buffers
@@ -256,6 +259,12 @@ class _Engine:
             if t.stat == "var":
                 self.cols.append((i, 2))
         self.widths = [2 if t.stat == "var" else 1 for t in self.targets]
+        # Paths per batch: a pure function of the scene and the statistics (the batches a run
+        # makes must not depend on the machine), small enough that a batch's per-path values,
+        # control sums and feature columns stay within BATCH_BYTES.
+        slots = len(scene.times) + (1 if "stop" in scene.observe else 0)
+        per_path = 8 * (slots * (2 * 3 + _core.CONTROLS) + 2 * len(self.widths))
+        self.batch = int(min(BATCH_PATHS, max(256, BATCH_BYTES // per_path // 256 * 256)))
         #: Control variates on the base level (docs/methods/adaptive.md): with an observed
         #: integral (the controls need the grid's steps).
         self.use_controls = USE_CONTROLS and self.integrals
@@ -343,7 +352,7 @@ class _Engine:
         batches = []
         done = 0
         while done < count:
-            n = min(BATCH_PATHS, count - done)
+            n = min(self.batch, count - done)
             batches.append((first + done, n))
             done += n
         if self.centre is None or (lev.controls and self.beta is None):
@@ -393,6 +402,7 @@ class _Engine:
         while len(self.levels) <= level:
             self.levels.append(_Level(self.scene, len(self.levels), self.seed, self.base_dt,
                                       self.threads, self.integrals))
+            self.levels[-1].batch = self.batch
             if len(self.levels) == 1 and self.use_controls:
                 self.levels[0].controls = True
         return self.levels[level]

@@ -41,6 +41,8 @@ __all__ = ["estimate", "exact_in_law", "BIAS_PATHS"]
 #: Paths of the coupled run: the run's own number, at most this (so that the estimate never
 #: costs more than about 1/16 of a run of a million paths, nor more than the run itself).
 BIAS_PATHS = 65536
+#: ... and at most this many bytes of per-path values (scenes with many output times).
+BIAS_BYTES = 256 << 20
 #: The trapezoid rule's leading bias exponent on the exact skeleton (docs/integrals.md).
 TRAPEZOID_ALPHA = 1.5
 #: The key of the coupled run's paths is splitmix64 of (seed, this).
@@ -69,7 +71,9 @@ def _samples(result, threads: int) -> np.ndarray:
     for flag, on in core_flags(scene.observe).items():
         setattr(o, flag, on)
     o.seed = _level_seed(result.seed, _STREAM)
-    n = int(min(result.paths, BIAS_PATHS))
+    # At most BIAS_BYTES of per-path values (3 grids x 3 variables per output slot).
+    per_path = 8 * 9 * (len(scene.times) + (1 if "stop" in scene.observe else 0))
+    n = int(min(result.paths, BIAS_PATHS, max(2, BIAS_BYTES // per_path)))
     o.paths = n
     return _core.run_samples(_core.Plan(o), 0, n, threads)
 
