@@ -78,3 +78,25 @@ def test_ctrl_c_with_more_threads_than_cores_and_a_single_block():
     assert returncode == 3, err
     assert "interrupted" in out
     assert elapsed < 3.0, f"took {elapsed:.2f} s to stop"
+
+
+ADAPTIVE_SCRIPT = textwrap.dedent(
+    """
+    import sys, crandall
+    scene = crandall.Scene.scaled(tau0=5.0, times=[1.0, 5.0])
+    print("started", flush=True)
+    try:
+        crandall.simulate(scene, error=1e-5, seed=1, threads=2)  # hours
+    except KeyboardInterrupt:
+        print("interrupted", flush=True)
+        sys.exit(3)
+    """
+)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGINT"), reason="needs POSIX signals")
+def test_ctrl_c_stops_a_run_to_an_accuracy_within_a_second():
+    returncode, out, err, elapsed = _ctrl_c(ADAPTIVE_SCRIPT, timeout=10)
+    assert returncode == 3, err
+    assert "interrupted" in out
+    assert elapsed < 1.0, f"took {elapsed:.2f} s to stop"
