@@ -14,8 +14,11 @@ CHUNK = _core.CHUNK_PATHS
 
 @pytest.fixture(scope="module")
 def client():
+    # Ephemeral ports for the scheduler and its HTTP server: the suite must pass next to another Dask
+    # cluster on the machine (a scheduler's default dashboard port, 8787, may be held).
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, worker_dashboard_address=None)
+                                       scheduler_port=0, dashboard_address=":0",
+                                       worker_dashboard_address=None)
     c = distributed.Client(cluster)
     try:
         yield c

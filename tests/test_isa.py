@@ -138,7 +138,10 @@ def test_cluster_with_workers_on_different_variants_gives_the_local_bits():
     workers = {isa: {"cls": distributed.Nanny,
                      "options": {"nthreads": 1, "env": {"CRANDALL_ISA": isa}}}
                for isa in ("baseline", BEST)}
-    scheduler = {"cls": distributed.Scheduler, "options": {"dashboard_address": None}}
+    # No dashboard, and ephemeral ports for the scheduler and its HTTP server: the suite must pass next to another Dask cluster
+    # (a scheduler's default dashboard port, 8787, may be held).
+    scheduler = {"cls": distributed.Scheduler,
+                 "options": {"dashboard": False, "dashboard_address": ":0", "port": 0}}
     with distributed.SpecCluster(scheduler=scheduler, workers=workers) as cluster, \
             distributed.Client(cluster) as client:
         client.wait_for_workers(2)
