@@ -2,19 +2,24 @@
 coupled grids (docs/methods/adaptive.md, "Fixed-step runs").
 
 A fixed-step run keeps the moments of its (extrapolated) estimator only. Its bias is
-estimated by a separate run of the same scene and grid (as many paths as the run, at most
-BIAS_PATHS) in which every path is also
-integrated on every second and every fourth point of its grid (the coupled grids of
-docs/methods/richardson.md: the same exact path, so differences between grids have a small
-variance):
+estimated by a separate run of the same scene (as many paths as the run, at most BIAS_PATHS)
+in which every path is integrated on three exactly coupled grids (docs/methods/richardson.md:
+the same exact path, so differences between grids have a small variance), chosen so that the
+run's own grid is one of them: the run's step counts, per segment, times 2^r, with r = 2 for
+"exact" (grids h/4, h/2, h: the run's grid is the coarsest), r = 1 for "richardson2" (h/2, h,
+2h: the run's two grids are the coarser ones) and r = 0 for "richardson" (h, 2h, 4h: the
+run's grids). The step counts of the run are whole numbers of its method's group (1, 2 or 4)
+per segment, and refining them by 2^r keeps every point of the run's grid, so no other grid
+than the run's is ever measured in its place:
 
-- "exact" (trapezoid on the grid h): about D / (2^alpha - 1) with D = E[P_h - P_2h], alpha
-  measured as log2 of E[P_2h - P_4h] / D where both differences are resolved (within
-  [0.5, 3]), else 1.5, the trapezoid rule's leading exponent (docs/integrals.md);
-- "richardson2": the difference between it and "richardson" (which removes the next term too):
-  an estimate of richardson2's own bias;
-- "richardson": the same difference, which estimates richardson2's bias and so bounds the
-  bias of richardson, whose leading term richardson2 keeps;
+- "exact" (trapezoid on the grid h): E[P_h] minus the three-grid Richardson extrapolation
+  from (h/4, h/2, h), which assumes a bias c1 h^1.5 + c2 h^2 and so removes the run's leading
+  terms;
+- "richardson2": its combination of (h, 2h) minus the three-grid extrapolation from
+  (h/2, h, 2h): an estimate of richardson2's own bias;
+- "richardson": the difference between richardson2 and richardson on the run's grids, which
+  estimates richardson2's bias and so bounds the bias of richardson, whose leading term
+  richardson2 keeps;
 - statistics exact in law at any step (every moment of the velocity, the kinetic energy, the
   stop time): 0;
 - "euler" and "refine", and the peaks (maxima over the grid, whose shortfall
@@ -43,8 +48,10 @@ __all__ = ["estimate", "exact_in_law", "BIAS_PATHS"]
 BIAS_PATHS = 65536
 #: ... and at most this many bytes of per-path values (scenes with many output times).
 BIAS_BYTES = 256 << 20
-#: The trapezoid rule's leading bias exponent on the exact skeleton (docs/integrals.md).
-TRAPEZOID_ALPHA = 1.5
+#: Per method, the refinement of the coupled run over the run's grid (2^r times its steps),
+#: so that the run's grid is the coarsest of the coupled grids ("exact"), the middle one
+#: ("richardson2") or the finest ("richardson").
+REFINEMENT = {"exact": 2, "richardson2": 1, "richardson": 0}
 #: The key of the coupled run's paths is splitmix64 of (seed, this).
 _STREAM = 1 << 20
 
@@ -68,6 +75,7 @@ def _samples(result, threads: int) -> np.ndarray:
     o.dt = result.dt
     o.min_steps = result.min_steps
     o.method = "richardson"
+    o.refinement = REFINEMENT[result.method]
     for flag, on in core_flags(scene.observe).items():
         setattr(o, flag, on)
     o.seed = _level_seed(result.seed, _STREAM)
@@ -88,13 +96,14 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
         not exact_in_law(n) and not quantity(n).peak for n in names)
     samples = _samples(result, threads) if needs_run else None
     w3 = np.array(_core.richardson_weights("richardson"))
-    w2 = np.array(list(_core.richardson_weights("richardson2")) + [0.0])
-    fine = np.array([1.0, 0.0, 0.0])
-    half = np.array([0.0, 1.0, 0.0])
+    w2 = np.array(list(_core.richardson_weights("richardson2")))
+    # a: the run's estimator on the coupled grids (finest first); b: a better one.
     if method == "exact":
-        a, b, scale = fine, half, 1.0 / (2.0 ** TRAPEZOID_ALPHA - 1.0)
+        a, b = np.array([0.0, 0.0, 1.0]), w3
+    elif method == "richardson2":
+        a, b = np.concatenate([[0.0], w2]), w3
     else:
-        a, b, scale = w2, w3, 1.0
+        a, b = np.concatenate([w2, [0.0]]), w3
     n_times = len(result.times)
     for name in names:
         q = quantity(name)
@@ -116,14 +125,8 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
                 d, se = _difference(v, a, b, stat, threads)
                 resolved = abs(d) > 2 * se
                 mag = abs(d) if resolved else abs(d) + 2 * se
-                factor_now = scale
-                if method == "exact" and resolved:
-                    d2, se2 = _difference(v, half, np.array([0.0, 0.0, 1.0]), stat, threads)
-                    if abs(d2) > 2 * se2:
-                        alpha = min(max(math.log2(abs(d2) / abs(d)), 0.5), 3.0)
-                        factor_now = 1.0 / (2.0 ** alpha - 1.0)
                 factor = f if stat == "mean" else f * f
-                values.append(mag * factor_now * abs(factor))
+                values.append(mag * abs(factor))
                 bounds.append(not resolved)
             out[(name, stat)] = (np.array(values), any(bounds))
     return out
