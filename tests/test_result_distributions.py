@@ -352,8 +352,19 @@ def test_bad_result_queries():
         r.exceedance("stop_time", 2.5, confidence=1.0)
     with pytest.raises(ValueError, match="name: 'distance'"):
         r.histogram("distance", time=2.0)
-    with pytest.raises(ValueError, match="^time must"):
-        r.quantile("velocity", 0.5, time="2.0")
+    # Not a finite number: refused, naming time and the output times (inf once passed the
+    # rounding test and answered for the first output time).
+    for t in ("2.0", math.inf, -math.inf, math.nan, np.float64(math.inf), True, None):
+        for call in (lambda: r.quantile("velocity", 0.5, time=t),
+                     lambda: r.exceedance("velocity", 0.0, time=t),
+                     lambda: r.histogram("velocity", time=t)):
+            with pytest.raises(ValueError, match="^time") as info:
+                call()
+            if t is not None:
+                assert "not an output time" in str(info.value) and "0.5, 2, 2.25" in str(info.value)
+    # A numpy scalar that is an output time is accepted.
+    assert r.quantile("velocity", 0.5, time=np.float64(2.0)) == r.quantile("velocity", 0.5,
+                                                                             time=2.0)
     # A time typed again (2.25 from a sum) is the output time it rounds to.
     assert r.quantile("velocity", 0.5, time=2.0 + 0.25) == r.quantile("velocity", 0.5,
                                                                          time=2.25)

@@ -345,8 +345,10 @@ class Result:
             raise ValueError(f"time: {name} has a distribution at every output time; give "
                              f"time, one of {_times_text(self.times)}")
         if isinstance(time, (bool, np.bool_)) or not isinstance(time, numbers.Real) \
-                or math.isnan(float(time)):
-            raise ValueError(f"time must be one of the output times, got {time!r}")
+                or not math.isfinite(float(time)):
+            # Not finite: inf would pass the rounding test below (inf - t <= 1e-12 inf).
+            raise ValueError(f"time: {time!r} is not an output time of this result; give one "
+                             f"of {_times_text(self.times)}")
         t = float(time)
         hit = np.flatnonzero(self.times == t)
         if not hit.size:
