@@ -3,6 +3,8 @@ quadrature of the density; units and bad input."""
 
 import math
 
+import mpmath
+
 import numpy as np
 import pytest
 from scipy import integrate
@@ -111,3 +113,31 @@ def test_moment_accuracy_over_the_range():
     np.testing.assert_allclose(A.moment(2, 0, 0, t), A.velocity_var(t), rtol=1e-8)
     np.testing.assert_allclose(A.moment(0, 0, 2, t), A.distance_second_moment(t), rtol=1e-8)
     assert A.moment(0, 0, 0, 0.0) == 1.0 and A.moment(2, 0, 0, 0.0) == 0.0
+
+
+def test_physical_just_after_a_late_switch_off_keeps_the_elapsed_time():
+    # mu = 10, h = 1e-3: a time scale of 2e-10 s, so t0 = 1e6 s is tau0 = 4.8e15, where one
+    # ulp of tau0 is 1 while one ulp of t0 (1.2e-10 s) is 0.56 in scaled time: t - t0 must be
+    # taken in seconds. Independent reference: tau0 >> 1, so V(t0) has the stationary law,
+    # |V(t0)| ~ Exponential(lam), lam = 2 mu g / h^2 (density of dV = -mu g sign V dt + h dW),
+    # and the coast gives Var V(t0 + d) = E[(|V(t0)| - mu g d)_+^2] = (2 / lam^2) exp(-lam mu g d),
+    # evaluated in 40 digits.
+    mu, h, g, t0 = 10.0, 1e-3, 9.81, 1e6
+    with mpmath.workdps(40):
+        c = mpmath.mpf(mu) * mpmath.mpf(g)
+        lam = 2 * c / mpmath.mpf(h) ** 2
+        t = t0
+        for _ in range(4):
+            t = math.nextafter(t, math.inf)
+            d = mpmath.mpf(t) - mpmath.mpf(t0)
+            want = float(2 / lam ** 2 * mpmath.exp(-lam * c * d))
+            got = A.physical("velocity_var", t, mu=mu, h=h, g=g, t0=t0)
+            assert got == pytest.approx(want, rel=1e-9, abs=0)
+
+    # The same elapsed time reaches the integrals: just after the switch-off they have moved
+    # by a part in 1e15 at most from their values at t0, never by a whole ulp of tau0.
+    t = math.nextafter(t0, math.inf)
+    for name in ("distance_mean", "displacement_var", "distance_var"):
+        at = A.physical(name, t0, mu=mu, h=h, g=g, t0=t0)
+        after = A.physical(name, t, mu=mu, h=h, g=g, t0=t0)
+        assert after == pytest.approx(at, rel=1e-12, abs=0)

@@ -92,6 +92,27 @@ def _on_then_coast(tau, tau0, on, coast):
     return scalar_or_array(out)
 
 
+def _coast_since(name, elapsed, tau0):
+    """The quantity ``name`` of :func:`physical`'s table (not at the stop) a scaled time
+    ``elapsed`` > 0 after the switch-off at ``tau0`` (finite, > 0), for a caller that knows the
+    elapsed time more exactly than tau - tau0 in doubles would give it."""
+    t0 = float(tau0)
+    e = float(elapsed)
+    t = np.array([t0 + e])  # only the checks of tau > tau0 use it
+    el = np.array([e])
+    if name == "velocity_var":
+        value = _so.coast_velocity_second_moment(t, t0, el)
+    elif name == "distance_mean":
+        value = _distance_mean_on(np.array([t0]))[0] + _so.coast_distance_increment(t, t0, el)
+    elif name == "displacement_var":
+        value = _cv.coast_displacement_var(t, t0, el)
+    elif name == "distance_var":
+        value = _cv.coast_distance_var(t, t0, el)
+    else:
+        raise ValueError(f"name: {name!r} has no closed form after the switch-off")
+    return float(np.ravel(value)[0])
+
+
 def velocity_var(tau, tau0=np.inf):
     """Variance of the scaled velocity, Var U1(tau) = E[U1^2] (E U1 = 0 by symmetry).
 

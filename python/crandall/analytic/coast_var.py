@@ -33,6 +33,7 @@ from scipy.special import erfc, erfcx
 from . import _data
 from ._check import as_tau0, as_time, scalar_or_array
 from .noise_on import SWITCH
+from .switch_off import _coast_c
 
 __all__ = ["coast_displacement_var", "coast_distance_var", "coast_velocity_abs_distance_cov",
            "coast_velocity_displacement_cov"]
@@ -328,13 +329,6 @@ def _law_moments(c, t0):
     return out
 
 
-def _coast_c(tau, t0):
-    """c = 2 (tau - tau0) >= 0 (finite: beyond every a that has weight, c is capped)."""
-    with np.errstate(over="ignore"):
-        c = 2 * (tau - t0)
-    return np.where(np.isfinite(c), c, np.finfo(float).max)
-
-
 def _reach(t0):
     """a = |U1(tau0)| beyond which the law of a has no weight that matters: P(a > reach) and
     E(a - reach)_+^4 are below e^-48 of their scales (a Gaussian tail 11 standard deviations
@@ -386,8 +380,8 @@ _TINY = 1e-100
 _POWER = {"displacement": 2.0, "distance": 2.0, "displacement_cov": 1.5, "distance_cov": 1.5}
 
 
-def _coast(t, t0, which):
-    c = _coast_c(t, t0)
+def _coast(t, t0, which, elapsed=None):
+    c = _coast_c(t, t0, elapsed)
     if t0 >= _TINY:
         return _evaluate(c, t0, which)
     # Var(c; tau0) = (tau0 / T)^2 Var(c sqrt(T / tau0); T) at leading order in sqrt(tau0), the
@@ -398,24 +392,25 @@ def _coast(t, t0, which):
     return (t0 / _TINY) ** _POWER[which] * _evaluate(cs, _TINY, which)
 
 
-def _coast_checked(tau, tau0, which):
+def _coast_checked(tau, tau0, which, elapsed=None):
     """``which`` (as in :func:`_evaluate`) at the scaled times tau > tau0, validated; 0 where
-    there is no coast (tau0 = 0: never any noise; tau0 = inf: never switched off)."""
+    there is no coast (tau0 = 0: never any noise; tau0 = inf: never switched off).
+    ``elapsed``: tau - tau0 where the caller knows it better (switch_off._coast_c)."""
     t = as_time(tau)
     t0 = as_tau0(tau0)
     if t0 == 0 or np.isinf(t0):
         return scalar_or_array(np.zeros_like(t))
-    return scalar_or_array(_coast(t, t0, which))
+    return scalar_or_array(_coast(t, t0, which, elapsed))
 
 
-def coast_displacement_var(tau, tau0):
+def coast_displacement_var(tau, tau0, elapsed=None):
     """Var U2(tau) for tau > tau0 (noise off); see :func:`crandall.analytic.displacement_var`."""
-    return _coast_checked(tau, tau0, "displacement")
+    return _coast_checked(tau, tau0, "displacement", elapsed)
 
 
-def coast_distance_var(tau, tau0):
+def coast_distance_var(tau, tau0, elapsed=None):
     """Var U3(tau) for tau > tau0 (noise off); see :func:`crandall.analytic.distance_var`."""
-    return _coast_checked(tau, tau0, "distance")
+    return _coast_checked(tau, tau0, "distance", elapsed)
 
 
 def coast_velocity_displacement_cov(tau, tau0):

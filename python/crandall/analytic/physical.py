@@ -149,7 +149,11 @@ def physical(name, t=None, *, mu, h, g=9.81, t0=np.inf):
                     f"t0/time_scale must lie in [1e-300, 1e300]; mu={mu!r}, h={h!r}, g={g!r} "
                     f"give time_scale = {ctx.nstr(time_scale, 5)} s"
                 )
-            value = func(float(ctx.mpf(ti) / time_scale), float(tau0))
+            # The time since the switch-off from t - t0 in seconds (exact in mp), not from the
+            # two scaled times apart: just after a late switch-off their difference is lost to
+            # rounding (t0 = 1e6 s at a time scale of 2e-10 s: one ulp of tau0 is 1).
+            elapsed = (ctx.mpf(ti) - ctx.mpf(t0)) / time_scale
+            value = analytic._coast_since(name, float(elapsed), float(tau0))
             out[idx] = to_double(ctx.mpf(float(value)) * factor)
             continue
         tau = ctx.mpf(ti) / time_scale

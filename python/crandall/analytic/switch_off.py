@@ -213,33 +213,41 @@ def _coast_k(delta, tau0):
     return np.maximum(out, 0.0)
 
 
-def coast_velocity_second_moment(tau, tau0):
+def coast_velocity_second_moment(tau, tau0, elapsed=None):
     """E[U1(tau)^2] for tau > tau0 (noise off): E[(|U1(tau0)| - 2 (tau - tau0))_+^2].
 
-    Called by :func:`crandall.analytic.velocity_var` for tau > tau0; see there.
+    Called by :func:`crandall.analytic.velocity_var` for tau > tau0; see there. ``elapsed``:
+    tau - tau0, where the caller knows it better than the difference of two doubles.
     """
     t = as_time(tau)
     t0 = as_tau0(tau0)
     if t0 == 0:
         return scalar_or_array(np.zeros_like(t))
-    return scalar_or_array(_coast_h(_coast_c(t, t0), t0))
+    return scalar_or_array(_coast_h(_coast_c(t, t0, elapsed), t0))
 
 
-def _coast_c(t, t0):
-    """c = 2 (tau - tau0), finite even where tau - tau0 overflows (|tau|, tau0 near 1e308)."""
+def _coast_c(t, t0, elapsed=None):
+    """c = 2 (tau - tau0), finite even where tau - tau0 overflows (|tau|, tau0 near 1e308).
+
+    ``elapsed`` (an array like ``t``), when given, is tau - tau0 itself: a caller that knows
+    the time since the switch-off more exactly than the difference of the two doubles passes
+    it (:func:`crandall.analytic.physical`: t - t0 in seconds, then scaled; just after a
+    switch-off at tau0 = 5e15, one ulp of tau0 is 1, so tau - tau0 would round to 0 or 1)."""
     with np.errstate(over="ignore"):
-        c = 2 * (t - t0)
+        c = 2 * (t - t0) if elapsed is None else 2 * np.broadcast_to(
+            np.asarray(elapsed, dtype=float), np.shape(t))
     return np.where(np.isfinite(c), c, np.finfo(float).max)
 
 
-def coast_distance_increment(tau, tau0):
+def coast_distance_increment(tau, tau0, elapsed=None):
     """E[U3(tau)] - E[U3(tau0)] for tau > tau0 (noise off); see
-    :func:`crandall.analytic.distance_mean`."""
+    :func:`crandall.analytic.distance_mean` (``elapsed`` as in
+    :func:`coast_velocity_second_moment`)."""
     t = as_time(tau)
     t0 = as_tau0(tau0)
     if t0 == 0:
         return scalar_or_array(np.zeros_like(t))
-    return scalar_or_array(_coast_k(_coast_c(t, t0) / 2, t0))
+    return scalar_or_array(_coast_k(_coast_c(t, t0, elapsed) / 2, t0))
 
 
 def _tau0_array(tau0, positive=False):
