@@ -396,3 +396,24 @@ def test_many_output_times_keep_batches_small():
     r = crandall.simulate(sc, error=0.2, seed=1, threads=2,
                           statistics=["distance:mean", "distance:var"])
     assert np.all(r.error("distance", "var") <= 0.2)
+
+
+def test_a_frictionless_scene_runs_to_an_accuracy():
+    # mu = 0: free Brownian motion of the velocity, V = h W, with closed forms Var V = h^2 t,
+    # Var U = h^2 t^3 / 3, E S = (2/3) sqrt(2/pi) h t^1.5; the dissipated energy is 0 on every
+    # path. It raised ZeroDivisionError (the energy's factor m mu g is 0). Each estimate must
+    # lie within 4 reported errors of the closed form (a normal deviate beyond 4 has
+    # probability 6e-5; the seed is fixed).
+    sc = crandall.Scene(mu=0.0, h=1.0, t0=1.0, times=[0.5, 1.0])
+    r = crandall.simulate(sc, error=0.05, seed=3, threads=2)
+    t = sc.times
+    for name, stat, truth in (("velocity", "var", t),
+                              ("displacement", "var", t ** 3 / 3),
+                              ("distance", "mean", (2 / 3) * math.sqrt(2 / math.pi) * t ** 1.5)):
+        est = r.mean(name) if stat == "mean" else r.var(name)
+        err = r.error(name, stat)
+        assert np.all(np.isfinite(err)) and np.all(err > 0)
+        assert np.all(np.abs(est - truth) <= 4 * err), (name, stat, est, truth, err)
+    for stat in ("mean", "var"):
+        assert r.exact("dissipated_energy", stat)
+        assert np.all(r.mean("dissipated_energy") == 0.0) and np.all(r.error("dissipated_energy", stat) == 0.0)
