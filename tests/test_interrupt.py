@@ -100,3 +100,29 @@ def test_ctrl_c_stops_a_run_to_an_accuracy_within_a_second():
     assert returncode == 3, err
     assert "interrupted" in out
     assert elapsed < 1.0, f"took {elapsed:.2f} s to stop"
+
+
+# Paths of 10^9 steps (t0 = 1e6 s): one block of 256 paths takes minutes, and the accuracy
+# path polled Ctrl-C only between blocks (77 s to stop with one thread, none within 120 s with
+# two). The team of every run polls inside blocks too.
+LONG_PATHS_SCRIPT = textwrap.dedent(
+    """
+    import sys, crandall
+    print("started", flush=True)
+    try:
+        crandall.simulate(crandall.Scene(mu=0.3, h=1.0, t0=1e6, times=[1e6]), error=1e-3, seed=1,
+                          threads={threads})
+    except KeyboardInterrupt:
+        print("interrupted", flush=True)
+        sys.exit(3)
+    """
+)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGINT"), reason="needs POSIX signals")
+@pytest.mark.parametrize("threads", [1, 2])
+def test_ctrl_c_stops_a_run_to_an_accuracy_with_long_paths(threads):
+    returncode, out, err, elapsed = _ctrl_c(LONG_PATHS_SCRIPT.format(threads=threads), timeout=10)
+    assert returncode == 3, err
+    assert "interrupted" in out
+    assert elapsed < 1.0, f"took {elapsed:.2f} s to stop"

@@ -3,15 +3,13 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <atomic>
-#include <exception>
 #include <memory>
-#include <mutex>
 #include <stdexcept>
 
 #include "crandall/dispatch.hpp"
 #include "crandall/kernel.hpp"
 #include "crandall/kernel_controls.hpp"
+#include "crandall/team.hpp"
 
 namespace crandall {
 
@@ -33,49 +31,25 @@ void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int
     block_fn = active_kernel().controls_fn(o.displacement, o.distance);
   }
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
-  std::atomic<bool> stop{false};
-  std::exception_ptr error;
-  std::mutex error_mutex;
-  std::atomic<long> next{0};
-  if (cancel && cancel()) throw Cancelled();
-#pragma omp parallel num_threads(team)
-  {
-    const bool caller = omp_get_thread_num() == 0;
-    std::unique_ptr<Workspace> ws;
-    try {
-      ws = std::make_unique<Workspace>(plan);
-      ws->samples = out;
-      ws->sample_first = first;
-      ws->sample_slots = slots;
-      ws->sample_grids = grids;
-      ws->controls = controls_out;
-      ws->cancelled = [&stop]() { return stop.load(std::memory_order_relaxed); };
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(error_mutex);
-      if (!error) error = std::current_exception();
-      stop.store(true);
-    }
-    // Every path writes only its own values, so the claim order does not matter.
-    while (ws && !stop.load()) {
-      const long b = next.fetch_add(1);
-      if (b >= blocks) break;
-      try {
-        if (caller && cancel && cancel()) {
-          stop.store(true);
-          break;
-        }
-        ws->reset();
+  // Every path writes only its own values, so the order in which blocks are claimed does not
+  // matter; the shared team polls the cancel check inside long blocks too.
+  run_team(
+      team, blocks, cancel,
+      [&]() {
+        auto ws = std::make_unique<Workspace>(plan);
+        ws->samples = out;
+        ws->sample_first = first;
+        ws->sample_slots = slots;
+        ws->sample_grids = grids;
+        ws->controls = controls_out;
+        return ws;
+      },
+      [&](Workspace& ws, long b) {
         const std::uint64_t start = first + static_cast<std::uint64_t>(b) * kBlockPaths;
-        block_fn(plan, start, std::min<std::uint64_t>(kBlockPaths, first + count - start), *ws);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(error_mutex);
-        if (!error) error = std::current_exception();
-        stop.store(true);
-      }
-    }
-  }
-  if (error) std::rethrow_exception(error);
-  if (stop.load()) throw Cancelled();
+        block_fn(plan, start, std::min<std::uint64_t>(kBlockPaths, first + count - start), ws);
+        return true;
+      },
+      [](Workspace&) {});
 }
 
 std::size_t sample_size(const Plan& plan) {

@@ -2,16 +2,13 @@
 
 #include <omp.h>
 
-#include <atomic>
-#include <chrono>
-#include <condition_variable>
-#include <exception>
 #include <map>
 #include <memory>
 #include <mutex>
 
 #include "crandall/dispatch.hpp"
 #include "crandall/kernel.hpp"
+#include "crandall/team.hpp"
 
 namespace crandall {
 namespace {
@@ -51,67 +48,21 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   std::vector<ChunkResult> coarse_result(static_cast<std::size_t>(coupled - 1), empty_result(o));
   // The threads' histograms, added up as each thread finishes (integer counts: any order).
   Histograms histograms(plan.recorded_axes());
-  std::atomic<bool> cancelled{false};
-  std::atomic<long> next_claim{0}, finished{0};
-  std::exception_ptr error;
-  std::mutex error_mutex, merge_mutex, done_mutex;
-  std::condition_variable done;  // signalled when the last block finishes or the run fails
+  std::mutex merge_mutex;
   std::map<long, BlockOut> pending;
   long next_block = 0;
-  if (cancel && cancel()) throw Cancelled();  // a request already pending
-
-  // No exception may leave an OpenMP region (that terminates the process): every one is
-  // caught here, the run is cancelled, and the first is rethrown on the calling thread.
-  auto fail = [&](std::exception_ptr e) noexcept {
-    {
-      std::lock_guard<std::mutex> lock(error_mutex);
-      if (!error) error = e;
-    }
-    cancelled.store(true);
-    std::lock_guard<std::mutex> lock(done_mutex);
-    done.notify_all();
-  };
-  // Only the calling thread runs the check (Python handles signals on its main thread); the
-  // others read the flag it sets. Polled between blocks and every kPollSteps steps in a block.
-  auto poll = [&]() noexcept {
-    if (cancel && !cancelled.load()) {
-      try {
-        if (cancel()) cancelled.store(true);
-      } catch (...) {
-        fail(std::current_exception());
-      }
-    }
-    return cancelled.load();
-  };
-
-#pragma omp parallel num_threads(team)
-  {
-    const bool caller = omp_get_thread_num() == 0;
-    std::unique_ptr<Workspace> ws;
-    try {
-      ws = std::make_unique<Workspace>(plan);
-      if (caller)
-        ws->cancelled = poll;
-      else
-        ws->cancelled = [&cancelled]() { return cancelled.load(std::memory_order_relaxed); };
-    } catch (...) {
-      fail(std::current_exception());
-    }
-    // Blocks are claimed in order from a shared counter; finished ones wait in `pending` until
-    // every earlier block is merged, so the merge order is the block order whatever the
-    // threads do.
-    while (ws && !ws->cancelled()) {
-      const long b = next_claim.fetch_add(1);
-      if (b >= blocks) break;
-      try {
-        ws->reset();
+  run_team(
+      team, blocks, cancel, [&]() { return std::make_unique<Workspace>(plan); },
+      [&](Workspace& ws, long b) {
         const std::uint64_t start = first + static_cast<std::uint64_t>(b) * kBlockPaths;
         const std::uint64_t n = std::min<std::uint64_t>(kBlockPaths, first + count - start);
-        block_fn(plan, start, n, *ws);
-        if (ws->cancelled()) break;
+        block_fn(plan, start, n, ws);
+        if (ws.cancelled()) return false;
+        // Finished blocks wait in `pending` until every earlier block is merged, so the merge
+        // order is the block order whatever the threads do.
         std::lock_guard<std::mutex> lock(merge_mutex);
-        pending.emplace(b, BlockOut{ws->times, ws->stop, ws->coarse_times, ws->coarse_stop,
-                                    ws->peaks, ws->peaks_stop});
+        pending.emplace(b, BlockOut{ws.times, ws.stop, ws.coarse_times, ws.coarse_stop,
+                                    ws.peaks, ws.peaks_stop});
         for (auto it = pending.begin(); it != pending.end() && it->first == next_block;
              it = pending.erase(it), ++next_block) {
           it->second.times.merge_into(result.times);
@@ -123,36 +74,13 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
             it->second.coarse_stop[g].merge_into(coarse_result[g].stop);
           }
         }
-      } catch (...) {
-        fail(std::current_exception());
-        break;
-      }
-      if (finished.fetch_add(1) + 1 == blocks) {
-        std::lock_guard<std::mutex> lock(done_mutex);
-        done.notify_all();
-      }
-    }
-    if (caller) {
-      // The other threads may still be running blocks (a single long block, or more threads
-      // than cores with this one descheduled): keep checking for a cancel request until they are
-      // done instead of waiting for them at the end of the region.
-      while (!poll()) {
-        std::unique_lock<std::mutex> lock(done_mutex);  // not held while polling: fail() takes it
-        if (finished.load() >= blocks || cancelled.load()) break;
-        done.wait_for(lock, std::chrono::milliseconds(10));
-      }
-    }
-    if (ws && plan.histograms() && !cancelled.load()) {
-      try {
+        return true;
+      },
+      [&](Workspace& ws) {
+        if (!plan.histograms()) return;
         std::lock_guard<std::mutex> lock(merge_mutex);
-        histograms.merge(ws->histograms);
-      } catch (...) {
-        fail(std::current_exception());
-      }
-    }
-  }
-  if (error) std::rethrow_exception(error);
-  if (cancelled.load()) throw Cancelled();
+        histograms.merge(ws.histograms);
+      });
   if (next_block != blocks) throw std::logic_error("run_chunk: a block was not merged");
   if (coupled > 1) {
     // Extrapolation to a zero step over the coupled grids (docs/methods/richardson.md). Linear in

@@ -18,8 +18,8 @@ namespace crandall {
 // displacement, distance) at output time k on each grid (grid g: steps 2^g times the fine
 // one, as many grids as the method walks), slot times.size() (when the stop is observed) the
 // time from the switch-off to the stop and the displacement and distance there. Variables not
-// observed are 0. `cancel` is polled by the calling thread between blocks; returning true
-// throws Cancelled.
+// observed are 0. `cancel` is polled as run_chunk polls it (team.hpp: by the calling thread,
+// inside long blocks too); returning true throws Cancelled.
 // Written into out (count x sample_size(plan) doubles, every one of them written), and with
 // controls_out (exact method only, at least one integral observed) the control sums of
 // kernel_controls.hpp, count x slots x kControls doubles. The caller's buffers are reused
