@@ -152,6 +152,19 @@ def test_physical_units():
     (dict(error=0.1, statistics=[]), "name at least one"),
     (dict(paths=10, statistics=["distance:var"]), "statistics: only with error"),
     (dict(), "paths: give the number of paths"),
+    # A dict was read as its keys: the distance's mean ran where its variance was asked.
+    (dict(error=0.1, statistics={"distance": "var"}), "statistics: give a list"),
+    (dict(error=0.1, statistics=5), "statistics: give a list"),
+    (dict(error=0.1, progress="x"), "progress must be True, False or None"),
+    (dict(error=0.1, max_seconds=0.0), "max_seconds must be finite and > 0"),
+    (dict(paths=10, max_seconds=10.0), "max_seconds: only with error"),
+    # Targets no run can reach: rel_error=5e-324 underflowed to a target of 0, taken for a
+    # statistic that is 0, and returned after the pilot as if met; error=1e-200 raised
+    # ZeroDivisionError, 1e-160 OverflowError. Refused, naming the parameter, within a round.
+    (dict(rel_error=5e-324), "^rel_error: rel_error=5e-324 cannot be reached"),
+    (dict(error=1e-200), "^error: error=1e-200 cannot be reached"),
+    (dict(error=1e-160), "^error: error=1e-160 cannot be reached"),
+    (dict(error=1e-12), r"^error: .* would need 3.\d+e\+23 paths"),
 ])
 def test_bad_arguments(kwargs, match):
     with pytest.raises(ValueError, match=match):
@@ -417,3 +430,49 @@ def test_a_frictionless_scene_runs_to_an_accuracy():
     for stat in ("mean", "var"):
         assert r.exact("dissipated_energy", stat)
         assert np.all(r.mean("dissipated_energy") == 0.0) and np.all(r.error("dissipated_energy", stat) == 0.0)
+
+
+def test_the_estimated_time_is_bounded_and_shown(capsys):
+    # error=1e-5 on the paper's scene would run for months: after the first round the
+    # estimate (paths still needed per level times their steps, at the rate measured so far)
+    # passes the default bound of an hour, and the run stops quoting it. A smaller bound
+    # stops a run of minutes the same way.
+    for kwargs, bound in ((dict(error=1e-5), "3600"), (dict(error=1e-3, max_seconds=0.5), "0.5")):
+        with pytest.raises(ValueError, match=r"^max_seconds: reaching error=.* would take about "
+                                             rf".* s more .* beyond max_seconds={bound}"):
+            crandall.simulate(SCENE, seed=1, threads=1, **kwargs)
+    # The progress bar shows the round, the worst error over its target and the time left.
+    crandall.simulate(SCENE, seed=1, error=0.05, progress=True, statistics=["distance:var"])
+    err = capsys.readouterr().err
+    assert "crandall" in err and "error/target" in err and "round 1" in err
+    crandall.simulate(SCENE, seed=1, error=0.05, statistics=["distance:var"])
+    assert capsys.readouterr().err == ""
+
+
+def test_memory_too_small_for_the_batches_is_a_value_error():
+    # Under an address-space limit a run to an accuracy aborted in libgomp's thread creation
+    # or raised numpy's MemoryError; now it is refused before allocating, naming times.
+    import os
+    import subprocess
+    import sys
+
+    if not os.path.exists("/proc/self/status"):
+        pytest.skip("needs /proc")
+    script = (
+        "import resource, sys, crandall, importlib\n"
+        "sizes = importlib.import_module('crandall._resources')._process_sizes()\n"
+        "resource.setrlimit(resource.RLIMIT_AS, (sizes['VmSize'] + (20 << 20),"
+        " resource.RLIM_INFINITY))\n"
+        "scene = crandall.Scene.scaled(tau0=5.0, times=[1.0, 5.0])\n"
+        "try:\n"
+        "    crandall.simulate(scene, error=1e-2, seed=1, threads=2)\n"
+        "except ValueError as exc:\n"
+        "    print('ValueError:', exc)\n"
+        "    sys.exit(0)\n"
+        "print('no error')\n"
+        "sys.exit(3)\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path))
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=120, env=env)
+    assert proc.returncode == 0, (proc.returncode, proc.stdout, proc.stderr[-2000:])
+    assert "ValueError: times: a run to an accuracy" in proc.stdout

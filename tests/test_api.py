@@ -399,7 +399,7 @@ def test_client_must_be_a_dask_client(client):
 # -- memory: the check honours rlimits and cgroups -------------------------------------------
 
 def test_cgroup_v2_and_v1_limits_are_read(tmp_path, monkeypatch):
-    sim = importlib.import_module("crandall.simulate")
+    sim = importlib.import_module("crandall._resources")
 
     monkeypatch.setattr(sim, "open", open, raising=False)
     (tmp_path / "memory.max").write_text("1000000000\n")
@@ -417,10 +417,10 @@ def test_cgroup_v2_and_v1_limits_are_read(tmp_path, monkeypatch):
 
 
 def test_memory_check_uses_the_smallest_limit(monkeypatch):
-    sim = importlib.import_module("crandall.simulate")
+    sim = importlib.import_module("crandall._resources")
 
     monkeypatch.setattr(sim, "_cgroup_available", lambda root="/sys/fs/cgroup": 10 << 20)
-    assert sim._available_memory() <= 10 << 20
+    assert sim.available_memory() <= 10 << 20
     scene = crandall.Scene.scaled(tau0=1.0, times=np.linspace(0.1, 1.0, 10_000))
     with pytest.raises(ValueError, match="times"):
         crandall.simulate(scene, paths=10, seed=1, threads=1)
@@ -431,7 +431,7 @@ import resource, sys
 import numpy as np
 import crandall
 import importlib
-sim = importlib.import_module('crandall.simulate')
+sim = importlib.import_module('crandall._resources')
 sizes = sim._process_sizes()
 limit = sizes["VmSize"] + (1 << 30)
 resource.setrlimit(resource.RLIMIT_AS, (limit, resource.RLIM_INFINITY))

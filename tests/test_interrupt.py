@@ -86,7 +86,7 @@ ADAPTIVE_SCRIPT = textwrap.dedent(
     scene = crandall.Scene.scaled(tau0=5.0, times=[1.0, 5.0])
     print("started", flush=True)
     try:
-        crandall.simulate(scene, error=1e-5, seed=1, threads=2)  # hours
+        crandall.simulate(scene, error=1e-5, seed=1, threads=2, max_seconds=1e9)  # hours
     except KeyboardInterrupt:
         print("interrupted", flush=True)
         sys.exit(3)
@@ -110,7 +110,7 @@ LONG_PATHS_SCRIPT = textwrap.dedent(
     import sys, crandall
     print("started", flush=True)
     try:
-        crandall.simulate(crandall.Scene(mu=0.3, h=1.0, t0=1e6, times=[1e6]), error=1e-3, seed=1,
+        crandall.simulate(crandall.Scene(mu=0.3, h=1.0, t0=1e6, times=[1e6]), error=1e-3, seed=1, max_seconds=1e9,
                           threads={threads})
     except KeyboardInterrupt:
         print("interrupted", flush=True)

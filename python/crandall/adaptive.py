@@ -27,12 +27,13 @@ import math
 import os
 import time
 from dataclasses import dataclass
-from typing import Dict, List, Optional, Sequence, Tuple
+from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
 from . import _core
 from ._files import check_file_writable, write_atomic
+from ._resources import available_memory, progress_bar
 from ._version import __version__
 from .quantities import VELOCITY, DISPLACEMENT, DISTANCE, core_flags, names_for, quantity
 from .scene import Scene
@@ -53,6 +54,11 @@ BATCH_BYTES = 64 << 20
 PILOT_PATHS = 4096
 #: Levels beyond the base (the finest grid is 2^MAX_LEVELS times finer than the base).
 MAX_LEVELS = 14
+#: Paths a level can draw (its Philox counters run to 2^62).
+MAX_LEVEL_PATHS = float(1 << 62)
+#: The default bound on a run's estimated time (s): past it the run stops with the estimate
+#: (simulate's ``max_seconds`` raises it).
+MAX_SECONDS = 3600.0
 #: A round at most multiplies a level's paths by this (the variance estimates of a small
 #: sample can be far off).
 MAX_GROWTH = 16
@@ -93,6 +99,10 @@ def _check_statistics(scene: Scene, statistics) -> Optional[set]:
         return None
     if isinstance(statistics, str):
         statistics = [statistics]
+    if isinstance(statistics, Mapping) or not isinstance(statistics, Iterable):
+        # A dict would be read as its keys (the means), whatever its values say.
+        raise ValueError(f"statistics: give a list such as ['distance:var', 'velocity:mean'] "
+                         f"or of pairs (name, stat), got {statistics!r}")
     held = names_for(scene.observe)
     out = set()
     for item in statistics:
@@ -188,12 +198,17 @@ class _Level:
         self.start = 0
         self.batch = BATCH_PATHS
         self._buffers = None
+        #: Every level of the run (their buffers are released when this one takes its own).
+        self.siblings: List["_Level"] = []
 
     def samples(self, first: int, n: int):
         """The per-path values (and control sums) of paths [first, first + n), written into
         buffers kept between batches (fresh arrays per batch cost more in page faults than
         a short grid's paths)."""
         if self._buffers is None:
+            for other in self.siblings:  # one level's buffers at a time (the memory check)
+                if other is not self:
+                    other._buffers = None
             values = np.empty((self.batch,) + tuple(self.shape))
             ctl = (np.empty((self.batch, self.shape[0], _core.CONTROLS)) if self.controls
                    else None)
@@ -279,12 +294,30 @@ class _Engine:
         #: What is left of the current round: [level, paths] to grow to, in order.
         self.pending: Optional[List[List[int]]] = None
         self.checkpoint = None
+        self.bar = None
+        self.max_seconds = MAX_SECONDS
         self.client = None
         self.task_threads = 1
         self.last_save = -math.inf
         self.started = time.perf_counter()
         self.wall_before = 0.0
         self.level_targets = [i for i, t in enumerate(self.targets) if not t.exact]
+
+    def check_memory(self) -> None:
+        """Refuse, before anything is allocated, a run whose batches (one level's buffers of
+        per-path values and control sums, the feature columns and their temporaries) and
+        threads (a stack each) would not fit in what this process may still allocate."""
+        slots = len(self.scene.times) + (1 if "stop" in self.scene.observe else 0)
+        per_path = 8 * (slots * max(2 * 3, 3 + _core.CONTROLS) + 3 * len(self.cols))
+        need = self.batch * per_path + self.threads * (16 << 20)
+        have = available_memory()
+        if need > have:
+            raise ValueError(
+                f"times: a run to an accuracy of {len(self.scene.times)} output times "
+                f"({self.threads} threads) needs about {need / 2**20:.0f} MiB for its batches "
+                f"and threads, more than the {have / 2**20:.0f} MiB this process may still "
+                "allocate (free memory, rlimits, cgroup); give fewer times, statistics or "
+                "threads")
 
     # -- per-path values ------------------------------------------------------------------
 
@@ -408,6 +441,7 @@ class _Engine:
         while len(self.levels) <= level:
             self.levels.append(_Level(self.scene, len(self.levels), self.seed, self.base_dt,
                                       self.threads, self.integrals))
+            self.levels[-1].siblings = self.levels
             self.levels[-1].batch = self.batch
             if len(self.levels) == 1 and self.use_controls:
                 self.levels[0].controls = True
@@ -486,11 +520,22 @@ class _Engine:
 
     # -- the schedule ---------------------------------------------------------------------
 
+    def _target_text(self) -> str:
+        return (f"error={self.eps!r}" if self.eps is not None
+                else f"rel_error={self.rel!r}")
+
+    def _unreachable(self, i: int, why: str) -> ValueError:
+        t = self.targets[i]
+        return ValueError(
+            f"{'error' if self.eps is not None else 'rel_error'}: {self._target_text()} "
+            f"cannot be reached for the {t.stat} of {t.name}: {why}; ask for a larger one")
+
     def run(self) -> None:
         """Run the schedule to its end (or on from a checkpoint's state)."""
         if self.pending is None:
             deepest = 2 if self.level_targets and self.integrals else 0
             self.pending = [[level, PILOT_PATHS] for level in range(deepest + 1)]
+        started, steps_before = time.perf_counter(), self.path_steps
         while True:
             while self.pending:
                 level, target = self.pending[0]
@@ -502,11 +547,18 @@ class _Engine:
             want = [lev.sums.n for lev in self.levels]
             done = True
             deeper = False
+            worst = 0.0  # the largest error / target, for the progress bar
             for i, (value, se, bias, level_var) in enumerate(est):
                 tol = self.tolerance(i, value, level_var)
+                if tol == math.inf:
+                    continue  # 0 on every path (its factor is 0)
                 if not (tol > 0):
-                    continue  # a statistic that is exactly 0 (e.g. at time 0)
-                if se * se + bias * bias > tol * tol:
+                    if value == 0.0 and all(v == 0.0 for v in level_var):
+                        continue  # a statistic that is exactly 0 (e.g. at time 0)
+                    raise self._unreachable(i, "the target is 0 in doubles")
+                err2 = se * se + bias * bias
+                worst = max(worst, math.sqrt(err2) / tol)
+                if err2 > tol * tol:
                     done = False
                 if bias > tol / math.sqrt(2.0):
                     deeper = True
@@ -516,10 +568,32 @@ class _Engine:
                 costs = [lev.cost for lev in self.levels[:len(level_var)]]
                 total = sum(math.sqrt(v * c) for v, c in zip(level_var, costs))
                 for level, (v, c) in enumerate(zip(level_var, costs)):
-                    n = math.ceil(math.sqrt(v / c) * total / budget) if v > 0 else 0
-                    want[level] = max(want[level], n)
+                    if v <= 0:
+                        continue
+                    x = math.sqrt(v / c) * total / budget if budget > 0 else math.inf
+                    if not x < MAX_LEVEL_PATHS:
+                        raise self._unreachable(
+                            i, f"level {level} would need {x:.3g} paths, beyond the "
+                            f"{MAX_LEVEL_PATHS:.3g} a level can draw")
+                    want[level] = max(want[level], math.ceil(x))
             if done:
+                self._show(worst, 0.0)
                 return
+            # What the rest is estimated to cost, at the rate measured in this call.
+            left = sum(max(n - lev.sums.n, 0) * lev.cost for n, lev in zip(want, self.levels))
+            elapsed = time.perf_counter() - started
+            ran = self.path_steps - steps_before
+            # No rate yet when a resumed run starts at a round's end: judged next round.
+            seconds = left * elapsed / ran if ran > 0 else math.nan
+            rate = ran / elapsed if elapsed > 0 else math.inf
+            self._show(worst, seconds)
+            if elapsed + seconds > self.max_seconds:
+                raise ValueError(
+                    f"max_seconds: reaching {self._target_text()} would take about "
+                    f"{seconds:.3g} s more ({left:.3g} path-steps at the {rate:.3g} per second "
+                    f"measured so far, after {self.rounds} rounds), beyond max_seconds="
+                    f"{self.max_seconds:g}; raise max_seconds or ask for a larger target"
+                    + (" (the checkpoint keeps what was done)" if self.checkpoint else ""))
             if deeper and len(self.levels) <= MAX_LEVELS:
                 self.pending = [[len(self.levels), PILOT_PATHS]]
                 continue
@@ -535,6 +609,14 @@ class _Engine:
                 n = -(-n // PILOT_PATHS) * PILOT_PATHS
                 if n > have:
                     self.pending.append([level, n])
+
+    def _show(self, worst: float, seconds: float) -> None:
+        if self.bar is None:
+            return
+        left = ("done" if seconds == 0 else "estimating" if math.isnan(seconds)
+                else f"about {seconds:.3g} s left")
+        self.bar.set_postfix_str(f"round {self.rounds}, error/target {worst:.3g}, {left}",
+                                 refresh=True)
 
     # -- checkpoints ----------------------------------------------------------------------
 
@@ -868,9 +950,13 @@ def _check_target(name: str, value) -> float:
 def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                       rel_error: Optional[float] = None, seed: int, threads: int,
                       statistics=None, checkpoint=None, client=None,
-                      task_threads: int = 1) -> AdaptiveResult:
+                      task_threads: int = 1, progress=None,
+                      max_seconds: float = MAX_SECONDS) -> AdaptiveResult:
     """Run ``scene`` until every statistic's estimated total error is within the target
     (see :func:`crandall.simulate`)."""
+    if progress is not None and not isinstance(progress, bool):
+        raise ValueError(f"progress must be True, False or None, got {progress!r}")
+    max_seconds = _check_target("max_seconds", max_seconds)
     if (error is None) == (rel_error is None):
         raise ValueError("error: give exactly one of error= and rel_error=")
     eps = _check_target("error", error) if error is not None else None
@@ -883,11 +969,18 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                          "estimate); run the peaks with paths=")
     chosen = _check_statistics(scene, statistics)
     engine = _Engine(scene, eps=eps, rel=rel, seed=seed, threads=threads, statistics=chosen)
+    engine.max_seconds = max_seconds
+    engine.check_memory()
     if checkpoint is not None:
         check_file_writable(checkpoint, "checkpoint")
         engine.restore(checkpoint)
         engine.checkpoint = checkpoint
     engine.client = client
     engine.task_threads = task_threads
-    engine.run()
+    engine.bar = progress_bar(progress, total=None)
+    try:
+        engine.run()
+    finally:
+        if engine.bar is not None:
+            engine.bar.close()
     return AdaptiveResult(engine, engine.wall_before + time.perf_counter() - start)

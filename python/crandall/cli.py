@@ -101,6 +101,9 @@ def _parser() -> argparse.ArgumentParser:
                              "result.csv only)")
     target.add_argument("--rel-error", type=_float, metavar="R",
                         help="the same, relative to each statistic's size")
+    run.add_argument("--max-seconds", type=_float, metavar="S",
+                     help="with --error / --rel-error: stop, quoting the estimate, once the "
+                          "time spent and the estimated time left pass S (default 3600)")
     run.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
                      help=f"output folder (default: ./{DEFAULT_OUT}); one that holds another "
                           "run's files is refused unless --overwrite")
@@ -229,7 +232,7 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ())
 def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None, dt=None,
         method=None, out: str = DEFAULT_OUT, checkpoint=None, scheduler=None,
         figures: bool = True, files: bool = True, progress=None, overwrite: bool = False,
-        error=None, rel_error=None) -> int:
+        error=None, rel_error=None, max_seconds=None) -> int:
     """What ``crandall run`` does (arguments as its options); returns the exit status.
 
     Raises
@@ -247,7 +250,9 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
         return _run_to_error(scene, settings, error=error, rel_error=rel_error, paths=paths,
                              seed=seed, threads=threads, dt=dt, method=method, out=out,
                              checkpoint=checkpoint, scheduler=scheduler, files=files,
-                             earlier=earlier)
+                             earlier=earlier, progress=progress, max_seconds=max_seconds)
+    if max_seconds is not None:
+        raise ValueError("--max-seconds: only with --error or --rel-error")
     for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method)):
         if value is not None:
             settings[key] = value
@@ -305,7 +310,8 @@ def _client(scheduler: Optional[str]):
 
 
 def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, threads, dt, method,
-                  out, checkpoint, scheduler, files, earlier) -> int:
+                  out, checkpoint, scheduler, files, earlier, progress=None,
+                  max_seconds=None) -> int:
     """``crandall run --error EPS``: a run to a requested accuracy."""
     for option, value in (("--paths", paths), ("--dt", dt), ("--method", method)):
         if value is not None:
@@ -322,7 +328,8 @@ def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, thre
     client = _client(scheduler)
     try:
         result = simulate(scene, error=error, rel_error=rel_error, seed=seed, threads=threads,
-                          checkpoint=checkpoint, client=client)
+                          checkpoint=checkpoint, client=client, progress=progress,
+                          max_seconds=max_seconds)
     finally:
         if client is not None:
             client.close()
@@ -445,7 +452,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                        dt=args.dt, method=args.method, out=args.out, checkpoint=args.checkpoint,
                        scheduler=args.scheduler, figures=not args.no_figures,
                        files=not args.no_files, progress=args.progress,
-                       overwrite=args.overwrite, error=args.error, rel_error=args.rel_error)
+                       overwrite=args.overwrite, error=args.error, rel_error=args.rel_error,
+                       max_seconds=args.max_seconds)
         return analytic_command(args.scene, tau0=args.tau0, times=args.times)
     except ValueError as exc:
         print(f"crandall: error: {exc}", file=sys.stderr)

@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 import time
 from typing import Any, List, Optional, Sequence, Union
 
@@ -18,7 +17,8 @@ import numpy as np
 
 from . import checkpoint as _ckpt
 from . import engine
-from .adaptive import simulate_to_error
+from ._resources import available_memory, progress_bar
+from .adaptive import MAX_SECONDS, simulate_to_error
 from .bins import Histograms, axes as _histogram_axes
 from .methods import DEFAULT_METHOD, GRIDS, METHODS
 from .quantities import names_for, quantity, simulated_variables
@@ -27,87 +27,6 @@ from .scene import Scene
 from .spec import MAX_PATHS, RunSpec, check_int, default_dt
 
 __all__ = ["simulate", "simulate_many", "default_dt", "METHODS", "MAX_PATHS"]
-
-def _read_int(path: str) -> Optional[int]:
-    try:
-        with open(path) as f:
-            text = f.read().strip()
-    except OSError:
-        return None
-    try:
-        return int(text)
-    except ValueError:  # "max": no limit
-        return None
-
-
-def _cgroup_available(root: str = "/sys/fs/cgroup") -> Optional[int]:
-    """Bytes the memory cgroup of this process may still allocate (None: no limit found)."""
-    found = []
-    # cgroup v2: this process's group (from /proc/self/cgroup) and, in a container whose
-    # cgroup namespace hides it, the root of the mount.
-    groups = [""]
-    try:
-        with open("/proc/self/cgroup") as f:
-            for line in f:
-                parts = line.strip().split(":", 2)
-                if len(parts) == 3 and parts[0] == "0":
-                    groups.insert(0, parts[2].lstrip("/"))
-    except OSError:
-        pass
-    for group in groups:
-        base = os.path.join(root, group) if group else root
-        limit = _read_int(os.path.join(base, "memory.max"))
-        used = _read_int(os.path.join(base, "memory.current"))
-        if limit is not None and used is not None:
-            found.append(limit - used)
-    # cgroup v1.
-    limit = _read_int(os.path.join(root, "memory", "memory.limit_in_bytes"))
-    used = _read_int(os.path.join(root, "memory", "memory.usage_in_bytes"))
-    if limit is not None and used is not None and limit < 1 << 60:  # 2^63-ish: unlimited
-        found.append(limit - used)
-    return min(found) if found else None
-
-
-def _process_sizes() -> dict:
-    """VmSize and VmData of this process, bytes (empty where /proc is missing)."""
-    out = {}
-    try:
-        with open("/proc/self/status") as f:
-            for line in f:
-                key, _, value = line.partition(":")
-                if key in ("VmSize", "VmData"):
-                    out[key] = int(value.split()[0]) * 1024
-    except (OSError, ValueError, IndexError):
-        pass
-    return out
-
-
-def _available_memory() -> int:
-    """Bytes this process can still allocate: the least of free RAM, its address-space and
-    data rlimits (less what it uses) and its memory cgroup's limit (less what it uses)."""
-    have = []
-    try:
-        have.append(os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"))
-    except (ValueError, OSError, AttributeError):  # pragma: no cover - non-POSIX
-        pass
-    try:
-        import resource
-    except ImportError:  # pragma: no cover - not on POSIX
-        resource = None
-    if resource is not None:
-        sizes = _process_sizes()
-        for name, used in (("RLIMIT_AS", "VmSize"), ("RLIMIT_DATA", "VmData")):
-            limit = getattr(resource, name, None)
-            if limit is None:
-                continue
-            soft, _ = resource.getrlimit(limit)
-            if soft != resource.RLIM_INFINITY:
-                have.append(soft - sizes.get(used, 0))
-    cgroup = _cgroup_available()
-    if cgroup is not None:
-        have.append(cgroup)
-    return max(0, min(have)) if have else 1 << 62
-
 
 def _memory_need(scene: Scene, threads: int, method: str) -> int:
     # Per output time, 39 doubles: a Moments (count, 3 means, 35 central sums) or a block's
@@ -140,7 +59,7 @@ def _axis_cells(axis) -> int:
 
 def _check_memory(scene: Scene, threads: int, method: str = DEFAULT_METHOD) -> None:
     need = _memory_need(scene, threads, method)
-    have = _available_memory()
+    have = available_memory()
     if need > have:
         raise ValueError(
             f"times: {scene.times.size} output times ({len(scene.observe)} observables, "
@@ -194,31 +113,6 @@ def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads, min_st
     spec = RunSpec.from_dict({"scene": scene_dict, "paths": paths, "seed": seed, "dt": dt,
                               "method": method, "min_steps": min_steps})
     return engine.run_chunks(spec, first, last, threads, random_stream)
-
-
-def _interactive() -> bool:
-    """A person is watching: stderr is a terminal, and not CI or a test run."""
-    if os.environ.get("CI") or "PYTEST_CURRENT_TEST" in os.environ:
-        return False
-    try:
-        return sys.stderr.isatty()
-    except (AttributeError, ValueError):  # closed or replaced stderr
-        return False
-
-
-def _progress_bar(progress, *, total: int, initial: int):
-    if progress is None:
-        progress, delay = _interactive(), 2.0  # only runs longer than a couple of seconds
-    else:
-        if not isinstance(progress, bool):
-            raise ValueError(f"progress must be True, False or None, got {progress!r}")
-        delay = 0.0
-    if not progress:
-        return None
-    from tqdm import tqdm
-
-    return tqdm(total=total, initial=initial, unit="path", unit_scale=True, delay=delay,
-                desc="crandall", leave=False, dynamic_ncols=True)
 
 
 class _Run:
@@ -411,6 +305,7 @@ def simulate(
     error: Optional[float] = None,
     rel_error: Optional[float] = None,
     statistics: Optional[Sequence] = None,
+    max_seconds: Optional[float] = None,
 ):
     """Simulate a scene and return its statistics: ``paths`` paths on a fixed grid, or as
     many as a requested accuracy needs (``error=`` or ``rel_error=``).
@@ -434,7 +329,11 @@ def simulate(
         ``checkpoint`` the run's state is kept in that file (a JSON file, replaced atomically
         at most every second and at the end of every round) and a rerun with the same
         arguments carries on from it, to a result bitwise the same as an uninterrupted run's.
-        ``seed`` None draws one; give a seed to resume.
+        ``seed`` None draws one; give a seed to resume. One ``error`` applies to every
+        statistic in its own units: a mean energy in J, its variance in J^2. To ask the means
+        and the variances for different accuracies, run each with ``statistics=``. A target
+        that no run could reach (a level would need more than 2^62 paths) is refused naming
+        ``error``.
     rel_error : float, optional
         The same, relative: at most ``rel_error`` times the statistic's size (its absolute
         value; for a mean, at least the quantity's standard deviation, so that a mean that is
@@ -443,6 +342,13 @@ def simulate(
         With ``error`` / ``rel_error``: the statistics the target applies to (and that the
         result holds), as ``"name:stat"`` strings or ``(name, stat)`` pairs with stat "mean"
         or "var", e.g. ``["distance:var"]``; default: every statistic of the scene.
+    max_seconds : float, optional
+        With ``error`` / ``rel_error``: after every round (the first after the pilot paths of
+        each level) the run estimates the time it still needs from the paths each level
+        still needs and the rate measured so far, shows it on the progress bar, and stops with
+        a ValueError quoting the estimate once the time spent and the estimate together pass
+        ``max_seconds`` (default 3600; with ``checkpoint`` what was done is kept, so a rerun
+        with a larger bound carries on).
     seed : int, optional
         0 <= seed < 2**64. The result is a pure function of (seed, scene, paths, dt, method,
         crandall version): bitwise the same for any ``threads``, checkpointed or not, local or
@@ -473,8 +379,10 @@ def simulate(
         crandall[distributed]``); the workers need crandall installed. The accumulators come back
         to this process and are merged in chunk order: bitwise the local result.
     progress : bool, optional
-        Show a progress bar (tqdm, on stderr). Default: only on a terminal (not in CI or pytest)
-        and only once the run has lasted two seconds.
+        Show a progress bar (``tqdm.auto``: on stderr, or a widget in a notebook; for a run to
+        an accuracy, the round, the largest error over its target and the estimated time
+        left). Default: only on a terminal (not in CI or pytest) and only once the run has
+        lasted two seconds.
 
     Returns
     -------
@@ -511,9 +419,14 @@ def simulate(
         return simulate_to_error(scene, error=error, rel_error=rel_error, seed=seed,
                                  threads=threads, statistics=statistics,
                                  checkpoint=checkpoint, client=client,
-                                 task_threads=task_threads)
+                                 task_threads=task_threads, progress=progress,
+                                 max_seconds=MAX_SECONDS if max_seconds is None
+                                 else max_seconds)
     if statistics is not None:
         raise ValueError("statistics: only with error= or rel_error=")
+    if max_seconds is not None:
+        raise ValueError("max_seconds: only with error= or rel_error= (a run of paths= has "
+                         "a known size)")
     if paths is None:
         raise ValueError("paths: give the number of paths, or error= / rel_error= for an "
                          "accuracy")
@@ -531,7 +444,7 @@ def simulate(
     run = _Run(spec, threads=threads, checkpoint=checkpoint)
     bar = None
     if run.done < run.plan.chunks:
-        bar = _progress_bar(progress, total=paths, initial=run.paths_in(0, run.done))
+        bar = progress_bar(progress, total=paths, initial=run.paths_in(0, run.done))
     try:
         if client is not None and run.done < run.plan.chunks:
             _run_distributed([run], client, task_threads, bar)
@@ -610,7 +523,7 @@ def simulate_many(
                            threads=threads)
         seed = spec.seed  # a drawn seed is shared by the following scenes
         runs.append(_Run(spec, threads=t, checkpoint=files[i]))
-    bar = _progress_bar(progress, total=sum(r.paths for r in runs),
+    bar = progress_bar(progress, total=sum(r.paths for r in runs),
                         initial=sum(r.paths_in(0, r.done) for r in runs))
     try:
         if client is not None:
