@@ -354,13 +354,63 @@ def test_checkpoint_of_another_run_is_refused(tmp_path):
     ckpt.write_text("{not json")
     with pytest.raises(ValueError, match="is not a checkpoint of a run to an accuracy"):
         crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=ckpt)
+
+
+def _edited(tmp_path, edit, *, reseal):
+    """A finished checkpoint of a run to an accuracy, edited; resealed: with the checksum
+    computed anew over the edit, so that the fields' own checks are what must refuse it."""
     import json as _json
-    crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=tmp_path / "d.json")
-    state = _json.loads((tmp_path / "d.json").read_text())
-    state["levels"][0]["flat"] = state["levels"][0]["flat"][:-1]
-    (tmp_path / "d.json").write_text(_json.dumps(state))
-    with pytest.raises(ValueError, match="is damaged \\(field flat\\)"):
-        crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=tmp_path / "d.json")
+    from crandall import adaptive
+
+    sc = crandall.Scene.scaled(tau0=2.0, times=[1.0], observe=["distance"])
+    path = tmp_path / "d.json"
+    if not path.exists():
+        crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=path)
+    state = _json.loads(path.read_text())
+    edit(state)
+    if reseal:
+        state.pop("checksum")
+        state["checksum"] = adaptive._checksum(state)
+    bad = tmp_path / "bad.json"
+    bad.write_text(_json.dumps(state))
+    return sc, bad
+
+
+def _set(field, value):
+    def edit(state):
+        where = state
+        for key in field[:-1]:
+            where = where[key]
+        where[field[-1]] = value
+    return edit
+
+
+@pytest.mark.parametrize("reseal", [False, True])
+@pytest.mark.parametrize("edit, field", [
+    # Each was accepted as read: the results moved, or variances came out negative.
+    (lambda st: _set(("levels", 0, "n"), st["levels"][0]["n"] + 4096)(st), "levels\\[0\\].n|path_steps"),
+    (lambda st: st["levels"].extend([st["levels"][-1]] * 20), "levels"),
+    (lambda st: _set(("levels", 1, "n"), 2 ** 70)(st), "levels\\[1\\].n"),
+    (lambda st: _set(("levels", 0, "start"), 2 ** 64)(st), "levels\\[0\\].start"),
+    (lambda st: _set(("beta", 0, 0), float("nan"))(st), "beta"),
+    (lambda st: _set(("levels", 0, "flat"), st["levels"][0]["flat"][:-1])(st), "levels\\[0\\].flat"),
+    (lambda st: _set(("pending",), [[99, 4096]])(st), "pending"),
+    (lambda st: _set(("wall_time",), -1.0)(st), "wall_time"),
+    (lambda st: _set(("path_steps",), st["path_steps"] + 1)(st), "path_steps"),
+])
+def test_edited_checkpoints_are_refused_naming_the_file_and_the_field(tmp_path, edit, field,
+                                                                       reseal):
+    sc, bad = _edited(tmp_path, edit, reseal=reseal)
+    want = field if reseal else "checksum"
+    with pytest.raises(ValueError, match=rf"^checkpoint: .*bad.json is damaged \(field ({want})"):
+        crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=bad)
+
+
+def test_a_checkpoint_of_the_older_format_is_refused(tmp_path):
+    sc, bad = _edited(tmp_path, _set(("identity", "format_version"), 1), reseal=False)
+    with pytest.raises(ValueError, match="with checkpoint format 1; this crandall uses checkpoint "
+                                         "format 2"):
+        crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=bad)
 
 
 def test_cli_error(tmp_path, capsys):

@@ -22,6 +22,7 @@ error estimates are in docs/methods/adaptive.md; in short:
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -643,7 +644,9 @@ class _Engine:
         now = time.perf_counter()
         if not force and now - self.last_save < CHECKPOINT_SECONDS:
             return
-        text = json.dumps(self.state())
+        state = self.state()
+        state["checksum"] = _checksum(state)
+        text = json.dumps(state)
         write_atomic(self.checkpoint, lambda f: f.write(text.encode("utf-8")))
         self.last_save = now
 
@@ -662,6 +665,20 @@ class _Engine:
             raise ValueError(f"{where} is not a checkpoint of a run to an accuracy")
         mine = json.loads(json.dumps(self.identity()))
         theirs = st["identity"]
+        for key, what in (("format", "format"), ("format_version", "checkpoint format"),
+                          ("random_stream", "random stream")):
+            if theirs.get(key) != mine.get(key):
+                raise ValueError(
+                    f"{where} was written by crandall {theirs.get('crandall', '?')} with {what} "
+                    f"{theirs.get(key, 'unknown')!r}; this crandall uses {what} "
+                    f"{mine.get(key)!r}, so it cannot be continued here; remove it to start "
+                    "again, or resume with that version")
+        # Every edit is refused, even one that keeps the fields consistent with each other (a
+        # level's path count and its sums changed together): the file is the run's own only
+        # if its checksum matches.
+        if st.get("checksum") != _checksum({k: v for k, v in st.items() if k != "checksum"}):
+            raise ValueError(f"{where} is damaged (field checksum: it does not match the "
+                             "contents, which were edited or damaged); remove it to start again")
         if theirs != mine:
             diff = sorted(k for k in set(theirs) | set(mine) if theirs.get(k) != mine.get(k))
             details = "; ".join(f"{k}: checkpoint has {theirs.get(k)!r}, this run "
@@ -669,37 +686,72 @@ class _Engine:
             raise ValueError(f"{where} belongs to a different run ({details}); give another "
                              "path or the same arguments")
         try:
-            levels = st["levels"]
-            for k, lv in enumerate(levels):
-                lev = self._level(k)
-                lev.start = _nonneg_int(lv["start"], "start")
-                n = _nonneg_int(lv["n"], "n")
-                if lv["flat"] is not None:
-                    flat = np.array(lv["flat"], dtype=float)
-                    if flat.shape != (self.sums_width,) or not np.all(np.isfinite(flat)) or n < 1:
-                        raise ValueError("flat")
-                    lev.sums = _Sums(self.widths)
-                    lev.sums.add(n, flat)
-            if st["centre"] is not None:
-                centre = np.array(st["centre"], dtype=float)
-                if centre.shape != (len(self.targets),) or not np.all(np.isfinite(centre)):
-                    raise ValueError("centre")
-                self.centre = centre
-            if st["beta"] is not None:
-                beta = [[float(v) for v in row] for row in st["beta"]]
-                if len(beta) != len(self.cols) or any(len(r) != _core.CONTROLS for r in beta):
-                    raise ValueError("beta")
-                self.beta = beta
-            self.path_steps = _nonneg_int(st["path_steps"], "path_steps")
-            self.rounds = _nonneg_int(st["rounds"], "rounds")
-            self.wall_before = float(st["wall_time"])
-            pending = st["pending"]
-            if pending is not None:
-                pending = [[_nonneg_int(a, "pending"), _nonneg_int(b, "pending")]
-                           for a, b in pending]
-            self.pending = pending
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ValueError(f"{where} is damaged (field {exc})") from None
+            self._restore_fields(st)
+        except (KeyError, TypeError, ValueError, OverflowError) as exc:
+            field = exc.args[0] if isinstance(exc, (KeyError, ValueError)) and exc.args else exc
+            raise ValueError(f"{where} is damaged (field {field})") from None
+
+    def _restore_fields(self, st: Dict) -> None:
+        """The state's fields, each checked against what a run can have written (a
+        ValueError whose argument names the field)."""
+        levels = st["levels"]
+        if not isinstance(levels, list) or len(levels) > MAX_LEVELS + 1:
+            raise ValueError(f"levels: {MAX_LEVELS + 1} at most")
+        steps = 0
+        for k, lv in enumerate(levels):
+            lev = self._level(k)
+            start = _nonneg_int(lv["start"], f"levels[{k}].start")
+            # Only the base level leaves paths out: the first batch of its pilot.
+            if start not in ((0, min(self.batch, PILOT_PATHS)) if k == 0 else (0,)):
+                raise ValueError(f"levels[{k}].start")
+            n = _nonneg_int(lv["n"], f"levels[{k}].n")
+            if n > MAX_LEVEL_PATHS:
+                raise ValueError(f"levels[{k}].n")
+            lev.start = start
+            if lv["flat"] is not None:
+                flat = np.array(lv["flat"], dtype=float)
+                if flat.shape != (self.sums_width,) or not np.all(np.isfinite(flat)) or n < 1:
+                    raise ValueError(f"levels[{k}].flat")
+                lev.sums = _Sums(self.widths)
+                lev.sums.add(n, flat)
+            elif n != 0:
+                raise ValueError(f"levels[{k}].n")
+            steps += (start + n) * lev.cost
+        if st["centre"] is not None:
+            centre = np.array(st["centre"], dtype=float)
+            if centre.shape != (len(self.targets),) or not np.all(np.isfinite(centre)):
+                raise ValueError("centre")
+            self.centre = centre
+        if st["beta"] is not None:
+            beta = [[float(v) for v in row] for row in st["beta"]]
+            if len(beta) != len(self.cols) or any(len(r) != _core.CONTROLS for r in beta) \
+                    or not all(math.isfinite(v) for r in beta for v in r):
+                raise ValueError("beta")
+            self.beta = beta
+        # Every path a level drew, pilot included, was counted at that level's steps.
+        self.path_steps = _nonneg_int(st["path_steps"], "path_steps")
+        if self.path_steps != steps:
+            raise ValueError("path_steps")
+        self.rounds = _nonneg_int(st["rounds"], "rounds")
+        wall = st["wall_time"]
+        if isinstance(wall, bool) or not isinstance(wall, (int, float)) \
+                or not (math.isfinite(wall) and wall >= 0):
+            raise ValueError("wall_time")
+        self.wall_before = float(wall)
+        pending = st["pending"]
+        if pending is not None:
+            pending = [[_nonneg_int(a, "pending"), _nonneg_int(b, "pending")]
+                       for a, b in pending]
+            if any(a > MAX_LEVELS or b > MAX_LEVEL_PATHS for a, b in pending):
+                raise ValueError("pending")
+        self.pending = pending
+
+
+def _checksum(state: Dict) -> str:
+    """SHA-256 of the state as canonical JSON (keys sorted; floats as Python writes them,
+    which round-trip exactly)."""
+    text = json.dumps(state, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 def _nonneg_int(value, field: str) -> int:
@@ -712,7 +764,7 @@ def _nonneg_int(value, field: str) -> int:
 #: round-trips them) replaced atomically at most every CHECKPOINT_SECONDS and at every round's
 #: end.
 CHECKPOINT_FORMAT = "crandall-adaptive-checkpoint"
-CHECKPOINT_VERSION = 1
+CHECKPOINT_VERSION = 2  # 2: a checksum, every field checked
 CHECKPOINT_SECONDS = 1.0
 
 
