@@ -8,7 +8,8 @@ import numpy as np
 def log_linear_edges(scale, per_octave, max_scales, symmetric):
     """Edges of the automatic scheme: b the power of two with b <= scale < 2b, m = per_octave;
     0, b/m, ..., (m-1) b/m, then (m + j) b 2^k / m for k < K, j < m, then b 2^K with K the least
-    such that b 2^K >= max_scales * scale; mirrored at 0 if symmetric. All exact in float64."""
+    such that b 2^K >= max_scales * scale; mirrored at 0 if symmetric; and the atom edge 2^-1074
+    just above 0 (not mirrored). All exact in float64."""
     m = int(per_octave)
     b = 2.0 ** (np.floor(np.log2(scale)))
     # np.log2 may round near a power of two: settle b by exact comparisons.
@@ -22,9 +23,11 @@ def log_linear_edges(scale, per_octave, max_scales, symmetric):
         parts.append(octave + np.arange(m) * (octave / m))
         octave *= 2.0
     out = np.concatenate(parts + [[octave]])
+    # The atom cell [0, 2^-1074) above 0: exact zeros apart (not mirrored below 0).
+    atom = np.concatenate(([0.0, 5e-324], out[1:]))
     if symmetric:
-        return np.concatenate((-out[:0:-1], out))
-    return out
+        return np.concatenate((-out[:0:-1], atom))
+    return atom
 
 
 def cells(edges, x):

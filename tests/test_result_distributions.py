@@ -88,9 +88,11 @@ def test_velocity_and_stop_time_histograms_follow_the_analytic_laws():
     edges, cells = hist.find(len(r.times), 0)
     p, groups = chi_square_p(edges, cells, lambda t: analytic.stop_time_cdf(t + 2.0, 2.0), paths)
     assert groups > 30 and p > LEVEL, p
-    # And the same through the public face: the histogram in the quantity's units.
+    # And the same through the public face: the histogram in the quantity's units, where the
+    # atom bin [0, 2^-1074) joins the bin above it (t0 + 2^-1074 is t0 in doubles).
     h = r.histogram("stop_time")
-    np.testing.assert_array_equal(h.axes[0].edges, edges + 2.0)
+    assert edges[1] == 5e-324 and (edges + 2.0)[1] == 2.0
+    np.testing.assert_array_equal(h.axes[0].edges, np.delete(edges, 1) + 2.0)
     assert h.sum(flow=True) == paths
 
 
@@ -263,13 +265,19 @@ def test_kinetic_and_dissipated_energy_come_from_the_velocity_and_distance_bins(
     f = scene.mass * scene.drift
     d = r.histogram("distance", 2.0)
     e = r.histogram("dissipated_energy", 2.0)
-    np.testing.assert_array_equal(e.axes[0].edges, d.axes[0].edges * f)
+    # The atom edge 2^-1074 (exact zeros apart) stays itself in any units.
+    want = d.axes[0].edges * f
+    want[1] = 5e-324
+    np.testing.assert_array_equal(e.axes[0].edges, want)
     np.testing.assert_array_equal(e.view(flow=True), d.view(flow=True))
     v = r.histogram("velocity", 1.0)
     k = r.histogram("kinetic_energy", 1.0)
     edges = v.axes[0].edges
     half = edges[edges >= 0]
-    np.testing.assert_array_equal(k.axes[0].edges, 0.5 * scene.mass * half * half)
+    want = 0.5 * scene.mass * half * half
+    assert half[1] == 5e-324
+    want[1] = 5e-324
+    np.testing.assert_array_equal(k.axes[0].edges, want)
     # Folding: P(KE > m v^2 / 2) = P(|V| > v) for v on an edge, from the same counts.
     vv = half[len(half) // 3]
     above = v.view(flow=True)
@@ -574,3 +582,39 @@ def test_intervals_say_whether_the_bins_limit_them():
     assert f.high - f.low < c.high - c.low
     e = rf.exceedance("stop_time", 2.3)
     assert 0 < e.resolution < 0.01 and not e.bin_limited
+
+
+def test_exceedances_and_quantiles_at_an_atom_match_the_analytic_atom():
+    # After the switch-off a stopped body's velocity is exactly 0, with probability
+    # P(stop time <= t) (analytic.velocity_atom). Its automatic bins give exact zeros a bin of
+    # their own, [0, 2^-1074): the mass there was spread over the first bin [0, w), so
+    # exceedance(velocity, 0) read 0.94 where P(V > 0) = 0.06 (velocity_sf(0)).
+    paths = 100_000
+    tau, tau0 = 1.5, 1.0
+    sc = crandall.Scene.scaled(tau0=tau0, times=[tau], observe=["velocity", "kinetic_energy"],
+                               distributions=["velocity", "kinetic_energy"])
+    r = crandall.simulate(sc, paths=paths, seed=12, threads=2)
+    atom = float(analytic.velocity_atom(tau, tau0))
+    above = float(analytic.velocity_sf(0.0, tau, tau0))  # P(V > 0) = (1 - atom) / 2
+    assert above == pytest.approx((1 - atom) / 2, rel=1e-9)
+
+    def within(est, p, decided=True):  # 5 binomial standard errors: false alarm 6e-7
+        assert abs(est.value - p) <= 5 * math.sqrt(p * (1 - p) / paths), (est, p)
+        assert est.low <= p <= est.high
+        if decided:  # the level is the atom's own value: no bin left undecided
+            assert est.resolution == 0.0, est
+
+    within(r.exceedance("velocity", 0.0, time=tau), above)              # strictly above 0
+    # At or above 0 (the level just below it, in the bin [-w, 0) of a few moving paths).
+    within(r.exceedance("velocity", -1e-300, time=tau), above + atom, decided=False)
+    within(r.exceedance("kinetic_energy", 0.0, time=tau), 2 * above)    # moving at all
+    # Every quantile inside the atom is 0 exactly, with an interval of 0 alone.
+    for q in (0.5 - atom / 3, 0.5, 0.5 + atom / 3):
+        est = r.quantile("velocity", q, time=tau)
+        assert est.value == est.low == est.high == 0.0, (q, est)
+    # A body never shaken (h = 0) is at rest: every quantile 0, nothing above 0.
+    rest = crandall.Scene(mu=0.3, h=0.0, t0=1.0, times=[0.5], observe=["velocity"],
+                          distributions=["velocity"])
+    r0 = crandall.simulate(rest, paths=1000, seed=1)
+    assert r0.quantile("velocity", 0.99, time=0.5) == (0.0, 0.0, 0.0, 0.0)
+    assert r0.exceedance("velocity", 0.0, time=0.5).value == 0.0

@@ -39,7 +39,7 @@ BinEdges BinEdges::log_linear(double scale, int per_octave, double max_scales, b
   }
   const std::size_t m = static_cast<std::size_t>(per_octave);
   e.half_ = m * static_cast<std::size_t>(1 + octaves);
-  if (e.half_ * (symmetric ? 2 : 1) > kMaxBins)
+  if (e.half_ * (symmetric ? 2 : 1) + 1 > kMaxBins)  // + 1: the atom cell
     throw std::invalid_argument("histogram: more than 2^22 bins; lower per_octave or max_scales");
   e.per_octave_ = per_octave;
   e.symmetric_ = symmetric;
@@ -51,15 +51,20 @@ BinEdges BinEdges::log_linear(double scale, int per_octave, double max_scales, b
 
   // Outward edges 0, b/m, ..., b, then (m + j) b 2^k / m: small integers times powers of two.
   std::vector<double> out;
-  out.reserve(e.half_ + 1);
+  out.reserve(e.half_ + 2);
   for (std::size_t j = 0; j < m; ++j) out.push_back(std::ldexp(static_cast<double>(j), exponent - 1 - log2m));
   for (int k = 0; k < octaves; ++k)
     for (std::size_t j = 0; j < m; ++j)
       out.push_back(std::ldexp(static_cast<double>(m + j), exponent - 1 - log2m + k));
   out.push_back(top);
+  // The atom cell [0, 2^-1074): the least positive double as an edge, so that exact zeros (a
+  // body at rest, stopped, or never shaken) are counted apart from the values near 0
+  // (docs/methods/histograms.md, "Atoms at zero").
+  out.insert(out.begin() + 1, std::numeric_limits<double>::denorm_min());
   if (symmetric) {
-    e.edges_.reserve(2 * e.half_ + 1);
-    for (std::size_t i = e.half_; i > 0; --i) e.edges_.push_back(-out[i]);
+    e.edges_.reserve(2 * e.half_ + 2);
+    // The negative side mirrors the edges from b/m outward (no atom edge below 0).
+    for (std::size_t i = e.half_ + 1; i > 1; --i) e.edges_.push_back(-out[i]);
     e.edges_.insert(e.edges_.end(), out.begin(), out.end());  // out[0] = 0 is the centre edge
   } else {
     e.edges_ = std::move(out);

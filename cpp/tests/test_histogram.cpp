@@ -37,7 +37,8 @@ std::size_t reference_cell(const std::vector<double>& e, double x) {
 
 // The documented edges of the automatic scheme, from the formula alone: b the power of two
 // with b <= scale < 2b; 0, b/m, ..., (m-1) b/m; (m + j) b 2^k / m for k < K, j < m; b 2^K with
-// K the least such that b 2^K >= max_scales * scale; mirrored at 0 if symmetric.
+// K the least such that b 2^K >= max_scales * scale; mirrored at 0 if symmetric; and the atom
+// edge 2^-1074 just above 0 (not mirrored: exact zeros have a cell of their own).
 std::vector<double> documented_edges(double scale, int m, double max_scales, bool symmetric) {
   double b = 1.0;
   while (b > scale) b /= 2.0;
@@ -50,10 +51,12 @@ std::vector<double> documented_edges(double scale, int m, double max_scales, boo
     octave *= 2.0;
   }
   out.push_back(octave);
-  if (!symmetric) return out;
+  std::vector<double> atom(out);
+  atom.insert(atom.begin() + 1, std::numeric_limits<double>::denorm_min());
+  if (!symmetric) return atom;
   std::vector<double> all;
   for (std::size_t i = out.size() - 1; i > 0; --i) all.push_back(-out[i]);
-  all.insert(all.end(), out.begin(), out.end());
+  all.insert(all.end(), atom.begin(), atom.end());
   return all;
 }
 
@@ -102,8 +105,14 @@ TEST(Histogram, EdgesStrictlyIncreasingAndMirrored) {
     const auto& x = e.edges();
     for (std::size_t i = 1; i < x.size(); ++i) ASSERT_LT(x[i - 1], x[i]) << "edge " << i;
     if (c.symmetric) {
-      for (std::size_t i = 0; i < x.size(); ++i) EXPECT_EQ(x[i], -x[x.size() - 1 - i]);
-      EXPECT_FALSE(std::signbit(x[x.size() / 2]));  // the centre edge is +0.0
+      // Mirrored but for the atom edge 2^-1074 just above the centre edge, +0.0.
+      const std::size_t centre = (x.size() - 2) / 2;
+      EXPECT_EQ(x[centre], 0.0);
+      EXPECT_FALSE(std::signbit(x[centre]));
+      EXPECT_EQ(x[centre + 1], std::numeric_limits<double>::denorm_min());
+      for (std::size_t i = 0; i < centre; ++i) EXPECT_EQ(x[i], -x[x.size() - 1 - i]);
+    } else {
+      EXPECT_EQ(x[1], std::numeric_limits<double>::denorm_min());
     }
     // Relative width beyond b within [1/(2m), 1/m]: the geometric part resolves the tail
     // with a fixed relative precision.
@@ -134,7 +143,9 @@ TEST(Histogram, EdgePlacement) {
       for (const BinEdges* e : {&automatic, &given}) {
         ASSERT_EQ(e->cell(x[i]), on) << "edge " << i << " = " << x[i];
         ASSERT_EQ(e->cell(below), under) << "below edge " << i;
-        ASSERT_EQ(e->cell(above), std::min(on, n + 1)) << "above edge " << i;
+        // One ulp above 0 is the atom edge itself: the bin above it.
+        const std::size_t next = i + 1 < x.size() && above == x[i + 1] ? on + 1 : on;
+        ASSERT_EQ(e->cell(above), std::min(next, n + 1)) << "above edge " << i;
         if (i + 1 < x.size()) {
           ASSERT_EQ(e->cell(0.5 * (x[i] + x[i + 1])), on) << "mid " << i;
         }

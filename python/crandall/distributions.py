@@ -20,7 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-__all__ = ["Estimate", "quantile", "exceedance", "to_boost_histogram"]
+__all__ = ["Estimate", "quantile", "exceedance", "to_boost_histogram", "point_cells", "ATOM"]
 
 
 class Estimate(NamedTuple):
@@ -126,6 +126,23 @@ def _cell_bounds(e: np.ndarray):
     return lower, upper
 
 
+#: The least positive double, 2^-1074: the automatic edges put it just above 0, so that the
+#: bin [0, ATOM) holds exact zeros only (the atom at 0 of a stopped body's velocity, of a
+#: scene without excitation, ...).
+ATOM = float(np.nextafter(0.0, 1.0))
+
+
+def point_cells(edges) -> np.ndarray:
+    """Which bins ``[a, b)`` hold one value only, ``a`` itself (``b`` is the next double after
+    ``a``): an atom, known exactly, which no interpolation within the bin may spread."""
+    e = np.asarray(edges, dtype=np.float64)
+    return e[1:] == np.nextafter(e[:-1], np.inf)
+
+
+def _is_point(lower, upper, i: int) -> bool:
+    return bool(math.isfinite(lower[i]) and upper[i] == np.nextafter(lower[i], np.inf))
+
+
 def _order_statistic_ranks(n: int, q: float, alpha: float):
     """Ranks l <= u with P(X_(l) <= xi_q <= X_(u)) >= 1 - alpha, equal tails.
 
@@ -187,7 +204,8 @@ def quantile(edges, counts, under, over, q, confidence=0.95) -> Estimate:
     -------
     Estimate
         ``value``: the sample quantile interpolated linearly within its bin (the point where
-        the cumulative count reaches ``q * total``, bins taken as uniformly filled); ``-inf``
+        the cumulative count reaches ``q * total``, bins taken as uniformly filled; in a point
+        bin, see :func:`point_cells`, its one value exactly); ``-inf``
         or ``+inf`` when it lies in the underflow or the overflow, where the bins cannot place
         it. ``q = 0`` gives the lower edge of the lowest non-empty bin, ``q = 1`` the upper
         edge of the highest.
@@ -231,6 +249,8 @@ def quantile(edges, counts, under, over, q, confidence=0.95) -> Estimate:
             value = -math.inf
         elif i == last:
             value = math.inf
+        elif _is_point(lower, upper, i):
+            value = lower[i]  # every value in the bin is its lower edge: no interpolation
         else:
             before = float(cum[i] - cells[i])
             frac = min(max((r - before) / float(cells[i]), 0.0), 1.0)
@@ -238,14 +258,19 @@ def quantile(edges, counts, under, over, q, confidence=0.95) -> Estimate:
     lo_rank, hi_rank = _order_statistic_ranks(n, q, alpha)
     resolution = 0.0
     low, high = -math.inf, math.inf
+    # An order statistic in a point bin is known exactly: no widening there.
     if lo_rank != 0:
         c = cell_of_rank(lo_rank)
         low = float(lower[c])
-        resolution += float(upper[c] - lower[c])
+        if not _is_point(lower, upper, c):
+            resolution += float(upper[c] - lower[c])
     if hi_rank != n + 1:
         c = cell_of_rank(hi_rank)
-        high = float(upper[c])
-        resolution += float(upper[c] - lower[c])
+        if _is_point(lower, upper, c):
+            high = float(lower[c])
+        else:
+            high = float(upper[c])
+            resolution += float(upper[c] - lower[c])
     return Estimate(float(value), low, high, resolution)
 
 
@@ -278,9 +303,10 @@ def exceedance(edges, counts, under, over, level, confidence=0.95) -> Estimate:
     Returns
     -------
     Estimate
-        ``value``: the fraction of values above ``level``, counting the bin that contains
-        ``level`` in proportion to the part of it above ``level`` (bins taken as uniformly
-        filled). If ``level`` lies in the underflow or the overflow, which have no width to
+        ``value``: the fraction of values strictly above ``level``, counting the bin that
+        contains ``level`` in proportion to the part of it above ``level`` (bins taken as
+        uniformly filled); a point bin (see :func:`point_cells`: an atom, such as exact zeros
+        in the automatic bin ``[0, ATOM)``) that holds ``level`` counts none, exactly. If ``level`` lies in the underflow or the overflow, which have no width to
         interpolate in, that cell counts half.
         ``resolution``: the fraction of values in the level's cell (see :class:`Estimate`).
         ``low``, ``high``: the number K of values above ``level`` is only known to lie between
@@ -311,7 +337,11 @@ def exceedance(edges, counts, under, over, level, confidence=0.95) -> Estimate:
     above = int(cells[i + 1:].sum())
     inside = int(cells[i])
     lower, upper = _cell_bounds(e)
-    if 0 < i < len(e):
+    if 0 < i < len(e) and _is_point(lower, upper, i):
+        # A point bin holds the level itself only (an atom): none of it is above the level,
+        # and the count above is known exactly.
+        frac, inside = 0.0, 0
+    elif 0 < i < len(e):
         frac = (upper[i] - level) / (upper[i] - lower[i])
     else:
         frac = 0.5

@@ -17,7 +17,7 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 from scipy.stats import beta
 
-from . import analytic
+from . import analytic, distributions
 from .engine import velocity_samples
 from .paper import CURVES, Curve, curve, scaled_factors
 from .quantities import quantity
@@ -349,8 +349,14 @@ def distribution(result: Result, name: str, times: Optional[Sequence[float]] = N
         width = np.diff(e)
         colour = f"C{i + 1}"
         tag = "" if t is None else f"{result.scene.time_name} = {t:g}"
-        dens.stairs(counts[lo:hi] / (n * width), e, color=colour, lw=1.2,
-                    label=(tag + ", " if tag else "") + f"run ({int(n):,} paths)")
+        # An atom (the bin [0, 2^-1074) of exact zeros) has no density: left out of the
+        # curve, its probability named in the legend.
+        point = distributions.point_cells(e)
+        density = np.where(point, np.nan, counts[lo:hi] / (n * np.where(point, 1.0, width)))
+        atom = float(counts[lo:hi][point].sum()) / n
+        dens.stairs(density, e, color=colour, lw=1.2,
+                    label=(tag + ", " if tag else "") + f"run ({int(n):,} paths)"
+                    + (f", P(= 0) = {atom:.3g}" if atom > 0 else ""))
         above = n - under - np.cumsum(np.concatenate(([0.0], counts)))
         keep = above[lo:hi + 1] > 0
         p_edge = above[lo:hi + 1][keep] / n

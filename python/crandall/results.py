@@ -59,7 +59,14 @@ def _fold(edges: np.ndarray, cells: np.ndarray):
     """A symmetric axis folded at 0: the histogram of |x| (edges >= 0; cells [under = 0,
     bins..., over, NaN]). Bin [a, b) of x goes to the bin of |x| starting at a (a >= 0), at
     -b (b <= 0), or at 0 (a < 0 < b); both flows go to the overflow."""
-    if not np.array_equal(edges, -edges[::-1]):
+    atom = edges.size > 2 and edges[edges.size // 2] == distributions.ATOM
+    if atom:
+        # The atom edge just above 0 has no mirror below: the rest is symmetric.
+        rest = np.delete(edges, edges.size // 2)
+        if not np.array_equal(rest, -rest[::-1]):
+            raise ValueError("name: the velocity's bins are not symmetric about 0, so the "
+                             "kinetic energy's distribution cannot be folded from them")
+    elif not np.array_equal(edges, -edges[::-1]):
         raise ValueError("name: the velocity's bins are not symmetric about 0, so the kinetic "
                          "energy's distribution cannot be folded from them")
     pos = edges[edges >= 0]
@@ -68,6 +75,9 @@ def _fold(edges: np.ndarray, cells: np.ndarray):
     n = edges.size - 1
     a, b = edges[:-1], edges[1:]
     start = np.where(a >= 0, a, np.where(b <= 0, -b, 0.0))
+    if atom:
+        # [-w, 0) folds onto (0, w]: beside the atom [0, ATOM) of exact zeros, not into it.
+        start = np.where((a < 0) & (start == 0.0), distributions.ATOM, start)
     target = np.searchsorted(pos, start, side="left")
     folded = np.zeros(pos.size + 2, dtype=np.uint64)
     np.add.at(folded, 1 + target, np.asarray(cells[1:n + 1], dtype=np.uint64))
@@ -377,8 +387,10 @@ class Result:
         if found is None:  # pragma: no cover - the scene's axes are all recorded
             raise ValueError(f"name: no histogram of {name!r} at this slot")
         edges, cells = np.asarray(found[0], dtype=np.float64), np.asarray(found[1])
+        atom = edges == distributions.ATOM
         if q.power == 2:
             edges, cells = _fold(edges, cells)
+            atom = edges == distributions.ATOM
             edges = edges * edges
         f = self._factor(name)
         if f == 0.0:
@@ -386,6 +398,9 @@ class Result:
                              "0: no friction, mu = 0), so it has no distribution to bin")
         if f != 1.0:
             edges = edges * f
+        # The atom bin [0, ATOM) holds exact zeros, whatever the units: its upper edge stays
+        # the least positive double (squared or scaled, it would underflow onto 0).
+        edges[atom] = distributions.ATOM
         if not (np.diff(edges) > 0).all():
             raise ValueError(f"name: {name}'s bin edges are not distinct in doubles once "
                              f"converted to its units (factor {f!r}); choose units nearer 1")
@@ -421,6 +436,10 @@ class Result:
             and overflow; ``Int64`` counts, every path counted once (a NaN value, which no
             sane run gives, is left out: it warns). The kinetic energy's bins are the
             velocity's folded at 0, the dissipated energy's the distance's times m mu g.
+            The automatic bins have an atom bin ``[0, 2^-1074)`` that holds exact zeros only
+            (a stopped or unshaken body; its density is not a number to plot, its count is the
+            probability of exactly 0); for the stop time, shown from t0, it joins the bin
+            above it (t0 + 2^-1074 is t0 in doubles).
             With "richardson" or "richardson2" the histograms are of the finest grid's paths
             (counts cannot be extrapolated).
 
@@ -432,7 +451,17 @@ class Result:
         ImportError
             boost-histogram is not installed.
         """
-        _, cells, _, shown = self._binned(name, time)
+        edges, cells, offset, shown = self._binned(name, time)
+        atom = np.flatnonzero(edges == distributions.ATOM)
+        if offset and atom.size and shown[atom[0]] == shown[atom[0] - 1]:
+            # t0 + 2^-1074 is t0: the atom bin of the stop time cannot be shown apart once t0
+            # is added, so it joins the bin above it here (quantiles and exceedances, taken
+            # from the switch-off, keep it apart).
+            j = int(atom[0])
+            cells = np.array(cells, copy=True)
+            cells[j + 1] += cells[j]
+            cells = np.delete(cells, j)
+            shown = np.delete(shown, j)
         if not (np.diff(shown) > 0).all():
             # The core bins the stop time from the switch-off; edges far finer than t0's
             # rounding collide once t0 is added back. Quantiles and exceedances are computed

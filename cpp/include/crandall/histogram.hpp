@@ -33,8 +33,10 @@ namespace crandall {
 // scale, m = 2^M bins per octave. Outward from the origin, [0, b) is cut into m bins of width
 // b / m (linear near 0), then every octave [b 2^k, b 2^(k+1)) into m bins of width b 2^k / m
 // (geometric beyond b: the relative width of a bin is between 1/(2m) and 1/m), up to
-// top = b 2^K, the first such power at or above max_scales * scale. Symmetric axes mirror
-// this at 0; one-sided axes start at 0. Every edge is a dyadic rational computed exactly
+// top = b 2^K, the first such power at or above max_scales * scale. The first bin above 0 is
+// split at the least positive double, 2^-1074: the cell [0, 2^-1074) holds exact zeros only
+// (an atom at 0, which many quantities have), apart from the values near 0. Symmetric axes
+// mirror the rest at 0 (no atom cell below 0: -0.0 is binned with 0); one-sided axes start at 0. Every edge is a dyadic rational computed exactly
 // (no library function, no rounding), so the edges are the same bits on every machine, and
 // the bin of |x| follows from its exponent and its leading M mantissa bits.
 class BinEdges {
@@ -64,7 +66,8 @@ class BinEdges {
     // Written without branches on the value (selects), as the sign and the side of b are
     // unpredictable for a symmetric law. |x| <= top here; -top itself maps to o = half_.
     const std::size_t o = std::min(outward(std::fabs(x)), half_ - 1);
-    std::size_t j = !symmetric_ ? o : (x < 0.0 ? half_ - 1 - o : half_ + o);
+    // Above 0 the atom cell [0, 2^-1074) comes first: one more bin on that side.
+    std::size_t j = !symmetric_ ? o + 1 : (x < 0.0 ? half_ - 1 - o : half_ + 1 + o);
     // The comparisons decide; the formula only saves the search. A mirrored value exactly on
     // an edge needs one step up (bins are half-open upwards on both sides).
     while (x < edges_[j]) --j;
@@ -115,7 +118,8 @@ class BinEdges {
   int per_octave_ = 0;      // m (0: user-given edges)
   int shift_ = 0;           // 52 - M: the bits of a >> shift_ are exponent * m + leading bits
   std::uint64_t base_key_ = 0;
-  std::size_t half_ = 0;    // bins on each side (symmetric) or in all (one-sided)
+  std::size_t half_ = 0;    // bins of the formula on each side (symmetric) or in all (one-sided);
+                            // the positive side has one more, the atom cell
   bool symmetric_ = false;
 };
 

@@ -140,7 +140,8 @@ inline void count_lanes(const BinEdges& e, const double* x, int n, std::uint64_t
     const auto geometric = k.per_octave + static_cast<std::int64_t>((detmath::bits_of(a) >> k.shift) - k.base_key);
     std::int64_t o = below ? linear : geometric;
     o = o < k.half - 1 ? o : k.half - 1;
-    guess[l] = !k.symmetric ? o : (v < 0.0 ? k.half - 1 - o : k.half + o);
+    // As BinEdges::cell: above 0 the atom cell [0, 2^-1074) comes first.
+    guess[l] = !k.symmetric ? o + 1 : (v < 0.0 ? k.half - 1 - o : k.half + 1 + o);
   }
   for (int l = 0; l < n; ++l) {
     const double v = x[l];
