@@ -526,3 +526,25 @@ def test_memory_too_small_for_the_batches_is_a_value_error():
                           timeout=120, env=env)
     assert proc.returncode == 0, (proc.returncode, proc.stdout, proc.stderr[-2000:])
     assert "ValueError: times: a run to an accuracy" in proc.stdout
+
+
+def test_a_horizon_beyond_any_grid_says_what_can_change():
+    # h = 1e-8 m s^-3/2 with mu = 0.2: t0 = 1 s is tau0 = 1.9e16 in scaled time, beyond 2^53
+    # steps for the integrals. Both kinds of run said "dt is too small" (a run to an accuracy
+    # has no dt); they name the integrals and what runs instead, which does run: the
+    # velocity, the kinetic energy and the stop need no internal steps.
+    sc = crandall.Scene(mu=0.2, h=1e-8, t0=1.0, times=[0.5, 1.0])
+    for kwargs in (dict(paths=100), dict(error=1e-3)):
+        with pytest.raises(ValueError, match="^observe: displacement, distance, dissipated_energy "
+                                             "need internal steps") as info:
+            crandall.simulate(sc, seed=1, **kwargs)
+        assert ("larger dt" in str(info.value)) == ("paths" in kwargs)
+    exact = crandall.Scene(mu=0.2, h=1e-8, t0=1.0, times=[0.5, 1.0],
+                           observe=["velocity", "kinetic_energy", "stop"])
+    r = crandall.simulate(exact, error=1e-3, seed=1)
+    assert r.exact("stop_time") and math.isfinite(r.mean("stop_time"))
+    # A pilot that would outlast max_seconds even at 1e10 path-steps per second is refused
+    # before it starts (it ran for hours: Ctrl-C was the only way out).
+    long = crandall.Scene.scaled(tau0=1e13, times=[1e13], observe=["distance"])
+    with pytest.raises(ValueError, match=r"^max_seconds: the pilot alone .* would take at least"):
+        crandall.simulate(long, error=1e-3, seed=1)

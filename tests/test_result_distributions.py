@@ -618,3 +618,16 @@ def test_exceedances_and_quantiles_at_an_atom_match_the_analytic_atom():
     r0 = crandall.simulate(rest, paths=1000, seed=1)
     assert r0.quantile("velocity", 0.99, time=0.5) == (0.0, 0.0, 0.0, 0.0)
     assert r0.exceedance("velocity", 0.0, time=0.5).value == 0.0
+
+
+def test_too_many_bin_edges_are_refused_when_the_scene_is_made():
+    # 10^7 edges were accepted by Scene() and refused by the core at the run, without naming
+    # bins. The limit is the core's own.
+    assert bins.MAX_BINS == _core.MAX_HISTOGRAM_BINS
+    edges = np.linspace(-1.0, 1.0, bins.MAX_BINS + 2)
+    with pytest.raises(ValueError, match=r"bins\['velocity'\]: 4194305 bins, more than") as info:
+        crandall.Scene.scaled(tau0=1.0, times=[1.0], distributions=["velocity"],
+                              bins={"velocity": edges})
+    assert info.value.name == "bins"
+    crandall.Scene.scaled(tau0=1.0, times=[1.0], distributions=["velocity"],
+                          bins={"velocity": edges[:-1]})  # at the limit: accepted

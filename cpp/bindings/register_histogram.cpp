@@ -43,6 +43,7 @@ BinEdges edges_from_state(const py::tuple& t) {
 }  // namespace
 
 void register_histogram(py::module_& m) {
+  m.attr("MAX_HISTOGRAM_BINS") = crandall::kMaxHistogramBins;
   py::class_<BinEdges>(
       m, "BinEdges",
       "The edges of one histogram axis. Bins are half-open [e_j, e_j+1); counts are stored as "
@@ -53,7 +54,8 @@ void register_histogram(py::module_& m) {
                   py::arg("max_scales"), py::arg("symmetric"),
                   "Automatic log-linear edges: linear bins of width b / per_octave below the "
                   "power of two b <= scale < 2b, then per_octave bins per octave up to at least "
-                  "max_scales * scale; mirrored at 0 if symmetric.")
+                  "max_scales * scale; mirrored at 0 if symmetric; and the edge 2^-1074 just above 0, so "
+                  "that the bin [0, 2^-1074) holds exact zeros only.")
       .def_static("from_edges", &edges_from, py::arg("edges"),
                   "Any strictly increasing finite edges (at least two).")
       .def_property_readonly("edges", [](const BinEdges& e) {

@@ -9,7 +9,6 @@ namespace crandall {
 namespace {
 
 constexpr int kMaxPerOctaveLog2 = 20;            // keeps the shift of the mantissa key >= 32
-constexpr std::size_t kMaxBins = std::size_t(1) << 22;  // 32 MiB of counts for one slot
 
 }  // namespace
 
@@ -39,7 +38,7 @@ BinEdges BinEdges::log_linear(double scale, int per_octave, double max_scales, b
   }
   const std::size_t m = static_cast<std::size_t>(per_octave);
   e.half_ = m * static_cast<std::size_t>(1 + octaves);
-  if (e.half_ * (symmetric ? 2 : 1) + 1 > kMaxBins)  // + 1: the atom cell
+  if (e.half_ * (symmetric ? 2 : 1) + 1 > kMaxHistogramBins)  // + 1: the atom cell
     throw std::invalid_argument("histogram: more than 2^22 bins; lower per_octave or max_scales");
   e.per_octave_ = per_octave;
   e.symmetric_ = symmetric;
@@ -74,7 +73,7 @@ BinEdges BinEdges::log_linear(double scale, int per_octave, double max_scales, b
 
 BinEdges BinEdges::from_edges(std::vector<double> edges) {
   if (edges.size() < 2) throw std::invalid_argument("histogram edges: at least two are needed");
-  if (edges.size() - 1 > kMaxBins) throw std::invalid_argument("histogram edges: more than 2^22 bins");
+  if (edges.size() - 1 > kMaxHistogramBins) throw std::invalid_argument("histogram edges: more than 2^22 bins");
   for (std::size_t i = 0; i < edges.size(); ++i) {
     if (!std::isfinite(edges[i])) throw std::invalid_argument("histogram edges must be finite");
     if (i > 0 && !(edges[i - 1] < edges[i]))

@@ -170,3 +170,5 @@ def sum_products(values: npt.NDArray[np.float64], widths: List[int],
 def subtract_controls(column: npt.NDArray[np.float64], controls: npt.NDArray[np.float64],
                       slot: int, beta: List[float]) -> None:
     """In place: column -= controls[:, slot, :] . beta, term by term in a fixed order."""
+
+MAX_HISTOGRAM_BINS: int

@@ -38,7 +38,7 @@ from ._resources import available_memory, progress_bar
 from ._version import __version__
 from .quantities import VELOCITY, DISPLACEMENT, DISTANCE, core_flags, names_for, quantity
 from .scene import Scene
-from .spec import MAX_SEED, check_int, default_dt
+from .spec import MAX_SEED, check_int, default_dt, grid_error
 
 __all__ = ["AdaptiveResult", "simulate_to_error", "BASE_DT_FACTOR", "BASE_MIN_STEPS",
            "BATCH_PATHS", "PILOT_PATHS", "MAX_LEVELS", "STATS"]
@@ -60,6 +60,9 @@ MAX_LEVEL_PATHS = float(1 << 62)
 #: The default bound on a run's estimated time (s): past it the run stops with the estimate
 #: (simulate's ``max_seconds`` raises it).
 MAX_SECONDS = 3600.0
+#: Path-steps per second above any machine's (bench/throughput.py measures tens of millions
+#: per thread): a bound for what a pilot must at least cost.
+FASTEST_RATE = 1e10
 #: A round at most multiplies a level's paths by this (the variance estimates of a small
 #: sample can be far off).
 MAX_GROWTH = 16
@@ -184,7 +187,10 @@ class _Level:
             setattr(o, flag, on)
         o.seed = _level_seed(seed, level)
         o.paths = 1 << 62
-        self.plan = _core.Plan(o)
+        try:
+            self.plan = _core.Plan(o)
+        except ValueError as exc:  # the user sets no step here: say what can change
+            raise grid_error(exc, scene, dt_given=False) from None
         self.level = level
         self.threads = threads
         #: Steps a path of this level takes (its cost unit).
@@ -536,6 +542,16 @@ class _Engine:
         if self.pending is None:
             deepest = 2 if self.level_targets and self.integrals else 0
             self.pending = [[level, PILOT_PATHS] for level in range(deepest + 1)]
+            # The first estimate comes after the pilot: a scene whose pilot alone would
+            # outlast max_seconds at a rate no machine reaches is refused before it starts.
+            pilot = sum(PILOT_PATHS * self._level(level).cost for level, _ in self.pending)
+            if pilot / FASTEST_RATE > self.max_seconds:
+                raise ValueError(
+                    f"max_seconds: the pilot alone ({PILOT_PATHS} paths per level, "
+                    f"{pilot:.3g} path-steps) would take at least {pilot / FASTEST_RATE:.3g} s "
+                    f"even at {FASTEST_RATE:.0e} path-steps per second, beyond max_seconds="
+                    f"{self.max_seconds:g}; give shorter times or t0, or observe only velocity, "
+                    "kinetic_energy and stop (no internal steps)")
         started, steps_before = time.perf_counter(), self.path_steps
         while True:
             while self.pending:

@@ -133,6 +133,11 @@ def _per_octave(value, where: str) -> int:
     return int(value)
 
 
+#: The most bins one histogram axis may have (the core's MAX_HISTOGRAM_BINS, which
+#: tests/test_result_distributions.py holds it to): refused when the scene is made.
+MAX_BINS = 1 << 22
+
+
 def _edges(value, where: str) -> Tuple[float, ...]:
     if isinstance(value, (str, bytes)):
         raise ParameterError("bins", f"{where} must be a list of edges, got {value!r}")
@@ -151,6 +156,9 @@ def _edges(value, where: str) -> Tuple[float, ...]:
         raise ParameterError("bins", f"{where}: edges must be finite")
     if not (np.diff(e) > 0).all():
         raise ParameterError("bins", f"{where}: edges must be strictly increasing")
+    if e.size - 1 > MAX_BINS:
+        raise ParameterError("bins", f"{where}: {e.size - 1} bins, more than the {MAX_BINS} "
+                                     "one histogram may have")
     return tuple(float(x) for x in e)
 
 

@@ -18,7 +18,7 @@ import numpy as np
 from . import _core
 from .bins import REACH, VARIABLE_COUNT, Axis, axes as _scene_axes
 from .quantities import core_flags
-from .spec import RunSpec
+from .spec import RunSpec, grid_error
 
 __all__ = ["make_plan", "run_chunk", "run_chunks", "velocity_samples", "histogram_axes",
            "axis_edges", "plain_axes", "Chunk", "RANDOM_STREAM", "CHUNK_PATHS"]
@@ -101,7 +101,10 @@ def make_plan(spec: RunSpec, axes: Optional[Sequence[Axis]] = None) -> "_core.Pl
         o.histogram_axes = full
     o.seed = spec.seed
     o.paths = spec.paths
-    return _core.Plan(o)
+    try:
+        return _core.Plan(o)
+    except ValueError as exc:
+        raise grid_error(exc, scene, dt_given=True) from None
 
 
 def _recorded_indices(plan: "_core.Plan") -> List[int]:

@@ -168,3 +168,20 @@ class RunSpec:
         scene = fields.pop("scene")
         return cls(scene if isinstance(scene, Scene) else Scene.from_dict(scene), **fields)
 
+
+def grid_error(exc: ValueError, scene: Scene, *, dt_given: bool) -> ValueError:
+    """The core's refusal of a grid too long for 2^53 steps, told in what the user can change:
+    the integrals need internal steps, the velocity, the kinetic energy and the stop do not
+    (they are exact in law with none). Any other error is returned as it is."""
+    if "2^53 steps" not in str(exc):
+        return exc
+    integrals = [n for n in ("displacement", "distance", "dissipated_energy", "peaks")
+                 if n in scene.observe]
+    fix = "give a larger dt or " if dt_given else ""
+    return ValueError(
+        f"observe: {', '.join(integrals) or 'the integrals'} need internal steps, and this "
+        f"scene's horizon would take more than 2^53 of them; {fix}observe only velocity, "
+        "kinetic_energy and stop (exact in law with no internal steps: the stop's mean "
+        "dissipated energy then follows from the energy law, analytic.physical), or give "
+        "shorter times or t0")
+

@@ -27,6 +27,9 @@
 
 namespace crandall {
 
+// The most bins one axis may have: 32 MiB of counts for one slot.
+constexpr std::size_t kMaxHistogramBins = std::size_t(1) << 22;
+
 // The edges of one histogram axis and the lookup of a value's bin.
 //
 // Automatic edges ("log-linear", as in HdrHistogram): a power of two b near the quantity's
