@@ -22,6 +22,7 @@ error estimates are in docs/methods/adaptive.md; in short:
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
@@ -53,6 +54,8 @@ BASE_MIN_STEPS = 4
 BATCH_PATHS = 1 << 16
 BATCH_BYTES = 64 << 20
 PILOT_PATHS = 4096
+#: Bytes of the matrices that fit the control coefficients, per call of the core.
+FIT_BYTES = 32 << 20
 #: Levels beyond the base (the finest grid is 2^MAX_LEVELS times finer than the base).
 MAX_LEVELS = 14
 #: Paths a level can draw (its Philox counters run to 2^62).
@@ -167,7 +170,7 @@ class _Sums:
         w, o = self.widths[g], self.offsets[g]
         s = self.flat[o:o + w]
         p = np.zeros((w, w))
-        p[np.triu_indices(w)] = self.flat[o + w:o + w + w * (w + 1) // 2]
+        p[_triu(w)] = self.flat[o + w:o + w + w * (w + 1) // 2]
         p = p + np.triu(p, 1).T
         m = s / self.n
         return m, (p - self.n * np.outer(m, m)) / max(self.n - 1, 1)
@@ -228,18 +231,26 @@ class _Level:
 
 
 def _solve(a: np.ndarray, b: np.ndarray) -> List[float]:
-    """a x = b for a symmetric positive semi-definite a, by Gaussian elimination in Python
+    """a x = b for a symmetric positive semi-definite a (see :func:`_solve_many`)."""
+    return _solve_many(a, [b])[0]
+
+
+def _solve_many(a: np.ndarray, bs: Sequence[np.ndarray]) -> List[List[float]]:
+    """a x = b for each b, a symmetric positive semi-definite, by Gaussian elimination in Python
     floats (the same bits on every machine; no LAPACK). Columns without variance get 0; a
-    ridge of 1e-12 of the largest diagonal keeps nearly dependent controls bounded."""
-    n = len(b)
+    ridge of 1e-12 of the largest diagonal keeps nearly dependent controls bounded. The pivots
+    and the row operations depend on a only, so every right-hand side gets, operation by
+    operation, the arithmetic it would get alone: a is eliminated once for all of them."""
+    n = a.shape[0]
     keep = [j for j in range(n) if a[j, j] > 0.0]
-    x = [0.0] * n
+    out = [[0.0] * n for _ in bs]
     if not keep:
-        return x
+        return out
     ridge = 1e-12 * max(float(a[j, j]) for j in keep)
-    m = [[float(a[i, j]) + (ridge if i == j else 0.0) for j in keep] + [float(b[i])]
+    m = [[float(a[i, j]) + (ridge if i == j else 0.0) for j in keep] + [float(b[i]) for b in bs]
          for i in keep]
     size = len(keep)
+    width = size + len(bs)
     for col in range(size):
         piv = max(range(col, size), key=lambda r: abs(m[r][col]))
         m[col], m[piv] = m[piv], m[col]
@@ -248,17 +259,24 @@ def _solve(a: np.ndarray, b: np.ndarray) -> List[float]:
         for r in range(col + 1, size):
             f = m[r][col] / m[col][col]
             if f != 0.0:
-                for c in range(col, size + 1):
+                for c in range(col, width):
                     m[r][c] -= f * m[col][c]
-    sol = [0.0] * size
-    for r in range(size - 1, -1, -1):
-        if m[r][r] == 0.0:
-            continue
-        acc = m[r][size] - sum(m[r][c] * sol[c] for c in range(r + 1, size))
-        sol[r] = acc / m[r][r]
-    for j, v in zip(keep, sol):
-        x[j] = v
-    return x
+    for k, x in enumerate(out):
+        rhs = size + k
+        sol = [0.0] * size
+        for r in range(size - 1, -1, -1):
+            if m[r][r] == 0.0:
+                continue
+            acc = m[r][rhs] - sum(m[r][c] * sol[c] for c in range(r + 1, size))
+            sol[r] = acc / m[r][r]
+        for j, v in zip(keep, sol):
+            x[j] = v
+    return out
+
+
+@functools.lru_cache(maxsize=None)
+def _triu(w: int):
+    return np.triu_indices(w)
 
 
 class _Engine:
@@ -370,15 +388,33 @@ class _Engine:
         (which the estimates then leave out, so that the coefficients are independent of the
         paths they are applied to)."""
         raw = self._features(block, 0)
-        k = controls.shape[2]
-        self.beta = []
+        n, k = len(raw), controls.shape[2]
+        width = k + 1
+        flat_width = width + width * (width + 1) // 2
+        # Many columns' [feature, controls of its slot] in one call: each group's sums are
+        # accumulated on their own, so they are the bits of a call per column.
+        per_call = max(1, FIT_BYTES // (8 * n * width))
+        covs = []
+        for start in range(0, len(self.cols), per_call):
+            cs = range(start, min(start + per_call, len(self.cols)))
+            m = np.concatenate([np.concatenate(
+                [raw[:, c:c + 1], controls[:, self.targets[self.cols[c][0]].slot, :]], axis=1)
+                for c in cs], axis=1)
+            flat = _core.sum_products(m, [width] * len(cs), self.threads)
+            for j in range(len(cs)):
+                g = _Sums([width])
+                g.add(n, flat[j * flat_width:(j + 1) * flat_width])
+                covs.append(g.group(0)[1])
+        # The controls' covariance is the same for every column of a slot (the same sums):
+        # one elimination per slot, every column's right-hand side through it.
+        by_slot: Dict[int, List[int]] = {}
         for c, (i, _) in enumerate(self.cols):
-            m = np.concatenate([raw[:, c:c + 1], controls[:, self.targets[i].slot, :]], axis=1)
-            flat = _core.sum_products(m, [k + 1], self.threads)
-            g = _Sums([k + 1])
-            g.add(len(m), flat)
-            _, cov = g.group(0)
-            self.beta.append(_solve(cov[1:, 1:], cov[1:, 0]))
+            by_slot.setdefault(self.targets[i].slot, []).append(c)
+        self.beta = [None] * len(self.cols)
+        for cs in by_slot.values():
+            xs = _solve_many(covs[cs[0]][1:, 1:], [covs[c][1:, 0] for c in cs])
+            for c, x in zip(cs, xs):
+                self.beta[c] = x
 
     def _batch(self, lev: _Level, first: int, n: int) -> np.ndarray:
         """The flat sums of paths [first, first + n) of a level (centre and coefficients
