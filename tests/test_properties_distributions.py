@@ -100,3 +100,54 @@ def test_any_scaled_scene_with_distributions_answers_or_refuses(tau0, times, pea
             assert not math.isnan(est.value) and est.low <= est.high, (name, est)
     for counts in r.accumulators.histograms.counts:
         assert int(counts.sum()) == 3
+
+
+_ATOMS = {}
+
+
+def _atom_result():
+    """A run whose laws have atoms at 0: the velocity after most bodies have stopped, and a
+    distance and a stop time; made once (each example only asks it questions)."""
+    if not _ATOMS:
+        sc = crandall.Scene.scaled(tau0=0.5, times=[0.25, 0.5, 1.0],
+                                   observe=["velocity", "distance", "kinetic_energy", "stop"],
+                                   distributions=True)
+        _ATOMS["r"] = crandall.simulate(sc, paths=5000, seed=4, threads=1)
+    return _ATOMS["r"]
+
+
+@settings(SETTINGS, max_examples=150)
+@given(name=st.sampled_from(["velocity", "distance", "kinetic_energy", "stop_time",
+                             "distance_at_stop", "bogus"]),
+       q=st.one_of(st.floats(min_value=0.0, max_value=1.0), st.sampled_from([math.nan, -1.0,
+                                                                              "0.5", True])),
+       level=st.one_of(st.sampled_from([0.0, -0.0, 5e-324, -5e-324, 1e-300, -1e-300, math.inf,
+                                        -math.inf, math.nan, 0.5, 1e300]),
+                       st.floats(min_value=-3.0, max_value=3.0)),
+       time=st.one_of(st.sampled_from([None, 0.25, 0.5, 1.0, 0.25 + 1e-17, 0.3, math.inf,
+                                       -math.inf, math.nan, "1.0", True]),
+                      st.floats(allow_nan=True, allow_infinity=True)),
+       confidence=st.sampled_from([0.95, 0.5, 0.999, 0.0, 1.0, math.nan]))
+def test_quantiles_and_exceedances_with_atoms_answer_honestly_or_refuse(name, q, level, time,
+                                                                        confidence):
+    r = _atom_result()
+    for call in (lambda: r.quantile(name, q, time=time, confidence=confidence),
+                 lambda: r.exceedance(name, level, time=time, confidence=confidence),
+                 lambda: r.histogram(name, time=time)):
+        try:
+            out = call()
+        except ValueError as exc:
+            head = str(exc).split(":")[0].split()[0] if str(exc) else ""
+            assert head in ("name", "q", "level", "time", "confidence"), str(exc)
+            continue
+        if isinstance(out, tuple):
+            assert not math.isnan(out.value) and out.low <= out.high, out
+            assert out.resolution >= 0
+    # Exceedance is non-increasing in the level, and strict at an atom: P(X > 0) plus the
+    # atom is P(X >= 0), from the same counts.
+    if name != "bogus":
+        t = None if quantity(name).at_stop else 1.0
+        a, b = sorted([0.0, level if isinstance(level, float) and not math.isnan(level)
+                       else 0.0])
+        pa, pb = r.exceedance(name, a, time=t).value, r.exceedance(name, b, time=t).value
+        assert pa >= pb

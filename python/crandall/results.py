@@ -615,8 +615,14 @@ class Result:
             se = self.stderr(name)
         else:
             known = find(name)
-            se = (self.var_stderr(name) if known is None or known.has_var_stderr
-                  else np.full(np.shape(b), np.nan))
+            if known is None or known.has_var_stderr:
+                se = self.var_stderr(name)
+            else:
+                se = np.full(np.shape(b), np.nan)
+                if warn:
+                    self._warn_nan(name, f"the total error of the variance", se,
+                                   "its variance has no standard error here (it would need "
+                                   "moments of order 8)", 4)
         return np.hypot(se, b)
 
     def error(self, name: str, stat: str = "mean"):
