@@ -224,3 +224,28 @@ def check_moments(where: str, field: str, arrays: Dict[str, np.ndarray], *, slot
     if method not in EXTRAPOLATING_METHODS and (central[:, _EVEN] < 0).any():
         raise ValueError(f"{where}: {field}central has negative even-order central sums "
                          "(sums of squares cannot be negative)")
+
+
+def refuse_other_version(path, stored: Dict, expected: Dict, keys) -> None:
+    """Refuse a checkpoint written with another format or random stream (``keys``: pairs of
+    identity field and what it is called): numbers of two streams or two layouts must never
+    be merged into one result."""
+    for key, what in keys:
+        if stored.get(key) != expected.get(key):
+            raise ValueError(
+                f"checkpoint: {os.fspath(path)} was written by crandall "
+                f"{stored.get('crandall', '?')} with {what} {stored.get(key, 'unknown')!r}; "
+                f"this crandall uses {what} {expected.get(key)!r}, so it cannot be continued "
+                "here; remove it to start again, or resume with that version")
+
+
+def refuse_other_run(path, stored: Dict, expected: Dict) -> None:
+    """Refuse a checkpoint of another run, naming every identity field that differs."""
+    if stored != expected:
+        diff = sorted(k for k in set(stored) | set(expected)
+                      if stored.get(k) != expected.get(k))
+        details = "; ".join(f"{k}: checkpoint has {stored.get(k)!r}, this run "
+                            f"{expected.get(k)!r}" for k in diff)
+        raise ValueError(f"checkpoint: {os.fspath(path)} belongs to a different run "
+                         f"({details}); give another path or the same arguments")
+

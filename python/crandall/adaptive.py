@@ -34,7 +34,7 @@ from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from . import _core
-from ._files import check_file_writable, write_atomic
+from ._files import check_file_writable, refuse_other_run, refuse_other_version, write_atomic
 from ._resources import available_memory, progress_bar
 from ._version import __version__
 from .quantities import VELOCITY, DISPLACEMENT, DISTANCE, core_flags, names_for, quantity
@@ -717,26 +717,16 @@ class _Engine:
             raise ValueError(f"{where} is not a checkpoint of a run to an accuracy")
         mine = json.loads(json.dumps(self.identity()))
         theirs = st["identity"]
-        for key, what in (("format", "format"), ("format_version", "checkpoint format"),
-                          ("random_stream", "random stream")):
-            if theirs.get(key) != mine.get(key):
-                raise ValueError(
-                    f"{where} was written by crandall {theirs.get('crandall', '?')} with {what} "
-                    f"{theirs.get(key, 'unknown')!r}; this crandall uses {what} "
-                    f"{mine.get(key)!r}, so it cannot be continued here; remove it to start "
-                    "again, or resume with that version")
+        refuse_other_version(path, theirs, mine, (("format", "format"),
+                                                  ("format_version", "checkpoint format"),
+                                                  ("random_stream", "random stream")))
         # Every edit is refused, even one that keeps the fields consistent with each other (a
         # level's path count and its sums changed together): the file is the run's own only
         # if its checksum matches.
         if st.get("checksum") != _checksum({k: v for k, v in st.items() if k != "checksum"}):
             raise ValueError(f"{where} is damaged (field checksum: it does not match the "
                              "contents, which were edited or damaged); remove it to start again")
-        if theirs != mine:
-            diff = sorted(k for k in set(theirs) | set(mine) if theirs.get(k) != mine.get(k))
-            details = "; ".join(f"{k}: checkpoint has {theirs.get(k)!r}, this run "
-                                f"{mine.get(k)!r}" for k in diff)
-            raise ValueError(f"{where} belongs to a different run ({details}); give another "
-                             "path or the same arguments")
+        refuse_other_run(path, theirs, mine)
         try:
             self._restore_fields(st)
         except (KeyError, TypeError, ValueError, OverflowError) as exc:

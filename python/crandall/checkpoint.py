@@ -27,7 +27,8 @@ from ._version import __version__
 from .bins import check_histograms
 from .engine import Chunk
 from .spec import RunSpec
-from ._files import check_file_writable, check_folder_writable, check_moments, write_atomic
+from ._files import (check_file_writable, check_folder_writable, check_moments,
+                     refuse_other_run, refuse_other_version, write_atomic)
 
 __all__ = ["identity", "load", "save", "stored_seed", "check_writable", "make_folder"]
 
@@ -208,20 +209,9 @@ def load(path, ident: Dict[str, Any], chunks: int, histograms=((), ())):
     stored, arrays = _read(path)
     # Round-trip through JSON so that both sides compare as stored (inf, floats, lists).
     expected = json.loads(json.dumps(ident))
-    for key, what in (("format_version", "checkpoint format"), ("random_stream", "random stream")):
-        if stored.get(key) != expected.get(key):
-            # Numbers of two streams (or two layouts) must never be merged into one result.
-            raise ValueError(
-                f"checkpoint: {os.fspath(path)} was written by crandall "
-                f"{stored.get('crandall', '?')} with {what} {stored.get(key, 'unknown')!r}; "
-                f"this crandall uses {what} {expected.get(key)!r}, so its chunks cannot be "
-                "continued here; remove it to start again, or resume with that version")
-    if stored != expected:
-        diff = sorted(k for k in set(stored) | set(expected) if stored.get(k) != expected.get(k))
-        details = "; ".join(f"{k}: checkpoint has {stored.get(k)!r}, this run {expected.get(k)!r}"
-                            for k in diff)
-        raise ValueError(f"checkpoint: {os.fspath(path)} belongs to a different run ({details}); "
-                         "give another path or the same arguments")
+    refuse_other_version(path, stored, expected, (("format_version", "checkpoint format"),
+                                                  ("random_stream", "random stream")))
+    refuse_other_run(path, stored, expected)
     nc = arrays["next_chunk"]
     if nc.shape != () or nc.dtype.kind not in "iu":
         raise _refuse(path, f"next_chunk must be one integer, got {nc.dtype} of shape {nc.shape}")
