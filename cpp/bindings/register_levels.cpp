@@ -62,27 +62,20 @@ void register_levels(py::module_& m) {
 
   m.def(
       "subtract_controls",
-      [](py::array_t<double> column, py::array_t<double, py::array::c_style> controls,
-         std::size_t slot, const std::vector<double>& beta) {
-        // column[i] -= beta[0] c[i, slot, 0], then beta[1] c[i, slot, 1], ... in that order:
-        // plain multiplies and subtractions (no BLAS), the same bits on every machine.
-        if (column.ndim() != 1 || controls.ndim() != 3 || controls.shape(0) != column.shape(0) ||
-            static_cast<std::size_t>(controls.shape(1)) <= slot ||
-            static_cast<std::size_t>(controls.shape(2)) != beta.size())
+      [](py::array_t<double, py::array::c_style> features,
+         py::array_t<double, py::array::c_style> controls, const std::vector<std::int64_t>& slots,
+         const std::vector<double>& beta) {
+        if (features.ndim() != 2 || controls.ndim() != 3 || controls.shape(0) != features.shape(0))
           throw std::invalid_argument("subtract_controls: shapes do not match");
-        auto f = column.mutable_unchecked<1>();
-        auto c = controls.unchecked<3>();
-        const auto n = column.shape(0);
-        const auto k = static_cast<py::ssize_t>(beta.size());
-        const auto j = static_cast<py::ssize_t>(slot);
-        for (py::ssize_t i = 0; i < n; ++i) {
-          double v = f(i);
-          for (py::ssize_t q = 0; q < k; ++q) v -= beta[static_cast<std::size_t>(q)] * c(i, j, q);
-          f(i) = v;
-        }
+        crandall::subtract_controls(features.mutable_data(),
+                                    static_cast<std::uint64_t>(features.shape(0)),
+                                    static_cast<std::uint64_t>(features.shape(1)), controls.data(),
+                                    static_cast<std::uint64_t>(controls.shape(1)),
+                                    static_cast<std::uint64_t>(controls.shape(2)), slots, beta);
       },
-      py::arg("column"), py::arg("controls"), py::arg("slot"), py::arg("beta"),
-      "In place: column -= controls[:, slot, :] . beta, term by term in a fixed order.");
+      py::arg("features"), py::arg("controls"), py::arg("slots"), py::arg("beta"),
+      "In place: features[:, j] -= controls[:, slots[j], :] . beta[j k : (j + 1) k], term by term "
+      "in a fixed order.");
 
   m.def(
       "sum_products",

@@ -57,6 +57,27 @@ std::size_t sample_size(const Plan& plan) {
   return (o.times.size() + (o.stop ? 1 : 0)) * static_cast<std::size_t>(o.grids()) * 3;
 }
 
+void subtract_controls(double* f, std::uint64_t rows, std::uint64_t cols, const double* controls,
+                       std::uint64_t slots, std::uint64_t k, const std::vector<std::int64_t>& slot_of,
+                       const std::vector<double>& beta) {
+  if (slot_of.size() != cols || beta.size() != cols * k)
+    throw std::invalid_argument("subtract_controls: one slot per column and k coefficients per column are needed");
+  for (std::int64_t s : slot_of)
+    if (s < 0 || static_cast<std::uint64_t>(s) >= slots)
+      throw std::invalid_argument("subtract_controls: a slot is out of range");
+  for (std::uint64_t i = 0; i < rows; ++i) {
+    const double* c = controls + i * slots * k;
+    double* row = f + i * cols;
+    for (std::uint64_t j = 0; j < cols; ++j) {
+      const double* cj = c + static_cast<std::uint64_t>(slot_of[j]) * k;
+      const double* b = beta.data() + j * k;
+      double v = row[j];
+      for (std::uint64_t q = 0; q < k; ++q) v -= b[q] * cj[q];
+      row[j] = v;
+    }
+  }
+}
+
 std::vector<double> sum_products(const double* values, std::uint64_t rows, std::uint64_t cols,
                                  const std::vector<int>& widths, int threads) {
   std::uint64_t covered = 0;

@@ -167,8 +167,9 @@ def sum_products(values: npt.NDArray[np.float64], widths: List[int],
                  threads: int = 0) -> npt.NDArray[np.float64]:
     """Per group of consecutive columns: column sums and the upper triangle of F^T F."""
 
-def subtract_controls(column: npt.NDArray[np.float64], controls: npt.NDArray[np.float64],
-                      slot: int, beta: List[float]) -> None:
-    """In place: column -= controls[:, slot, :] . beta, term by term in a fixed order."""
+def subtract_controls(features: npt.NDArray[np.float64], controls: npt.NDArray[np.float64],
+                      slots: List[int], beta: List[float]) -> None:
+    """In place: features[:, j] -= controls[:, slots[j], :] . beta[j k:(j + 1) k], term by term
+    in a fixed order."""
 
 MAX_HISTOGRAM_BINS: int

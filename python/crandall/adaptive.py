@@ -327,6 +327,7 @@ class _Engine:
         self.started = time.perf_counter()
         self.wall_before = 0.0
         self.level_targets = [i for i, t in enumerate(self.targets) if not t.exact]
+        self._layout_cache = None
 
     def check_memory(self) -> None:
         """Refuse, before anything is allocated, a run whose batches (one level's buffers of
@@ -347,41 +348,80 @@ class _Engine:
     # -- per-path values ------------------------------------------------------------------
 
     def _values(self, block: np.ndarray, t: _Target, grid: int) -> np.ndarray:
-        v = block[:, t.slot, grid, t.variable]
-        if t.ito:
+        """One target's per-path values on a grid (see :meth:`_all_values`)."""
+        return self._all_values(block, grid, [self.targets.index(t)])[:, 0]
+
+    def _layout(self):
+        """Per target (in order): its slot, its variable, and its kind: "ito" (the mean
+        distance through the identity), 1 (the value itself: a first power, or the stop time
+        from the switch-off) or 2 (its square); and the identity's constant per target."""
+        if self._layout_cache is None:
             sc = self.scene
-            x = block[:, t.slot, grid, VELOCITY]
-            if t.time_index is None:  # at the stop the velocity is 0
-                x = np.zeros_like(v)
-            elapsed = min(sc.times[t.time_index], sc.t0) if t.time_index is not None else sc.t0
-            return (sc.noise ** 2 * elapsed - x * x) / (2.0 * sc.drift)
-        if t.stat == "mean" and t.variable == VELOCITY and t.time_index is None:
-            return v  # the stop time from the switch-off
-        return v ** t.power
+            kinds, consts = [], []
+            for t in self.targets:
+                if t.ito:
+                    kinds.append("ito")
+                    elapsed = (min(sc.times[t.time_index], sc.t0) if t.time_index is not None
+                               else sc.t0)
+                    consts.append(sc.noise ** 2 * elapsed)
+                elif t.stat == "mean" and t.variable == VELOCITY and t.time_index is None:
+                    kinds.append(1)  # the stop time from the switch-off
+                    consts.append(0.0)
+                else:
+                    kinds.append(t.power)
+                    consts.append(0.0)
+            self._layout_cache = (np.array([t.slot for t in self.targets], dtype=np.intp),
+                                  np.array([t.variable for t in self.targets], dtype=np.intp),
+                                  kinds, np.array(consts))
+        return self._layout_cache
+
+    def _all_values(self, block: np.ndarray, grid: int, which) -> np.ndarray:
+        """The per-path values of the targets ``which`` (indices) on a grid, one column each:
+        the same elementwise operations as target by target, so the same bits."""
+        slots, variables, kinds, consts = self._layout()
+        which = np.asarray(which, dtype=np.intp)
+        out = np.empty((block.shape[0], len(which)))
+        kind = [kinds[i] for i in which]
+        for k in (1, 2, "ito"):
+            cols = np.array([j for j, x in enumerate(kind) if x == k], dtype=np.intp)
+            if not cols.size:
+                continue
+            idx = which[cols]
+            if k == "ito":
+                x = block[:, slots[idx], grid, VELOCITY]
+                stop = np.array([self.targets[i].time_index is None for i in idx])
+                x[:, stop] = 0.0  # at the stop the velocity is 0
+                out[:, cols] = (consts[idx][None, :] - x * x) / (2.0 * self.scene.drift)
+            else:
+                v = block[:, slots[idx], grid, variables[idx]]
+                out[:, cols] = v if k == 1 else v ** 2
+        return out
 
     def _features(self, block: np.ndarray, level: int,
                   controls: Optional[np.ndarray] = None) -> np.ndarray:
         n = block.shape[0]
         f = np.zeros((n, len(self.cols)))
-        for c, (i, power) in enumerate(self.cols):
-            t = self.targets[i]
-            centre = self.centre[i]
-            fine = self._values(block, t, 0) - centre
-            if level == 0:
-                f[:, c] = fine ** power
-                if controls is not None and self.beta is not None:
-                    # Minus fixed multiples of the controls (mean exactly 0): still unbiased.
-                    # In a fixed order without BLAS, for the same bits everywhere.
-                    col = np.ascontiguousarray(f[:, c])
-                    _core.subtract_controls(col, controls, t.slot, self.beta[c])
-                    f[:, c] = col
-            elif not t.exact:
-                coarse = self._values(block, t, 1) - centre
-                f[:, c] = fine ** power - coarse ** power
+        col_target = np.array([i for i, _ in self.cols], dtype=np.intp)
+        col_power = np.array([p for _, p in self.cols])
+        everything = np.arange(len(self.targets))
+        fine = self._all_values(block, 0, everything) - self.centre[None, :]
+        if level == 0:
+            for p in (1, 2):
+                cols = np.flatnonzero(col_power == p)
+                f[:, cols] = fine[:, col_target[cols]] ** p
+            if controls is not None and self.beta is not None:
+                # Minus fixed multiples of the controls (mean exactly 0): still unbiased.
+                # In a fixed order without BLAS, for the same bits everywhere.
+                _core.subtract_controls(f, controls,
+                                        [self.targets[i].slot for i, _ in self.cols],
+                                        [b for row in self.beta for b in row])
+            return f
+        inexact = np.array([not t.exact for t in self.targets])
+        coarse = self._all_values(block, 1, everything) - self.centre[None, :]
+        for p in (1, 2):
+            cols = np.flatnonzero((col_power == p) & inexact[col_target])
+            f[:, cols] = fine[:, col_target[cols]] ** p - coarse[:, col_target[cols]] ** p
         return f
-
-    def _mean(self, values: np.ndarray) -> float:
-        return float(_core.sum_products(values[:, None], [1], self.threads)[0]) / len(values)
 
     def _fit_controls(self, block: np.ndarray, controls: np.ndarray) -> None:
         """The control coefficients of every feature column: least squares on the pilot paths
@@ -445,8 +485,11 @@ class _Engine:
             start, n = batches.pop(0)
             block, controls = lev.samples(start, n)
             if self.centre is None:
-                self.centre = np.array([self._mean(self._values(block, t, 0))
-                                        for t in self.targets])
+                # Every column's sum in one call (each group's sums are those of a call per
+                # column, so the bits are too).
+                values = self._all_values(block, 0, np.arange(len(self.targets)))
+                sums = _core.sum_products(values, [1] * values.shape[1], self.threads)
+                self.centre = np.array([float(x) / len(values) for x in sums[0::2]])
             if lev.controls and self.beta is None:
                 self._fit_controls(block, controls)
                 lev.start = start + n

@@ -31,6 +31,14 @@ std::size_t sample_size(const Plan& plan);
 // Number of control sums per path and slot.
 int control_count();
 
+// In place, for a rows x cols row-major matrix F and the control sums C (rows x slots x k,
+// row-major): column j of F minus sum_q beta[j k + q] C[:, slot_of[j], q], subtracted term by
+// term in the order q = 0, 1, ... (plain multiplies and subtractions, no BLAS): the same bits on
+// every machine, and the same as one column at a time.
+void subtract_controls(double* f, std::uint64_t rows, std::uint64_t cols, const double* controls,
+                       std::uint64_t slots, std::uint64_t k, const std::vector<std::int64_t>& slot_of,
+                       const std::vector<double>& beta);
+
 // For a rows x cols row-major matrix F whose columns form consecutive groups of the given
 // widths (each 1 to 32, summing to cols): per group, its column sums (w numbers) followed by the
 // upper triangle of its F_g^T F_g, row by row (w (w + 1) / 2 numbers). Summed in blocks of 256
