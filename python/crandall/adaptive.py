@@ -230,11 +230,6 @@ class _Level:
         return _core.run_samples(self.plan, first, n, self.threads, False, values[:n]), None
 
 
-def _solve(a: np.ndarray, b: np.ndarray) -> List[float]:
-    """a x = b for a symmetric positive semi-definite a (see :func:`_solve_many`)."""
-    return _solve_many(a, [b])[0]
-
-
 def _solve_many(a: np.ndarray, bs: Sequence[np.ndarray]) -> List[List[float]]:
     """a x = b for each b, a symmetric positive semi-definite, by Gaussian elimination in Python
     floats (the same bits on every machine; no LAPACK). Columns without variance get 0; a
@@ -346,10 +341,6 @@ class _Engine:
                 "threads")
 
     # -- per-path values ------------------------------------------------------------------
-
-    def _values(self, block: np.ndarray, t: _Target, grid: int) -> np.ndarray:
-        """One target's per-path values on a grid (see :meth:`_all_values`)."""
-        return self._all_values(block, grid, [self.targets.index(t)])[:, 0]
 
     def _layout(self):
         """Per target (in order): its slot, its variable, and its kind: "ito" (the mean
