@@ -20,7 +20,7 @@ PYDEV := pip setuptools wheel "scikit-build-core>=0.10" "pybind11>=2.12" cmake n
 .PHONY: run test deps venv install ctest sanitize pytest bench clean
 
 run: install
-	$(VPY) -m crandall
+	$(VPY) -m crandall run --overwrite
 
 test: install ctest sanitize pytest
 

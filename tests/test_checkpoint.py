@@ -525,6 +525,22 @@ def test_checkpoint_write_leaves_no_temporary_file_on_failure(tmp_path, monkeypa
     assert path.read_bytes() == b"new" and len(fsyncs) == 2  # the file, then its folder
 
 
+def test_atomic_writes_respect_the_umask(tmp_path):
+    """Files written atomically (results, checkpoints, the file list) get the mode open()
+    would give, 0666 less the umask: they were 0600 whatever the umask (mkstemp's mode)."""
+    from crandall import _files
+
+    old = os.umask(0o022)
+    try:
+        for mask, mode in ((0o022, 0o644), (0o077, 0o600), (0o002, 0o664)):
+            os.umask(mask)
+            path = tmp_path / f"f{mask:o}"
+            _files.write_atomic(path, lambda f: f.write(b"x"))
+            assert path.stat().st_mode & 0o777 == mode, (oct(mask), oct(path.stat().st_mode))
+    finally:
+        os.umask(old)
+
+
 @pytest.mark.parametrize("how", [
     pytest.param("chmod", marks=pytest.mark.skipif(
         os.geteuid() == 0, reason="root writes into read-only folders")),

@@ -43,6 +43,13 @@ def _fsync_folder(folder: str) -> None:
         os.close(fd)
 
 
+def _umask() -> int:
+    """The process's umask (read by setting it and setting it back: there is no getter)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def write_atomic(path, write: Callable) -> None:
     """Replace ``path`` atomically by what ``write(f)`` writes to a binary file ``f``.
 
@@ -58,6 +65,10 @@ def write_atomic(path, write: Callable) -> None:
     fd, tmp = tempfile.mkstemp(dir=folder, prefix="." + os.path.basename(path) + ".",
                                suffix=".tmp")
     try:
+        # mkstemp makes the file 0600; a file written by open() gets 0666 less the umask, and
+        # so must this one (result.nc and the file list were private while the CSV was not).
+        if hasattr(os, "fchmod"):
+            os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "wb") as f:
             write(f)
             f.flush()
