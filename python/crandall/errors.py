@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-__all__ = ["ParameterError"]
+__all__ = ["ParameterError", "UnresolvableGrid"]
 
 
 class ParameterError(ValueError):
@@ -23,3 +23,13 @@ class ParameterError(ValueError):
     def __init__(self, name: str, message: str) -> None:
         super().__init__(message)
         self.name = name
+
+
+class UnresolvableGrid(ParameterError):
+    """The integrals a scene observes (``integrals``: their observables) would need more
+    internal steps than a grid can hold (2^53), while the rest of the scene needs none."""
+
+    def __init__(self, integrals, message: str) -> None:
+        super().__init__("observe", message)
+        self.integrals = tuple(integrals)
+

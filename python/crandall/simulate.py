@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 import os
 import time
+import warnings
 from typing import Any, List, Optional, Sequence, Union
 
 import numpy as np
@@ -22,9 +23,10 @@ from .adaptive import MAX_SECONDS, simulate_to_error
 from .bins import Histograms, axes as _histogram_axes
 from .methods import DEFAULT_METHOD, GRIDS, METHODS
 from .quantities import names_for, quantity, simulated_variables
-from .results import MONOMIALS, Result
+from .results import MONOMIALS, Result, StatisticsWarning
 from .scene import Scene
 from .spec import MAX_PATHS, RunSpec, check_int, default_dt
+from .errors import UnresolvableGrid
 
 __all__ = ["simulate", "simulate_many", "default_dt", "METHODS", "MAX_PATHS"]
 
@@ -396,10 +398,71 @@ def simulate(
         its memory cgroup), before allocating them; when a scene's values overflow doubles.
         KeyboardInterrupt (Ctrl-C) interrupts the run within a fraction of a second.
 
+    Warns
+    -----
+    StatisticsWarning
+        When the scene's integrals (displacement, distance, dissipated energy, peaks) would
+        need more than 2^53 internal steps while it also observes what needs none (velocity,
+        kinetic energy, stop): those are answered, exact in law, and the warning names the
+        integrals left out (the result's scene observes the rest only). A scene with nothing
+        exact to answer, or a ``statistics`` naming an integral, is refused instead.
+
     See Also
     --------
     simulate_many : several scenes (a parameter sweep), locally or on a cluster.
     """
+    given = dict(paths=paths, seed=seed, dt=dt, method=method, threads=threads,
+                 checkpoint=checkpoint, client=client, progress=progress, error=error,
+                 rel_error=rel_error, statistics=statistics, max_seconds=max_seconds)
+    try:
+        return _simulate(scene, **given)
+    except UnresolvableGrid as exc:
+        exact = _exact_part(scene, statistics)
+        if exact is None:
+            raise
+        warnings.warn(
+            f"observe: {', '.join(exc.integrals)} cannot be resolved (their grid would need "
+            f"more than 2^53 steps); answering {', '.join(exact.observe)} only, which need no "
+            "internal steps and are exact in law (the mean friction loss at the stop follows "
+            "from the energy law: crandall.analytic.physical('distance_at_stop_mean', ...))",
+            StatisticsWarning, stacklevel=2)
+        return _simulate(exact, **given)
+
+
+#: What needs no internal steps (exact in law at any step): a scene that also observes
+#: integrals its grid cannot resolve is answered for these.
+EXACT_OBSERVABLES = ("velocity", "kinetic_energy", "stop")
+
+
+def _exact_part(scene: Scene, statistics) -> Optional[Scene]:
+    """The scene cut to its observables that need no internal steps (with the distributions
+    and bins of their quantities), or None if that leaves nothing, or nothing out, or drops a
+    statistic asked for by name."""
+    d = scene.to_dict()
+    keep = [o for o in d["observe"] if o in EXACT_OBSERVABLES]
+    if not keep or len(keep) == len(d["observe"]):
+        return None
+    held = names_for(keep)
+    if statistics is not None:
+        asked = [statistics] if isinstance(statistics, str) else list(statistics)
+        for item in asked:
+            name = item.partition(":")[0] if isinstance(item, str) else item[0]
+            if name not in held:
+                return None
+    d["observe"] = keep
+    if isinstance(d.get("distributions"), list):
+        d["distributions"] = [n for n in d["distributions"] if n in held]
+        if not d["distributions"]:
+            del d["distributions"]
+            d.pop("bins", None)
+    if isinstance(d.get("bins"), dict):
+        d["bins"] = {k: v for k, v in d["bins"].items() if k in held or k == "per_octave"}
+    return Scene.from_dict(d)
+
+
+def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, client, progress,
+              error, rel_error, statistics, max_seconds):
+    """simulate's work, for one scene as given."""
     if error is not None or rel_error is not None:
         for name, value in (("paths", paths), ("dt", dt), ("method", method)):
             if value is not None:

@@ -16,6 +16,7 @@ from typing import Any, Dict, Optional
 import numpy as np
 
 from .methods import DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, METHODS
+from .errors import UnresolvableGrid
 from .scene import Scene
 
 __all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int"]
@@ -178,8 +179,9 @@ def grid_error(exc: ValueError, scene: Scene, *, dt_given: bool) -> ValueError:
     integrals = [n for n in ("displacement", "distance", "dissipated_energy", "peaks")
                  if n in scene.observe]
     fix = "give a larger dt or " if dt_given else ""
-    return ValueError(
-        f"observe: {', '.join(integrals) or 'the integrals'} need internal steps, and this "
+    return UnresolvableGrid(integrals,
+        f"observe: {', '.join(integrals) or 'the integrals'} "
+        f"{'needs' if len(integrals) == 1 else 'need'} internal steps, and this "
         f"scene's horizon would take more than 2^53 of them; {fix}observe only velocity, "
         "kinetic_energy and stop (exact in law with no internal steps: the stop's mean "
         "dissipated energy then follows from the energy law, analytic.physical), or give "
