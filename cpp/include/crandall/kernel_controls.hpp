@@ -37,23 +37,10 @@ void simulate_block_controls(const Plan& plan, std::uint64_t first, std::uint64_
   std::vector<double>& acc = ws.control_lanes;
   acc.assign(slots * kControls * kLanes, 0.0);
   const double inv_drift = drift > 0.0 ? 1.0 / drift : 0.0;
-  // The terms that do not depend on the slot (dB, a dB, U3 a dB, U3 dB, sB, U2 sB) are summed
-  // once, not once per slot still ahead, and copied into a slot's sums when the path passes
-  // its time: the same additions in the same order as a sum per slot, so the same bits (with
-  // many output times these were 6 of the 15 sums every step made for every slot ahead).
-  constexpr int kShared[6] = {0, 1, 4, 7, 8, 11};
-  alignas(64) double shared[6][kLanes];
-  auto copy_shared = [&](std::size_t from, std::size_t to) {
-    for (std::size_t j = from; j < to; ++j)
-      for (int i = 0; i < 6; ++i)
-        for (int l = 0; l < kLanes; ++l)
-          acc[(j * kControls + static_cast<std::size_t>(kShared[i])) * kLanes + l] = shared[i][l];
-  };
   for (std::uint64_t offset = 0; offset < count; offset += kLanes) {
     const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
     const std::uint64_t path0 = first + offset;
     std::fill(acc.begin(), acc.end(), 0.0);
-    for (auto& row : shared) std::fill(row, row + kLanes, 0.0);
     alignas(64) double x[kLanes] = {}, u[kLanes] = {}, s[kLanes] = {};
     PairNoise<kLanes> z;
     std::uint64_t k = 0;
@@ -98,18 +85,6 @@ void simulate_block_controls(const Plan& plan, std::uint64_t first, std::uint64_
           a[l] = std::abs(x[l]);
           sb[l] = x[l] > 0.0 ? db[l] : (x[l] < 0.0 ? -db[l] : 0.0);
         }
-        if (pending < slots) {
-#pragma omp simd
-          for (int l = 0; l < kLanes; ++l) {
-            const double b = db[l], sg = sb[l];
-            shared[0][l] += b;
-            shared[1][l] += a[l] * b;
-            shared[2][l] += s[l] * a[l] * b;
-            shared[3][l] += s[l] * b;
-            shared[4][l] += sg;
-            shared[5][l] += u[l] * sg;
-          }
-        }
         for (std::size_t j = pending; j < slots; ++j) {
           const double r = until[j] - s0;
           double* g = acc.data() + j * kControls * kLanes;
@@ -117,12 +92,18 @@ void simulate_block_controls(const Plan& plan, std::uint64_t first, std::uint64_
           for (int l = 0; l < kLanes; ++l) {
             const double kk = std::min(a[l] * inv_drift, r);
             const double b = db[l], sg = sb[l];
+            g[0 * kLanes + l] += b;
+            g[1 * kLanes + l] += a[l] * b;
             g[2 * kLanes + l] += r * b;
             g[3 * kLanes + l] += kk * b;
+            g[4 * kLanes + l] += s[l] * a[l] * b;
             g[5 * kLanes + l] += s[l] * kk * b;
             g[6 * kLanes + l] += a[l] * a[l] * kk * b;
+            g[7 * kLanes + l] += s[l] * b;
+            g[8 * kLanes + l] += sg;
             g[9 * kLanes + l] += r * sg;
             g[10 * kLanes + l] += kk * sg;
+            g[11 * kLanes + l] += u[l] * sg;
             g[12 * kLanes + l] += u[l] * kk * sg;
             g[13 * kLanes + l] += x[l] * a[l] * kk * sg;
             g[14 * kLanes + l] += u[l] * r * sg;
@@ -138,12 +119,9 @@ void simulate_block_controls(const Plan& plan, std::uint64_t first, std::uint64_
       if (seg.slot >= 0) {
         ws.times.add(static_cast<std::size_t>(seg.slot), x, u, s, lanes, ws.active);
         ws.record(static_cast<std::size_t>(seg.slot), 0, path0, x, u, s, lanes);
-        const std::size_t passed = static_cast<std::size_t>(seg.slot) + 1;
-        copy_shared(pending, std::min(passed, slots));
-        pending = passed;
+        pending = static_cast<std::size_t>(seg.slot) + 1;
       }
     }
-    copy_shared(pending, slots);  // the slots the path never passes: the switch-off's
     if (plan.needs_switch_state())
       add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop, nullptr, nullptr,
                            nullptr, &ws, 0, path0);
