@@ -548,6 +548,11 @@ def test_a_horizon_beyond_any_grid_answers_what_is_exact():
         with pytest.raises(ValueError, match="^observe: .*distance.* internal steps") as info:
             crandall.simulate(scene, seed=1, **kwargs)
         assert ("larger dt" in str(info.value)) == ("paths" in kwargs)
+    with pytest.raises(ValueError, match="^statistics"):
+        crandall.simulate(sc, seed=1, error=1e-3, statistics=[3])
+    with pytest.warns(crandall.StatisticsWarning, match="cannot be resolved"):
+        r = crandall.simulate(sc, seed=1, error=1e-3, statistics=[("velocity", "var")])
+    assert r.names == ("velocity",)
     # A pilot that would outlast max_seconds even at 1e10 path-steps per second is refused
     # before it starts (it ran for hours: Ctrl-C was the only way out).
     long = crandall.Scene.scaled(tau0=1e13, times=[1e13], observe=["distance"])

@@ -444,9 +444,13 @@ def _exact_part(scene: Scene, statistics) -> Optional[Scene]:
         return None
     held = names_for(keep)
     if statistics is not None:
-        asked = [statistics] if isinstance(statistics, str) else list(statistics)
-        for item in asked:
-            name = item.partition(":")[0] if isinstance(item, str) else item[0]
+        if isinstance(statistics, str):
+            statistics = [statistics]
+        if not isinstance(statistics, (list, tuple, set)):
+            return None  # refused as it stands (adaptive._check_statistics)
+        for item in statistics:
+            name = (item.partition(":")[0] if isinstance(item, str)
+                    else item[0] if isinstance(item, tuple) and item else None)
             if name not in held:
                 return None
     d["observe"] = keep
