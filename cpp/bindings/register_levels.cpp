@@ -9,7 +9,8 @@ void register_levels(py::module_& m) {
   m.def(
       "run_samples",
       [](const crandall::Plan& plan, std::uint64_t first, std::uint64_t count, int threads,
-         bool controls, py::object out, py::object controls_out) -> py::object {
+         bool controls, py::object out, py::object controls_out,
+         const std::vector<std::size_t>& control_slots) -> py::object {
         const crandall::Options& o = plan.options();
         const std::size_t slots = o.times.size() + (o.stop ? 1 : 0);
         const auto grids = static_cast<std::size_t>(o.grids());
@@ -33,14 +34,16 @@ void register_levels(py::module_& m) {
         py::array_t<double> ctl;
         if (controls)
           ctl = buffer(controls_out,
-                       {n, slots, static_cast<std::size_t>(crandall::control_count())},
+                       {n, control_slots.empty() ? slots : control_slots.size(),
+                        static_cast<std::size_t>(crandall::control_count())},
                        "controls_out");
         double* values_ptr = values.mutable_data();
         double* ctl_ptr = controls ? ctl.mutable_data() : nullptr;
         const auto cancel = bindings::python_cancel_check();
         try {
           bindings::without_gil([&] {
-            crandall::run_samples(plan, first, count, threads, values_ptr, ctl_ptr, cancel);
+            crandall::run_samples(plan, first, count, threads, values_ptr, ctl_ptr, cancel,
+                                  control_slots);
             return 0;
           });
         } catch (const crandall::Cancelled&) {
@@ -52,11 +55,13 @@ void register_levels(py::module_& m) {
       },
       py::arg("plan"), py::arg("first"), py::arg("count"), py::arg("threads") = 0,
       py::arg("controls") = false, py::arg("out") = py::none(), py::arg("controls_out") = py::none(),
+      py::arg("control_slots") = std::vector<std::size_t>{},
       "Per-path values of paths first .. first + count - 1, shape (count, slots, grids, 3): "
       "at each output time (velocity, displacement, distance) on each coupled grid, and at the "
       "stop (time from the switch-off, displacement, distance). The same bits for any thread "
       "count. With controls=True (exact method, an integral observed), returns (values, "
-      "controls) with the base level's control sums, shape (count, slots, CONTROLS). out and "
+      "controls) with the base level's control sums, shape (count, slots, CONTROLS), or at the "
+      "ascending slots control_slots only, shape (count, len(control_slots), CONTROLS). out and "
       "controls_out: arrays of exactly those shapes to write into (reused between calls).");
   m.attr("CONTROLS") = crandall::control_count();
 

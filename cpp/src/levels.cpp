@@ -16,7 +16,8 @@ namespace crandall {
 int control_count() { return kControls; }
 
 void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int threads,
-                 double* out, double* controls_out, const CancelCheck& cancel) {
+                 double* out, double* controls_out, const CancelCheck& cancel,
+                 const std::vector<std::size_t>& control_slots) {
   const Options& o = plan.options();
   if (count == 0 || first >= o.paths || count > o.paths - first)
     throw std::invalid_argument("run_samples: paths [first, first + count) must lie in the plan's paths");
@@ -30,6 +31,12 @@ void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int
       throw std::invalid_argument("run_samples: controls need the exact method and an observed integral");
     block_fn = active_kernel().controls_fn(o.displacement, o.distance);
   }
+  std::vector<std::size_t> chosen(control_slots);
+  if (chosen.empty())
+    for (std::size_t j = 0; j < slots; ++j) chosen.push_back(j);
+  for (std::size_t a = 0; a < chosen.size(); ++a)
+    if (chosen[a] >= slots || (a > 0 && chosen[a] <= chosen[a - 1]))
+      throw std::invalid_argument("run_samples: control_slots must be ascending, distinct slots");
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
   // Every path writes only its own values, so the order in which blocks are claimed does not
   // matter; the shared team polls the cancel check inside long blocks too.
@@ -42,6 +49,7 @@ void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int
         ws->sample_slots = slots;
         ws->sample_grids = grids;
         ws->controls = controls_out;
+        ws->control_slots = chosen;
         return ws;
       },
       [&](Workspace& ws, long b) {

@@ -49,6 +49,34 @@ TEST(Levels, ControlSumsDoNotChangeTheValues) {
   EXPECT_EQ(c1, c2);
 }
 
+TEST(Levels, ControlSumsOfChosenSlotsAreThoseOfEverySlot) {
+  // A slot's control sums do not depend on which other slots carry them: the sums at the
+  // chosen slots are, bit for bit, the same columns of the sums at every slot.
+  auto o = scene();
+  o.times = {0.1, 0.2, 0.4, 0.7, 1.0, 1.5};
+  const crandall::Plan plan(o);
+  const std::size_t slots = o.times.size() + (o.stop ? 1 : 0);
+  const auto k = static_cast<std::size_t>(crandall::control_count());
+  std::vector<double> every;
+  const auto values = samples(plan, 3, 300, 1, &every);
+  const std::vector<std::size_t> chosen = {1, 4, slots - 1};
+  for (int threads : {1, 2}) {
+    std::vector<double> out(300 * crandall::sample_size(plan)), some(300 * chosen.size() * k, -1.0);
+    crandall::run_samples(plan, 3, 300, threads, out.data(), some.data(), {}, chosen);
+    EXPECT_EQ(out, values);
+    for (std::size_t p = 0; p < 300; ++p)
+      for (std::size_t a = 0; a < chosen.size(); ++a)
+        for (std::size_t q = 0; q < k; ++q)
+          ASSERT_EQ(some[(p * chosen.size() + a) * k + q], every[(p * slots + chosen[a]) * k + q])
+              << "path " << p << " slot " << chosen[a] << " control " << q;
+  }
+  std::vector<double> out(10 * crandall::sample_size(plan)), some(10 * 2 * k);
+  for (const std::vector<std::size_t>& bad :
+       {std::vector<std::size_t>{2, 1}, std::vector<std::size_t>{1, 1}, std::vector<std::size_t>{slots}})
+    EXPECT_THROW(crandall::run_samples(plan, 0, 10, 1, out.data(), some.data(), {}, bad),
+                 std::invalid_argument);
+}
+
 TEST(Levels, BadRangesThrow) {
   const crandall::Plan plan(scene());
   std::vector<double> out(10 * crandall::sample_size(plan));

@@ -1,6 +1,6 @@
 """Type stubs of crandall's compiled core (private; use the crandall package)."""
 
-from typing import Any, List, Sequence, Tuple, Union
+from typing import Any, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -159,9 +159,12 @@ def richardson_weights(method: str) -> List[float]:
     """The weights that combine a method's coupled grids (steps h, 2h, 4h), finest first."""
 
 def run_samples(plan: Plan, first: int, count: int, threads: int = 0,
-                controls: bool = False) -> Any:
+                controls: bool = False, out: Optional[npt.NDArray[np.float64]] = None,
+                controls_out: Optional[npt.NDArray[np.float64]] = None,
+                control_slots: List[int] = ...) -> Any:
     """Per-path values, shape (count, slots, grids, 3); with controls, (values, controls)
-    with controls of shape (count, slots, CONTROLS)."""
+    with controls of shape (count, slots, CONTROLS), or (count, len(control_slots),
+    CONTROLS) at the ascending slots control_slots only."""
 
 def sum_products(values: npt.NDArray[np.float64], widths: List[int],
                  threads: int = 0) -> npt.NDArray[np.float64]:

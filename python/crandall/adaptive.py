@@ -71,6 +71,11 @@ FASTEST_RATE = 1e10
 MAX_GROWTH = 16
 #: Control variates on the base level (switch off to measure what they bring).
 USE_CONTROLS = True
+#: Output slots that carry control sums: every slot up to this many; beyond, this many slots
+#: spread over the output times, each column using the nearest one's (any slot's sums have
+#: mean 0, so any choice stays unbiased). The sums cost work per step and slot, so with
+#: thousands of output times they cost more than the paths (docs/methods/adaptive.md).
+CONTROL_SLOTS = 64
 #: The statistics a run reports for each quantity.
 STATS = ("mean", "var")
 #: The two-sided normal quantile of the reported 95 % interval.
@@ -205,6 +210,8 @@ class _Level:
         #: Whether the level runs with control variates, and the first path its sums hold
         #: (the paths before it fitted the control coefficients).
         self.controls = False
+        #: The slots whose control sums the level draws (ascending), when it draws them.
+        self.control_slots: List[int] = []
         self.start = 0
         self.batch = BATCH_PATHS
         self._buffers = None
@@ -220,13 +227,13 @@ class _Level:
                 if other is not self:
                     other._buffers = None
             values = np.empty((self.batch,) + tuple(self.shape))
-            ctl = (np.empty((self.batch, self.shape[0], _core.CONTROLS)) if self.controls
-                   else None)
+            ctl = (np.empty((self.batch, len(self.control_slots), _core.CONTROLS))
+                   if self.controls else None)
             self._buffers = (values, ctl)
         values, ctl = self._buffers
         if self.controls:
             return _core.run_samples(self.plan, first, n, self.threads, True, values[:n],
-                                     ctl[:n])
+                                     ctl[:n], self.control_slots)
         return _core.run_samples(self.plan, first, n, self.threads, False, values[:n]), None
 
 
@@ -269,6 +276,22 @@ def _solve_many(a: np.ndarray, bs: Sequence[np.ndarray]) -> List[List[float]]:
     return out
 
 
+def _control_slots(scene: Scene, slots: int) -> Tuple[List[int], List[int]]:
+    """The slots that carry control sums (every slot, or CONTROL_SLOTS of them spread evenly
+    over the slot indices, the last slot among them) and, per slot, the index among them of
+    the one whose sums it uses: the nearest in the time its sums run to (its output time, at
+    most the switch-off; the stop's: the switch-off), ties to the later one."""
+    if slots <= CONTROL_SLOTS:
+        return list(range(slots)), list(range(slots))
+    chosen = sorted({round(i * (slots - 1) / (CONTROL_SLOTS - 1)) for i in range(CONTROL_SLOTS)})
+    until = np.full(slots, scene.t0, dtype=float)
+    until[:len(scene.times)] = np.minimum(scene.times, scene.t0)
+    gap = np.abs(until[:, None] - until[None, chosen])
+    # The last of the nearest: argmin of the reversed columns.
+    nearest = len(chosen) - 1 - np.argmin(gap[:, ::-1], axis=1)
+    return chosen, [int(a) for a in nearest]
+
+
 @functools.lru_cache(maxsize=None)
 def _triu(w: int):
     return np.triu_indices(w)
@@ -300,7 +323,10 @@ class _Engine:
         # makes must not depend on the machine), small enough that a batch's per-path values,
         # control sums and feature columns stay within BATCH_BYTES.
         slots = len(scene.times) + (1 if "stop" in scene.observe else 0)
-        per_path = 8 * (slots * (2 * 3 + _core.CONTROLS) + 2 * len(self.widths))
+        #: The slots that carry control sums, and per slot the one whose sums it uses.
+        self.control_slots, self.control_of = _control_slots(scene, slots)
+        per_path = 8 * (slots * 2 * 3 + len(self.control_slots) * _core.CONTROLS
+                        + 2 * len(self.widths))
         self.batch = int(min(BATCH_PATHS, max(256, BATCH_BYTES // per_path // 256 * 256)))
         #: Control variates on the base level (docs/methods/adaptive.md): with an observed
         #: integral (the controls need the grid's steps).
@@ -329,7 +355,8 @@ class _Engine:
         per-path values and control sums, the feature columns and their temporaries) and
         threads (a stack each) would not fit in what this process may still allocate."""
         slots = len(self.scene.times) + (1 if "stop" in self.scene.observe else 0)
-        per_path = 8 * (slots * max(2 * 3, 3 + _core.CONTROLS) + 3 * len(self.cols))
+        per_path = 8 * (max(slots * 2 * 3, slots * 3 + len(self.control_slots) * _core.CONTROLS)
+                        + 3 * len(self.cols))
         need = self.batch * per_path + self.threads * (16 << 20)
         have = available_memory()
         if need > have:
@@ -404,7 +431,8 @@ class _Engine:
                 # Minus fixed multiples of the controls (mean exactly 0): still unbiased.
                 # In a fixed order without BLAS, for the same bits everywhere.
                 _core.subtract_controls(f, controls,
-                                        [self.targets[i].slot for i, _ in self.cols],
+                                        [self.control_of[self.targets[i].slot]
+                                         for i, _ in self.cols],
                                         [b for row in self.beta for b in row])
             return f
         inexact = np.array([not t.exact for t in self.targets])
@@ -429,18 +457,19 @@ class _Engine:
         for start in range(0, len(self.cols), per_call):
             cs = range(start, min(start + per_call, len(self.cols)))
             m = np.concatenate([np.concatenate(
-                [raw[:, c:c + 1], controls[:, self.targets[self.cols[c][0]].slot, :]], axis=1)
+                [raw[:, c:c + 1],
+                 controls[:, self.control_of[self.targets[self.cols[c][0]].slot], :]], axis=1)
                 for c in cs], axis=1)
             flat = _core.sum_products(m, [width] * len(cs), self.threads)
             for j in range(len(cs)):
                 g = _Sums([width])
                 g.add(n, flat[j * flat_width:(j + 1) * flat_width])
                 covs.append(g.group(0)[1])
-        # The controls' covariance is the same for every column of a slot (the same sums):
-        # one elimination per slot, every column's right-hand side through it.
+        # The controls' covariance is the same for every column that uses a slot's sums:
+        # one elimination per such slot, every column's right-hand side through it.
         by_slot: Dict[int, List[int]] = {}
         for c, (i, _) in enumerate(self.cols):
-            by_slot.setdefault(self.targets[i].slot, []).append(c)
+            by_slot.setdefault(self.control_of[self.targets[i].slot], []).append(c)
         self.beta = [None] * len(self.cols)
         for cs in by_slot.values():
             xs = _solve_many(covs[cs[0]][1:, 1:], [covs[c][1:, 0] for c in cs])
@@ -522,6 +551,7 @@ class _Engine:
             self.levels[-1].batch = self.batch
             if len(self.levels) == 1 and self.use_controls:
                 self.levels[0].controls = True
+                self.levels[0].control_slots = self.control_slots
         return self.levels[level]
 
     def _grow(self, level: int, target: int) -> None:
@@ -840,7 +870,8 @@ def _nonneg_int(value, field: str) -> int:
 #: round-trips them) replaced atomically at most every CHECKPOINT_SECONDS and at every round's
 #: end.
 CHECKPOINT_FORMAT = "crandall-adaptive-checkpoint"
-CHECKPOINT_VERSION = 2  # 2: a checksum, every field checked
+#: 2: a checksum, every field checked; 3: control sums at CONTROL_SLOTS slots at most.
+CHECKPOINT_VERSION = 3
 CHECKPOINT_SECONDS = 1.0
 
 

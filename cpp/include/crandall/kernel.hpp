@@ -68,9 +68,11 @@ struct Workspace {
   std::uint64_t sample_first = 0;
   std::size_t sample_slots = 0;
   int sample_grids = 1;
-  // Control sums of the base level (kernel_controls.hpp), path-major like samples:
-  // controls[((p - sample_first) * sample_slots + k) * kControls + j]; and the lanes' buffer.
+  // Control sums of the base level (kernel_controls.hpp) at the slots control_slots (ascending),
+  // path-major like samples: controls[((p - sample_first) * control_slots.size() + a) * kControls
+  // + j] for the slot control_slots[a]; and the lanes' buffer.
   double* controls = nullptr;
+  std::vector<std::size_t> control_slots;
   std::vector<double> control_lanes;
   void record(std::size_t slot, int grid, std::uint64_t path0, const double* a, const double* b,
               const double* c, int lanes) const {

@@ -22,18 +22,22 @@ constexpr int kControls = 15;
 
 CRANDALL_BEGIN_VARIANT
 
-// Paths [first, first + count) into ws (ws.samples and ws.controls set by the caller).
+// Paths [first, first + count) into ws (ws.samples, ws.controls and ws.control_slots set by
+// the caller). Each chosen slot's sums are updated by every step before its time, so the cost
+// per step grows with the number of chosen slots, not with the output times.
 template <bool kDisp, bool kDist>
 void simulate_block_controls(const Plan& plan, std::uint64_t first, std::uint64_t count,
                              Workspace& ws) {
   const Options& o = plan.options();
   const double drift = o.drift, noise = o.noise;
-  const std::size_t slots = ws.sample_slots;
-  // The time each slot's controls run to: its output time, at most the switch-off (after it
-  // the path is a function of its state there).
+  const std::vector<std::size_t>& chosen = ws.control_slots;
+  const std::size_t slots = chosen.size();
+  // The time each chosen slot's controls run to: its output time, at most the switch-off
+  // (after it the path is a function of its state there); the stop's slot runs to the
+  // switch-off.
   std::vector<double> until(slots, o.switch_off);
-  for (std::size_t j = 0; j < o.times.size() && j < slots; ++j)
-    until[j] = std::min(o.times[j], o.switch_off);
+  for (std::size_t j = 0; j < slots; ++j)
+    if (chosen[j] < o.times.size()) until[j] = std::min(o.times[chosen[j]], o.switch_off);
   std::vector<double>& acc = ws.control_lanes;
   acc.assign(slots * kControls * kLanes, 0.0);
   const double inv_drift = drift > 0.0 ? 1.0 / drift : 0.0;
@@ -44,7 +48,7 @@ void simulate_block_controls(const Plan& plan, std::uint64_t first, std::uint64_
     alignas(64) double x[kLanes] = {}, u[kLanes] = {}, s[kLanes] = {};
     PairNoise<kLanes> z;
     std::uint64_t k = 0;
-    std::size_t pending = 0;  // slots before this one are behind the path
+    std::size_t pending = 0;  // chosen slots before this one are behind the path
     double start = 0.0;       // the segment's start time
     for (const Segment& seg : plan.segments()) {
       const double step = seg.step;
@@ -119,7 +123,7 @@ void simulate_block_controls(const Plan& plan, std::uint64_t first, std::uint64_
       if (seg.slot >= 0) {
         ws.times.add(static_cast<std::size_t>(seg.slot), x, u, s, lanes, ws.active);
         ws.record(static_cast<std::size_t>(seg.slot), 0, path0, x, u, s, lanes);
-        pending = static_cast<std::size_t>(seg.slot) + 1;
+        while (pending < slots && chosen[pending] <= static_cast<std::size_t>(seg.slot)) ++pending;
       }
     }
     if (plan.needs_switch_state())

@@ -22,10 +22,13 @@ namespace crandall {
 // inside long blocks too); returning true throws Cancelled.
 // Written into out (count x sample_size(plan) doubles, every one of them written), and with
 // controls_out (exact method only, at least one integral observed) the control sums of
-// kernel_controls.hpp, count x slots x kControls doubles. The caller's buffers are reused
-// between calls: a fresh allocation per call cost more in page faults than the paths.
+// kernel_controls.hpp at the slots control_slots (ascending, distinct; empty: every slot),
+// count x control_slots.size() x kControls doubles: a slot's sums are the same bits whichever
+// other slots are chosen. The caller's buffers are reused between calls: a fresh allocation
+// per call cost more in page faults than the paths.
 void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int threads,
-                 double* out, double* controls_out = nullptr, const CancelCheck& cancel = {});
+                 double* out, double* controls_out = nullptr, const CancelCheck& cancel = {},
+                 const std::vector<std::size_t>& control_slots = {});
 // Doubles per path of run_samples' out: slots x grids x 3.
 std::size_t sample_size(const Plan& plan);
 // Number of control sums per path and slot.
