@@ -593,3 +593,97 @@ def test_a_horizon_beyond_any_grid_answers_what_is_exact():
     long = crandall.Scene.scaled(tau0=1e13, times=[1e13], observe=["distance"])
     with pytest.raises(ValueError, match=r"^max_seconds: the pilot alone .* would take at least"):
         crandall.simulate(long, error=1e-3, seed=1)
+
+
+def _moments_one(flat, n, w):
+    # One group as the estimates first formed it: np.triu and np.outer on a (w, w) matrix.
+    s = flat[:w]
+    p = np.zeros((w, w))
+    p[np.triu_indices(w)] = flat[w:]
+    p = p + np.triu(p, 1).T
+    m = s / n
+    return m, (p - n * np.outer(m, m)) / max(n - 1, 1)
+
+
+def _solve_one(a, b):
+    # One right-hand side by the elimination in Python floats the fit used column by column.
+    n = a.shape[0]
+    keep = [j for j in range(n) if a[j, j] > 0.0]
+    x = [0.0] * n
+    if not keep:
+        return x
+    ridge = 1e-12 * max(float(a[j, j]) for j in keep)
+    m = [[float(a[i, j]) + (ridge if i == j else 0.0) for j in keep] + [float(b[i])]
+         for i in keep]
+    size = len(keep)
+    for col in range(size):
+        piv = max(range(col, size), key=lambda r: abs(m[r][col]))
+        m[col], m[piv] = m[piv], m[col]
+        if m[col][col] == 0.0:
+            continue
+        for r in range(col + 1, size):
+            f = m[r][col] / m[col][col]
+            if f != 0.0:
+                for c in range(col, size + 1):
+                    m[r][c] -= f * m[col][c]
+    sol = [0.0] * size
+    for r in range(size - 1, -1, -1):
+        if m[r][r] == 0.0:
+            continue
+        sol[r] = (m[r][size] - sum(m[r][c] * sol[c] for c in range(r + 1, size))) / m[r][r]
+    for j, v in zip(keep, sol):
+        x[j] = v
+    return x
+
+
+def test_many_columns_at_once_give_the_bits_of_one_column_at_a_time():
+    # The covariances of many groups and the control coefficients of many columns are formed
+    # together (elementwise), each with the bits it gets alone: signed zeros, a control
+    # without variance and a singular covariance included.
+    from crandall import adaptive
+    rng = np.random.default_rng(3)
+    for w, n in ((1, 5), (2, 1), (2, 7), (16, 4096)):
+        flat = rng.normal(size=(40, w + w * (w + 1) // 2)) * 10.0 ** rng.integers(-5, 5, (40, 1))
+        flat[::7] = -0.0
+        means, covs = adaptive._moments(flat, n, w)
+        for g in range(len(flat)):
+            m1, c1 = _moments_one(flat[g], n, w)
+            assert means[g].tobytes() == m1.tobytes() and covs[g].tobytes() == c1.tobytes()
+    x = rng.normal(size=(200, 15))
+    x[:, 4] = 0.0                      # no variance: coefficient 0
+    x[:, 7] = x[:, 2] + x[:, 3]        # dependent: the ridge keeps it bounded
+    a = np.cov(x, rowvar=False)
+    bs = rng.normal(size=(30, 15))
+    bs[3] = -0.0
+    got = adaptive._solve_many(a, bs)
+    assert all(isinstance(v, float) for row in got for v in row)
+    for b, row in zip(bs, got):
+        assert np.array(row).tobytes() == np.array(_solve_one(a, b)).tobytes()
+    assert adaptive._solve_many(np.zeros((3, 3)), bs[:2, :3]) == [[0.0] * 3] * 2
+
+
+def test_form_features_refuses_columns_it_cannot_form():
+    samples = np.zeros((4, 2, 1, 3))
+    out = np.empty((4, 1))
+
+    def columns(**change):
+        c = _core.FeatureColumns()
+        fields = dict(slot=[0], variable=[2], kind=[0], power=[1], constant=[0.0],
+                      centre=[0.0], inexact=[1])
+        fields.update(change)
+        for k, v in fields.items():
+            setattr(c, k, v)
+        return c
+
+    samples[:, 1, 0, 2] = 3.0
+    assert _core.form_features(samples, columns(slot=[1], power=[2], centre=[1.0]), 2.0, 0,
+                               out).ravel().tolist() == [4.0] * 4
+    for bad in (dict(slot=[2]), dict(variable=[3]), dict(kind=[4]), dict(power=[3]),
+                dict(centre=[])):
+        with pytest.raises(ValueError, match="form_features"):
+            _core.form_features(samples, columns(**bad), 2.0, 0, out)
+    with pytest.raises(ValueError, match="coarse grid"):
+        _core.form_features(samples, columns(), 2.0, 1, out)
+    with pytest.raises(ValueError, match="control"):
+        _core.form_features(samples, columns(), 2.0, 0, out,
+                            np.zeros((4, 1, _core.CONTROLS)))

@@ -65,22 +65,61 @@ void register_levels(py::module_& m) {
       "controls_out: arrays of exactly those shapes to write into (reused between calls).");
   m.attr("CONTROLS") = crandall::control_count();
 
+  py::class_<crandall::FeatureColumns>(
+      m, "FeatureColumns",
+      "The feature columns of a run to an accuracy, one entry per column (levels.hpp): slot, "
+      "variable, kind (0 value, 1 its square, 2 the Ito identity, 3 the identity at the stop), "
+      "power (1 or 2), constant, centre, inexact; with control sums, control (the control slot "
+      "index) and beta (CONTROLS coefficients per column).")
+      .def(py::init<>())
+      .def_readwrite("slot", &crandall::FeatureColumns::slot)
+      .def_readwrite("variable", &crandall::FeatureColumns::variable)
+      .def_readwrite("kind", &crandall::FeatureColumns::kind)
+      .def_readwrite("power", &crandall::FeatureColumns::power)
+      .def_readwrite("constant", &crandall::FeatureColumns::constant)
+      .def_readwrite("centre", &crandall::FeatureColumns::centre)
+      .def_readwrite("inexact", &crandall::FeatureColumns::inexact)
+      .def_readwrite("control", &crandall::FeatureColumns::control)
+      .def_readwrite("beta", &crandall::FeatureColumns::beta);
+
   m.def(
-      "subtract_controls",
-      [](py::array_t<double, py::array::c_style> features,
-         py::array_t<double, py::array::c_style> controls, const std::vector<std::int64_t>& slots,
-         const std::vector<double>& beta) {
-        if (features.ndim() != 2 || controls.ndim() != 3 || controls.shape(0) != features.shape(0))
-          throw std::invalid_argument("subtract_controls: shapes do not match");
-        crandall::subtract_controls(features.mutable_data(),
-                                    static_cast<std::uint64_t>(features.shape(0)),
-                                    static_cast<std::uint64_t>(features.shape(1)), controls.data(),
-                                    static_cast<std::uint64_t>(controls.shape(1)),
-                                    static_cast<std::uint64_t>(controls.shape(2)), slots, beta);
+      "form_features",
+      [](py::array_t<double, py::array::c_style> samples, const crandall::FeatureColumns& columns,
+         double two_drift, int level, py::array_t<double, py::array::c_style> out,
+         py::object controls, int threads) {
+        if (samples.ndim() != 4 || samples.shape(3) != 3)
+          throw std::invalid_argument("form_features: samples must have run_samples' shape");
+        const auto rows = static_cast<std::uint64_t>(samples.shape(0));
+        if (out.ndim() != 2 || static_cast<std::uint64_t>(out.shape(0)) != rows ||
+            static_cast<std::size_t>(out.shape(1)) != columns.slot.size() || !out.writeable())
+          throw std::invalid_argument("form_features: out must be a writable (rows, columns) array");
+        const double* ctl = nullptr;
+        std::uint64_t control_slots = 0;
+        py::array_t<double, py::array::c_style> c;
+        if (!controls.is_none()) {
+          c = py::cast<py::array_t<double, py::array::c_style>>(controls);
+          if (c.ndim() != 3 || static_cast<std::uint64_t>(c.shape(0)) != rows ||
+              c.shape(2) != crandall::control_count())
+            throw std::invalid_argument("form_features: controls must have run_samples' shape");
+          ctl = c.data();
+          control_slots = static_cast<std::uint64_t>(c.shape(1));
+        }
+        const double* data = samples.data();
+        double* dst = out.mutable_data();
+        const auto slots = static_cast<std::uint64_t>(samples.shape(1));
+        const int grids = static_cast<int>(samples.shape(2));
+        bindings::without_gil([&] {
+          crandall::form_features(data, rows, slots, grids, columns, two_drift, level, dst, ctl,
+                                  control_slots, threads);
+          return 0;
+        });
+        return out;
       },
-      py::arg("features"), py::arg("controls"), py::arg("slots"), py::arg("beta"),
-      "In place: features[:, j] -= controls[:, slots[j], :] . beta[j k : (j + 1) k], term by term "
-      "in a fixed order.");
+      py::arg("samples"), py::arg("columns"), py::arg("two_drift"), py::arg("level"),
+      py::arg("out"), py::arg("controls") = py::none(), py::arg("threads") = 0,
+      "Into out (rows, columns): each column's value on the fine grid minus its centre, to its "
+      "power; on level 0 minus its controls' multiples (when controls are given), on a finer "
+      "level minus the coarse grid's (0 for columns exact in law). Returns out.");
 
   m.def(
       "sum_products",

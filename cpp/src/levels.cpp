@@ -65,23 +65,62 @@ std::size_t sample_size(const Plan& plan) {
   return (o.times.size() + (o.stop ? 1 : 0)) * static_cast<std::size_t>(o.grids()) * 3;
 }
 
-void subtract_controls(double* f, std::uint64_t rows, std::uint64_t cols, const double* controls,
-                       std::uint64_t slots, std::uint64_t k, const std::vector<std::int64_t>& slot_of,
-                       const std::vector<double>& beta) {
-  if (slot_of.size() != cols || beta.size() != cols * k)
-    throw std::invalid_argument("subtract_controls: one slot per column and k coefficients per column are needed");
-  for (std::int64_t s : slot_of)
-    if (s < 0 || static_cast<std::uint64_t>(s) >= slots)
-      throw std::invalid_argument("subtract_controls: a slot is out of range");
-  for (std::uint64_t i = 0; i < rows; ++i) {
-    const double* c = controls + i * slots * k;
-    double* row = f + i * cols;
-    for (std::uint64_t j = 0; j < cols; ++j) {
-      const double* cj = c + static_cast<std::uint64_t>(slot_of[j]) * k;
-      const double* b = beta.data() + j * k;
-      double v = row[j];
-      for (std::uint64_t q = 0; q < k; ++q) v -= b[q] * cj[q];
-      row[j] = v;
+namespace {
+
+double column_value(const double* path, int grids, int grid, const FeatureColumns& c,
+                    std::size_t j, double two_drift) {
+  const int kind = c.kind[j];
+  double x = kind == 3 ? 0.0
+                       : path[(static_cast<std::size_t>(c.slot[j]) * grids + grid) * 3 +
+                              static_cast<std::size_t>(c.variable[j])];
+  double v = kind == 0 ? x : kind == 1 ? x * x : (c.constant[j] - x * x) / two_drift;
+  v = v - c.centre[j];
+  return c.power[j] == 2 ? v * v : v;
+}
+
+}  // namespace
+
+void form_features(const double* samples, std::uint64_t rows, std::uint64_t slots, int grids,
+                   const FeatureColumns& c, double two_drift, int level, double* out,
+                   const double* controls, std::uint64_t control_slots, int threads) {
+  const std::size_t cols = c.slot.size();
+  if (c.variable.size() != cols || c.kind.size() != cols || c.power.size() != cols ||
+      c.constant.size() != cols || c.centre.size() != cols || c.inexact.size() != cols)
+    throw std::invalid_argument("form_features: every column needs each field");
+  if (grids < (level > 0 ? 2 : 1))
+    throw std::invalid_argument("form_features: a finer level needs the coarse grid's samples");
+  const auto k = static_cast<std::size_t>(kControls);
+  const bool subtract = controls != nullptr && level == 0;
+  if (subtract && (c.control.size() != cols || c.beta.size() != cols * k))
+    throw std::invalid_argument("form_features: one control slot and k coefficients per column");
+  for (std::size_t j = 0; j < cols; ++j) {
+    if (c.slot[j] < 0 || static_cast<std::uint64_t>(c.slot[j]) >= slots || c.variable[j] < 0 ||
+        c.variable[j] > 2 || c.kind[j] < 0 || c.kind[j] > 3 || (c.power[j] != 1 && c.power[j] != 2))
+      throw std::invalid_argument("form_features: a column's slot, variable, kind or power is out of range");
+    if (subtract && (c.control[j] < 0 || static_cast<std::uint64_t>(c.control[j]) >= control_slots))
+      throw std::invalid_argument("form_features: a column's control slot is out of range");
+  }
+  const std::size_t path_size = static_cast<std::size_t>(slots) * static_cast<std::size_t>(grids) * 3;
+#pragma omp parallel for schedule(static) num_threads(thread_count(threads))
+  for (std::int64_t r = 0; r < static_cast<std::int64_t>(rows); ++r) {
+    const double* path = samples + static_cast<std::size_t>(r) * path_size;
+    double* row = out + static_cast<std::size_t>(r) * cols;
+    if (level == 0) {
+      for (std::size_t j = 0; j < cols; ++j) row[j] = column_value(path, grids, 0, c, j, two_drift);
+      if (!subtract) continue;
+      const double* sums = controls + static_cast<std::size_t>(r) * control_slots * k;
+      for (std::size_t j = 0; j < cols; ++j) {
+        const double* cj = sums + static_cast<std::size_t>(c.control[j]) * k;
+        const double* b = c.beta.data() + j * k;
+        double v = row[j];
+        for (std::size_t q = 0; q < k; ++q) v -= b[q] * cj[q];
+        row[j] = v;
+      }
+    } else {
+      for (std::size_t j = 0; j < cols; ++j)
+        row[j] = c.inexact[j] ? column_value(path, grids, 0, c, j, two_drift) -
+                                    column_value(path, grids, 1, c, j, two_drift)
+                              : 0.0;
     }
   }
 }

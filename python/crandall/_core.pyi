@@ -170,9 +170,25 @@ def sum_products(values: npt.NDArray[np.float64], widths: List[int],
                  threads: int = 0) -> npt.NDArray[np.float64]:
     """Per group of consecutive columns: column sums and the upper triangle of F^T F."""
 
-def subtract_controls(features: npt.NDArray[np.float64], controls: npt.NDArray[np.float64],
-                      slots: List[int], beta: List[float]) -> None:
-    """In place: features[:, j] -= controls[:, slots[j], :] . beta[j k:(j + 1) k], term by term
-    in a fixed order."""
+class FeatureColumns:
+    """The feature columns of a run to an accuracy, one entry per column."""
+    slot: List[int]
+    variable: List[int]
+    kind: List[int]
+    power: List[int]
+    constant: List[float]
+    centre: List[float]
+    inexact: List[int]
+    control: List[int]
+    beta: List[float]
+    def __init__(self) -> None: ...
+
+def form_features(samples: npt.NDArray[np.float64], columns: FeatureColumns, two_drift: float,
+                  level: int, out: npt.NDArray[np.float64],
+                  controls: Optional[npt.NDArray[np.float64]] = None,
+                  threads: int = 0) -> npt.NDArray[np.float64]:
+    """Into out (rows, columns): each column's value on the fine grid minus its centre, to its
+    power; on level 0 minus its controls' multiples, on a finer level minus the coarse
+    grid's (0 for columns exact in law)."""
 
 MAX_HISTOGRAM_BINS: int

@@ -173,12 +173,27 @@ class _Sums:
     def group(self, g: int) -> Tuple[np.ndarray, np.ndarray]:
         """Target g's column means and unbiased covariance."""
         w, o = self.widths[g], self.offsets[g]
-        s = self.flat[o:o + w]
-        p = np.zeros((w, w))
-        p[_triu(w)] = self.flat[o + w:o + w + w * (w + 1) // 2]
-        p = p + np.triu(p, 1).T
-        m = s / self.n
-        return m, (p - self.n * np.outer(m, m)) / max(self.n - 1, 1)
+        means, covs = _moments(self.flat[None, o:o + w + w * (w + 1) // 2], self.n, w)
+        return means[0], covs[0]
+
+
+def _moments(flat: np.ndarray, n: int, w: int) -> Tuple[np.ndarray, np.ndarray]:
+    """Per row of flat (G, w + w (w + 1) / 2: a group's column sums and the upper triangle of
+    its products over n paths): the column means (G, w) and the unbiased covariances
+    (G, w, w). The same elementwise operations for every row as for one row alone."""
+    rows, cols = _triu(w)
+    p = np.zeros((flat.shape[0], w, w))
+    p[:, rows, cols] = flat[:, w:]
+    # p plus its strict upper triangle transposed (np.triu(p, 1).T, row by row).
+    p = p + np.where(_lower(w), 0.0, p).transpose(0, 2, 1)
+    m = flat[:, :w] / n
+    return m, (p - n * (m[:, :, None] * m[:, None, :])) / max(n - 1, 1)
+
+
+@functools.lru_cache(maxsize=None)
+def _lower(w: int) -> np.ndarray:
+    """The diagonal and below: what np.triu(., 1) sets to 0."""
+    return np.tri(w, w, k=0, dtype=bool)
 
 
 class _Level:
@@ -237,43 +252,47 @@ class _Level:
         return _core.run_samples(self.plan, first, n, self.threads, False, values[:n]), None
 
 
-def _solve_many(a: np.ndarray, bs: Sequence[np.ndarray]) -> List[List[float]]:
-    """a x = b for each b, a symmetric positive semi-definite, by Gaussian elimination in Python
-    floats (the same bits on every machine; no LAPACK). Columns without variance get 0; a
-    ridge of 1e-12 of the largest diagonal keeps nearly dependent controls bounded. The pivots
-    and the row operations depend on a only, so every right-hand side gets, operation by
-    operation, the arithmetic it would get alone: a is eliminated once for all of them."""
+def _solve_many(a: np.ndarray, bs: np.ndarray) -> List[List[float]]:
+    """a x = b for each row b of bs, a symmetric positive semi-definite, by Gaussian
+    elimination in IEEE doubles, one operation at a time (the same bits on every machine; no
+    LAPACK). Columns without variance get 0; a ridge of 1e-12 of the largest diagonal keeps
+    nearly dependent controls bounded. The pivots and the row operations depend on a only, so
+    every right-hand side gets, operation by operation, the arithmetic it would get alone: a is
+    eliminated once, the right-hand sides' rows are updated together (elementwise, so each
+    element's bits are those of a right-hand side alone)."""
     n = a.shape[0]
+    bs = np.asarray(bs, dtype=float).reshape(-1, n)
     keep = [j for j in range(n) if a[j, j] > 0.0]
-    out = [[0.0] * n for _ in bs]
+    out = np.zeros((len(bs), n))
     if not keep:
-        return out
+        return out.tolist()
     ridge = 1e-12 * max(float(a[j, j]) for j in keep)
-    m = [[float(a[i, j]) + (ridge if i == j else 0.0) for j in keep] + [float(b[i]) for b in bs]
-         for i in keep]
+    m = [[float(a[i, j]) + (ridge if i == j else 0.0) for j in keep] for i in keep]
+    rhs = [bs[:, i].copy() for i in keep]  # row i of the right-hand sides, one per b
     size = len(keep)
-    width = size + len(bs)
     for col in range(size):
         piv = max(range(col, size), key=lambda r: abs(m[r][col]))
         m[col], m[piv] = m[piv], m[col]
+        rhs[col], rhs[piv] = rhs[piv], rhs[col]
         if m[col][col] == 0.0:
             continue
         for r in range(col + 1, size):
             f = m[r][col] / m[col][col]
             if f != 0.0:
-                for c in range(col, width):
+                for c in range(col, size):
                     m[r][c] -= f * m[col][c]
-    for k, x in enumerate(out):
-        rhs = size + k
-        sol = [0.0] * size
-        for r in range(size - 1, -1, -1):
-            if m[r][r] == 0.0:
-                continue
-            acc = m[r][rhs] - sum(m[r][c] * sol[c] for c in range(r + 1, size))
-            sol[r] = acc / m[r][r]
-        for j, v in zip(keep, sol):
-            x[j] = v
-    return out
+                rhs[r] -= f * rhs[col]
+    sol = [np.zeros(len(bs)) for _ in range(size)]
+    for r in range(size - 1, -1, -1):
+        if m[r][r] == 0.0:
+            continue
+        acc = np.zeros(len(bs))  # the running sum, from 0 in column order
+        for c in range(r + 1, size):
+            acc = acc + m[r][c] * sol[c]
+        sol[r] = (rhs[r] - acc) / m[r][r]
+    for j, v in zip(keep, sol):
+        out[:, j] = v
+    return out.tolist()
 
 
 def _control_slots(scene: Scene, slots: int) -> Tuple[List[int], List[int]]:
@@ -309,7 +328,7 @@ class _Engine:
         self.integrals = flags["displacement"] or flags["distance"]
         self.base_dt = BASE_DT_FACTOR * default_dt(scene)
         self.levels: List[_Level] = []
-        self.centre: Optional[np.ndarray] = None
+        self.centre = None
         self.path_steps = 0
         self.rounds = 0
         # Feature columns: per target one (mean) or two (var: first and second power).
@@ -335,7 +354,7 @@ class _Engine:
         #: out 0.66 reported errors low on average over 20 seeds (without them: 0.14 +- 0.18),
         #: a shift not understood yet (docs/methods/adaptive.md, "Limits").
         self.use_controls = USE_CONTROLS and self.integrals and scene.drift > 0
-        self.beta: Optional[List[List[float]]] = None
+        self.beta = None
         self.sums_width = sum(w + w * (w + 1) // 2 for w in self.widths)
         #: What is left of the current round: [level, paths] to grow to, in order.
         self.pending: Optional[List[List[int]]] = None
@@ -348,7 +367,9 @@ class _Engine:
         self.started = time.perf_counter()
         self.wall_before = 0.0
         self.level_targets = [i for i, t in enumerate(self.targets) if not t.exact]
-        self._layout_cache = None
+        self._targets_cache = None
+        self._columns_cache = None
+        self._feature_buffer: Optional[np.ndarray] = None
 
     def check_memory(self) -> None:
         """Refuse, before anything is allocated, a run whose batches (one level's buffers of
@@ -369,78 +390,92 @@ class _Engine:
 
     # -- per-path values ------------------------------------------------------------------
 
-    def _layout(self):
-        """Per target (in order): its slot, its variable, and its kind: "ito" (the mean
-        distance through the identity), 1 (the value itself: a first power, or the stop time
-        from the switch-off) or 2 (its square); and the identity's constant per target."""
-        if self._layout_cache is None:
+    # The centring constants and the control coefficients: setting either renews the feature
+    # columns handed to the core.
+    @property
+    def centre(self) -> Optional[np.ndarray]:
+        return self._centre
+
+    @centre.setter
+    def centre(self, value: Optional[np.ndarray]) -> None:
+        self._centre = value
+        self._columns_cache = None
+
+    @property
+    def beta(self) -> Optional[List[List[float]]]:
+        return self._beta
+
+    @beta.setter
+    def beta(self, value: Optional[List[List[float]]]) -> None:
+        self._beta = value
+        self._columns_cache = None
+
+    def _target_columns(self) -> "_core.FeatureColumns":
+        """One column per target: how its per-path value is formed from the samples (its slot
+        and variable; the value itself, the stop time from the switch-off included; its
+        square; or the mean distance's Ito identity (sigma^2 elapsed - V^2) / (2 c), with V = 0
+        at the stop), with centre 0 and power 1."""
+        if self._targets_cache is None:
             sc = self.scene
-            kinds, consts = [], []
+            c = _core.FeatureColumns()
+            kind, const = [], []
             for t in self.targets:
                 if t.ito:
-                    kinds.append("ito")
+                    kind.append(2 if t.time_index is not None else 3)
                     elapsed = (min(sc.times[t.time_index], sc.t0) if t.time_index is not None
                                else sc.t0)
-                    consts.append(sc.noise ** 2 * elapsed)
-                elif t.stat == "mean" and t.variable == VELOCITY and t.time_index is None:
-                    kinds.append(1)  # the stop time from the switch-off
-                    consts.append(0.0)
+                    const.append(sc.noise ** 2 * elapsed)
                 else:
-                    kinds.append(t.power)
-                    consts.append(0.0)
-            self._layout_cache = (np.array([t.slot for t in self.targets], dtype=np.intp),
-                                  np.array([t.variable for t in self.targets], dtype=np.intp),
-                                  kinds, np.array(consts))
-        return self._layout_cache
+                    first = t.power == 1 or (t.stat == "mean" and t.variable == VELOCITY
+                                             and t.time_index is None)
+                    kind.append(0 if first else 1)
+                    const.append(0.0)
+            c.slot = [t.slot for t in self.targets]
+            c.variable = [VELOCITY if t.ito else t.variable for t in self.targets]
+            c.kind, c.constant = kind, const
+            c.power = [1] * len(self.targets)
+            c.centre = [0.0] * len(self.targets)
+            c.inexact = [int(not t.exact) for t in self.targets]
+            self._targets_cache = c
+        return self._targets_cache
 
-    def _all_values(self, block: np.ndarray, grid: int, which) -> np.ndarray:
-        """The per-path values of the targets ``which`` (indices) on a grid, one column each:
-        the same elementwise operations as target by target, so the same bits."""
-        slots, variables, kinds, consts = self._layout()
-        which = np.asarray(which, dtype=np.intp)
-        out = np.empty((block.shape[0], len(which)))
-        kind = [kinds[i] for i in which]
-        for k in (1, 2, "ito"):
-            cols = np.array([j for j, x in enumerate(kind) if x == k], dtype=np.intp)
-            if not cols.size:
-                continue
-            idx = which[cols]
-            if k == "ito":
-                x = block[:, slots[idx], grid, VELOCITY]
-                stop = np.array([self.targets[i].time_index is None for i in idx])
-                x[:, stop] = 0.0  # at the stop the velocity is 0
-                out[:, cols] = (consts[idx][None, :] - x * x) / (2.0 * self.scene.drift)
-            else:
-                v = block[:, slots[idx], grid, variables[idx]]
-                out[:, cols] = v if k == 1 else v ** 2
-        return out
+    def _columns(self) -> "_core.FeatureColumns":
+        """The feature columns: per column its target's value minus the target's centre, to
+        the column's power; with the control coefficients once fitted."""
+        if self._columns_cache is None:
+            per_target = self._target_columns()
+            c = _core.FeatureColumns()
+            which = [i for i, _ in self.cols]
+            for field in ("slot", "variable", "kind", "constant", "inexact"):
+                values = getattr(per_target, field)
+                setattr(c, field, [values[i] for i in which])
+            c.power = [p for _, p in self.cols]
+            c.centre = [float(self.centre[i]) for i in which]
+            if self.beta is not None:
+                c.control = [self.control_of[self.targets[i].slot] for i in which]
+                c.beta = [b for row in self.beta for b in row]
+            self._columns_cache = c
+        return self._columns_cache
+
+    def _values(self, block: np.ndarray) -> np.ndarray:
+        """Every target's per-path value on the fine grid, one column each."""
+        out = np.empty((block.shape[0], len(self.targets)))
+        return _core.form_features(block, self._target_columns(), 2.0 * self.scene.drift, 0,
+                                   out, None, self.threads)
 
     def _features(self, block: np.ndarray, level: int,
                   controls: Optional[np.ndarray] = None) -> np.ndarray:
+        """The feature columns of a batch (formed in the core, into a buffer kept between
+        batches): on the base level minus the controls' multiples once their coefficients
+        are fitted (mean exactly 0: still unbiased), on a finer level the fine grid's minus
+        the coarse grid's."""
         n = block.shape[0]
-        f = np.zeros((n, len(self.cols)))
-        col_target = np.array([i for i, _ in self.cols], dtype=np.intp)
-        col_power = np.array([p for _, p in self.cols])
-        everything = np.arange(len(self.targets))
-        fine = self._all_values(block, 0, everything) - self.centre[None, :]
-        if level == 0:
-            for p in (1, 2):
-                cols = np.flatnonzero(col_power == p)
-                f[:, cols] = fine[:, col_target[cols]] ** p
-            if controls is not None and self.beta is not None:
-                # Minus fixed multiples of the controls (mean exactly 0): still unbiased.
-                # In a fixed order without BLAS, for the same bits everywhere.
-                _core.subtract_controls(f, controls,
-                                        [self.control_of[self.targets[i].slot]
-                                         for i, _ in self.cols],
-                                        [b for row in self.beta for b in row])
-            return f
-        inexact = np.array([not t.exact for t in self.targets])
-        coarse = self._all_values(block, 1, everything) - self.centre[None, :]
-        for p in (1, 2):
-            cols = np.flatnonzero((col_power == p) & inexact[col_target])
-            f[:, cols] = fine[:, col_target[cols]] ** p - coarse[:, col_target[cols]] ** p
-        return f
+        if self._feature_buffer is None or self._feature_buffer.shape[0] < n:
+            self._feature_buffer = np.empty((max(n, self.batch), len(self.cols)))
+        out = self._feature_buffer[:n]
+        use = controls if (level == 0 and controls is not None and self.beta is not None) else None
+        return _core.form_features(block, self._columns(), 2.0 * self.scene.drift, level, out,
+                                   use, self.threads)
 
     def _fit_controls(self, block: np.ndarray, controls: np.ndarray) -> None:
         """The control coefficients of every feature column: least squares on the pilot paths
@@ -453,28 +488,31 @@ class _Engine:
         # Many columns' [feature, controls of its slot] in one call: each group's sums are
         # accumulated on their own, so they are the bits of a call per column.
         per_call = max(1, FIT_BYTES // (8 * n * width))
-        covs = []
+        anchor = np.array([self.control_of[self.targets[i].slot] for i, _ in self.cols],
+                          dtype=np.intp)
+        covs = np.empty((len(self.cols), width, width))
+        m = np.empty((n, min(per_call, len(self.cols)), width))
         for start in range(0, len(self.cols), per_call):
-            cs = range(start, min(start + per_call, len(self.cols)))
-            m = np.concatenate([np.concatenate(
-                [raw[:, c:c + 1],
-                 controls[:, self.control_of[self.targets[self.cols[c][0]].slot], :]], axis=1)
-                for c in cs], axis=1)
-            flat = _core.sum_products(m, [width] * len(cs), self.threads)
-            for j in range(len(cs)):
-                g = _Sums([width])
-                g.add(n, flat[j * flat_width:(j + 1) * flat_width])
-                covs.append(g.group(0)[1])
+            stop = min(start + per_call, len(self.cols))
+            g = m[:, :stop - start]
+            g[:, :, 0] = raw[:, start:stop]
+            g[:, :, 1:] = controls[:, anchor[start:stop], :]
+            flat = _core.sum_products(np.ascontiguousarray(g.reshape(n, -1)),
+                                      [width] * (stop - start), self.threads)
+            # As a level's sums would hold them (0 plus the sums), then their covariances.
+            flat = 0.0 + flat.reshape(stop - start, flat_width)
+            covs[start:stop] = _moments(flat, n, width)[1]
         # The controls' covariance is the same for every column that uses a slot's sums:
         # one elimination per such slot, every column's right-hand side through it.
         by_slot: Dict[int, List[int]] = {}
-        for c, (i, _) in enumerate(self.cols):
-            by_slot.setdefault(self.control_of[self.targets[i].slot], []).append(c)
-        self.beta = [None] * len(self.cols)
+        for c, a in enumerate(anchor.tolist()):
+            by_slot.setdefault(a, []).append(c)
+        beta = [None] * len(self.cols)
         for cs in by_slot.values():
-            xs = _solve_many(covs[cs[0]][1:, 1:], [covs[c][1:, 0] for c in cs])
+            xs = _solve_many(covs[cs[0]][1:, 1:], covs[cs, 1:, 0])
             for c, x in zip(cs, xs):
-                self.beta[c] = x
+                beta[c] = x
+        self.beta = beta
 
     def _batch(self, lev: _Level, first: int, n: int) -> np.ndarray:
         """The flat sums of paths [first, first + n) of a level (centre and coefficients
@@ -507,7 +545,7 @@ class _Engine:
             if self.centre is None:
                 # Every column's sum in one call (each group's sums are those of a call per
                 # column, so the bits are too).
-                values = self._all_values(block, 0, np.arange(len(self.targets)))
+                values = self._values(block)
                 sums = _core.sum_products(values, [1] * values.shape[1], self.threads)
                 self.centre = np.array([float(x) / len(values) for x in sums[0::2]])
             if lev.controls and self.beta is None:

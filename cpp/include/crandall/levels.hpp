@@ -34,13 +34,33 @@ std::size_t sample_size(const Plan& plan);
 // Number of control sums per path and slot.
 int control_count();
 
-// In place, for a rows x cols row-major matrix F and the control sums C (rows x slots x k,
-// row-major): column j of F minus sum_q beta[j k + q] C[:, slot_of[j], q], subtracted term by
-// term in the order q = 0, 1, ... (plain multiplies and subtractions, no BLAS): the same bits on
-// every machine, and the same as one column at a time.
-void subtract_controls(double* f, std::uint64_t rows, std::uint64_t cols, const double* controls,
-                       std::uint64_t slots, std::uint64_t k, const std::vector<std::int64_t>& slot_of,
-                       const std::vector<double>& beta);
+// The feature columns of a run to an accuracy (python/crandall/adaptive.py), one entry per
+// column. A column's value on a grid is its target's: the sample x = samples[slot, grid,
+// variable] itself (kind 0), its square x * x (kind 1), or the Ito identity's
+// (constant - x * x) / two_drift (kind 2; kind 3 the same with x = 0, at the stop); minus
+// centre, to the power `power` (1 or 2; squared as x * x).
+struct FeatureColumns {
+  std::vector<std::int64_t> slot;
+  std::vector<std::int32_t> variable, kind, power;
+  std::vector<double> constant, centre;
+  // Per column: false for a target exact in law (its level differences are 0).
+  std::vector<std::uint8_t> inexact;
+  // Per column, with control sums: the index among the control slots of the sums it uses,
+  // and its kControls coefficients.
+  std::vector<std::int64_t> control;
+  std::vector<double> beta;
+};
+
+// out (rows x cols, row-major, every element written) from the per-path samples (rows x
+// slots x grids x 3, run_samples' layout): on level 0 the fine grid's value of each column,
+// minus sum_q beta[j k + q] controls[row, control[j], q] (controls: rows x control_slots x k;
+// subtracted term by term, q = 0, 1, ...) when controls is given; on a finer level the fine
+// value minus the coarse one (grid 1), 0 for columns not inexact. Plain IEEE operations in a
+// fixed order per element (no FMA, -ffp-contract=off): the bits NumPy's elementwise formulas
+// give, for any thread count.
+void form_features(const double* samples, std::uint64_t rows, std::uint64_t slots, int grids,
+                   const FeatureColumns& cols, double two_drift, int level, double* out,
+                   const double* controls, std::uint64_t control_slots, int threads);
 
 // For a rows x cols row-major matrix F whose columns form consecutive groups of the given
 // widths (each 1 to 32, summing to cols): per group, its column sums (w numbers) followed by the
