@@ -72,6 +72,7 @@ bench: install
 	$(VPY) bench/peaks.py --publish
 	$(VPY) bench/calibration.py --seeds 200 --error 1e-2 --publish
 	$(VPY) bench/time_to_answer.py --threads 1 --publish
+	$(VPY) bench/many_times.py --publish
 	$(VPY) bench/analytic_speed.py
 	$(VPY) bench/report.py
 
