@@ -23,9 +23,13 @@ def run():
     return crandall.simulate(SCENE, error=3e-2, seed=11, threads=2)
 
 
+#: The table columns a run to an accuracy fills (the fixed-step layout; std and the total
+#: errors follow from them).
+COLUMNS = ["mean", "var", "stderr", "var_stderr", "bias_mean", "bias_var"]
+
+
 def _table(r: AdaptiveResult):
-    df = r.to_pandas()
-    return df[["estimate", "stderr", "bias"]].to_numpy()
+    return r.to_pandas()[COLUMNS].to_numpy()
 
 
 def test_same_bits_for_any_thread_count(run):
@@ -42,9 +46,11 @@ def test_another_seed_gives_other_numbers(run):
 
 def test_every_statistic_meets_the_target(run):
     df = run.to_pandas()
-    assert (df["error"] <= 3e-2).all(), df[df["error"] > 3e-2]
-    # error is sqrt(stderr^2 + bias^2), as documented.
-    np.testing.assert_allclose(df["error"], np.hypot(df["stderr"], df["bias"]), rtol=1e-15)
+    for stat, se in (("mean", "stderr"), ("var", "var_stderr")):
+        err = df[f"error_{stat}"]
+        assert (err <= 3e-2).all(), df[err > 3e-2]
+        # error is sqrt(stderr^2 + bias^2), as documented.
+        np.testing.assert_allclose(err, np.hypot(df[se], df[f"bias_{stat}"]), rtol=1e-15)
 
 
 def test_exact_in_law_statistics_have_zero_bias(run):
@@ -174,7 +180,7 @@ def test_bad_arguments(kwargs, match):
 def test_result_rejects_bad_names(run):
     with pytest.raises(ValueError, match="name: 'speed' is not in this result"):
         run.error("speed")
-    with pytest.raises(ValueError, match="stat must be one of"):
+    with pytest.raises(ValueError, match="stat must be 'mean' or 'var'"):
         run.bias("distance", "median")
 
 
@@ -424,7 +430,15 @@ def test_cli_error(tmp_path, capsys):
     assert "error <= 0.05" in text and "distance_at_stop" in text
     import pandas as pd
     df = pd.read_csv(out / "result.csv")
-    assert set(df["stat"]) == {"mean", "var"} and (df["error"] <= 0.05).all()
+    # The fixed-step run's columns, units included; every statistic within the target.
+    fixed = crandall.simulate(crandall.Scene.from_toml(scene), paths=100, seed=3).to_pandas()
+    assert list(df.columns) == list(fixed.columns) and "units" in df.columns
+    assert (df[["error_mean", "error_var"]] <= 0.05).all().all()
+    # The run's file loads back, bit for bit.
+    back = crandall.load(out / "result.nc")
+    assert isinstance(back, crandall.Result)
+    np.testing.assert_allclose(back.to_pandas()[COLUMNS].to_numpy(), df[COLUMNS].to_numpy(),
+                               rtol=1e-15)  # the CSV's decimal text
     assert cli.main(["run", str(scene), "--error", "0.05", "--paths", "10", "--no-files"]) == 2
     assert "--paths: not with --error" in capsys.readouterr().err
     assert cli.main(["run", str(scene), "--error", "0.05", "--checkpoint", str(tmp_path / "c"),
@@ -438,11 +452,14 @@ def test_to_xarray(run):
     xr = pytest.importorskip("xarray")
     ds = run.to_xarray()
     assert isinstance(ds, xr.Dataset)
-    got = ds["accuracy"].sel(observable="distance", stat="var", field="error").values
+    # The fixed-step layout: statistics and accuracy over (time, observable), and at the stop.
+    got = ds["accuracy"].sel(observable="distance", accuracy_statistic="error_var").values
     np.testing.assert_array_equal(got, run.error("distance", "var"))
-    got = ds["stop_accuracy"].sel(stop_quantity="stop_time", stat="mean", field="estimate")
+    got = ds["stop_statistics"].sel(stop_quantity="stop_time", statistic="mean")
     assert float(got) == run.mean("stop_time")
-    assert ds.attrs["seed"] == "11"
+    got = ds["statistics"].sel(observable="velocity", statistic="var_stderr").values
+    np.testing.assert_array_equal(got, run.stderr("velocity", "var"))
+    assert ds.attrs["seed"] == "11" and ds.attrs["kind"] == "accuracy"
 
 
 def test_many_output_times_keep_batches_small():
@@ -687,3 +704,67 @@ def test_form_features_refuses_columns_it_cannot_form():
     with pytest.raises(ValueError, match="control"):
         _core.form_features(samples, columns(), 2.0, 0, out,
                             np.zeros((4, 1, _core.CONTROLS)))
+
+
+def test_a_run_to_an_accuracy_is_a_result(run, tmp_path):
+    # Everything a fixed-step result has: saved and loaded bitwise, the same table layout,
+    # intervals at any level, figures; distributions refused naming the parameter.
+    assert isinstance(run, crandall.Result) and run.kind == "accuracy"
+    path = tmp_path / "r.nc"
+    run.save(path)
+    back = crandall.load(path)
+    assert type(back) is type(run)
+    for name in run.names:
+        for stat in ("mean", "var"):
+            for f in ("stderr", "bias", "error"):
+                a, b = getattr(run, f)(name, stat), getattr(back, f)(name, stat)
+                assert np.asarray(a).tobytes() == np.asarray(b).tobytes(), (name, stat, f)
+            assert back.exact(name, stat) == run.exact(name, stat)
+            assert np.asarray(getattr(run, stat)(name)).tobytes() == \
+                np.asarray(getattr(back, stat)(name)).tobytes()
+    assert back.cost == run.cost and back.levels == run.levels and back.seed == run.seed
+    fixed = crandall.simulate(SCENE, paths=200, seed=1)
+    assert list(run.to_pandas().columns) == list(fixed.to_pandas().columns)
+    lo, hi = run.interval("distance", "var", level=0.5)
+    half = 0.6744897501960817 * run.error("distance", "var")
+    np.testing.assert_allclose(hi - lo, 2 * half, rtol=1e-12)
+    with pytest.raises(ValueError, match="level must be"):
+        run.interval("distance", level=1.0)
+    with pytest.raises(ValueError, match="moment"):
+        run.moment(2, 0, 0)
+    with pytest.raises(ValueError, match="^distributions: a run to an accuracy"):
+        crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[1.0], distributions=True),
+                          error=0.1, seed=1)
+    pytest.importorskip("matplotlib")
+    from crandall import plots
+    written = plots.write_figures(run, tmp_path / "figs")
+    assert len(written) >= 4 and all(p.endswith(".png") for p in written)
+
+
+def test_a_damaged_file_of_a_run_to_an_accuracy_is_refused_naming_the_field(run, tmp_path):
+    xr = pytest.importorskip("xarray")
+    path = tmp_path / "r.nc"
+    run.save(path)
+    for edit, field in ((lambda ds: ds.attrs.update(levels="[]"), "levels"),
+                        (lambda ds: ds.attrs.update(error_target=float("nan")), "error_target"),
+                        (lambda ds: ds["estimates"].values.__setitem__((0, 1), -1.0), "negative error"),
+                        (lambda ds: ds["estimates"].values.__setitem__((0, 0), np.nan), "estimates"),
+                        (lambda ds: ds.attrs.update(seed="x"), "seed")):
+        with xr.open_dataset(path, engine="scipy") as opened:
+            ds = opened.load()
+        edit(ds)
+        bad = tmp_path / f"bad_{field.split()[0]}.nc"
+        ds.to_netcdf(bad, engine="scipy", format="NETCDF3_64BIT")
+        with pytest.raises(ValueError, match=f"is not a valid saved crandall result: .*{field}"):
+            crandall.load(bad)
+
+
+def test_both_kinds_render_as_html(run):
+    fixed = crandall.simulate(SCENE, paths=500, seed=2)
+    for r in (run, fixed):
+        text = r._repr_html_()
+        assert text.count("<tr>") == 1 + sum(
+            1 if n in ("stop_time",) or n.endswith("_at_stop") else len(r.times)
+            for n in r.names)
+        assert "distance_at_stop" in text and "&plusmn;" in text
+    assert "error &lt;= 0.03" in run._repr_html_()

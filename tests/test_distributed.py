@@ -90,7 +90,7 @@ def test_run_to_an_accuracy_on_the_cluster_is_bitwise_local(client):
     sc = crandall.Scene.scaled(tau0=2.0, times=[1.0, 2.0], observe=["distance", "stop"])
     local = crandall.simulate(sc, error=2e-2, seed=8, threads=2)
     remote = crandall.simulate(sc, error=2e-2, seed=8, client=client)
-    cols = ["estimate", "stderr", "bias"]
+    cols = ["mean", "var", "stderr", "var_stderr", "bias_mean", "bias_var"]
     np.testing.assert_array_equal(remote.to_pandas()[cols].to_numpy(),
                                   local.to_pandas()[cols].to_numpy())
     assert remote.cost["paths"] == local.cost["paths"]

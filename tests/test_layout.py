@@ -97,6 +97,25 @@ def test_presentation_never_calls_the_core():
         assert "_core" not in graph[m], m
 
 
+def _reach(graph, module):
+    seen, todo = set(), [module]
+    while todo:
+        for d in graph.get(todo.pop(), ()):
+            if d not in seen:
+                seen.add(d)
+                todo.append(d)
+    return seen
+
+
+def test_results_do_not_run_engines():
+    # A result holds data: its bias is asked of the engine layer through a hook
+    # (results.set_bias_estimator, installed by crandall.bias), never imported.
+    graph, _ = _graph()
+    engines = {"engine", "simulate", "adaptive", "bias", "checkpoint"}
+    for m in ("results", "_dataset", "io", "distributions", "model", "streams"):
+        assert not (_reach(graph, m) & engines), (m, sorted(_reach(graph, m) & engines))
+
+
 def test_the_check_resolves_the_imports_it_must_see():
     # So that the tests above can fail: relative, absolute and compiled-module imports.
     src = PACKAGE / "results.py"

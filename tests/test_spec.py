@@ -85,3 +85,56 @@ def test_result_gives_its_spec():
     # An explicit dt gives a uniform grid; the default one was graded: repeating needs both.
     assert spec.min_steps == DEFAULT_MIN_STEPS and again.min_steps == 0
     assert same_result(r, crandall.simulate(SCENE, paths=300, seed=8, dt=None))
+
+
+#: A value other than the default for every field of RunSpec but the scene. A new run option
+#: (docs/architecture.md, "... a run option") adds its own here, and the test below then
+#: checks that it reaches every place a run's options must reach.
+OTHER = {"paths": 600, "seed": 2**64 - 3, "dt": 0.05, "method": "exact", "min_steps": 3}
+
+
+def test_every_field_of_the_spec_travels(tmp_path, monkeypatch):
+    import importlib
+    simulate = importlib.import_module("crandall.simulate")  # the module, not the function
+    fields = [f.name for f in dataclasses.fields(RunSpec) if f.name != "scene"]
+    assert sorted(fields) == sorted(OTHER), "give the new field a value in OTHER"
+    spec = RunSpec(SCENE, **OTHER)
+    want = spec.to_dict()
+    # The plan and the checkpoint's identity.
+    ckpt = tmp_path / "run.ckpt"
+    run = simulate._Run(spec, threads=1, checkpoint=ckpt)
+    assert {k: run.ident[k] for k in want} == want
+    simulate._run_local(run, None)
+    assert ckpt.exists()
+    r = run.result()
+    # The bias estimate's coupled run starts from the run's own options (asked here first:
+    # saving the result estimates it too).
+    seen = []
+    real = engine.plan_options
+
+    def spy(s, *args, **kw):
+        seen.append(s.to_dict())
+        return real(s, *args, **kw)
+
+    monkeypatch.setattr(engine, "plan_options", spy)
+    r.bias("distance")
+    assert seen == [want]
+    # The result, and its saved file.
+    assert r.spec.to_dict() == want
+    r.save(tmp_path / "r.nc")
+    assert crandall.load(tmp_path / "r.nc").spec.to_dict() == want
+    # A Dask task's argument.
+    assert RunSpec.from_dict(json.loads(json.dumps(want))).to_dict() == want
+
+
+def test_a_file_whose_spec_disagrees_with_its_attributes_is_refused(tmp_path):
+    xr = pytest.importorskip("xarray")
+    r = crandall.simulate(SCENE, paths=300, seed=4, method="exact", dt=0.1)
+    r.save(tmp_path / "r.nc")
+    with xr.open_dataset(tmp_path / "r.nc", engine="scipy") as opened:
+        ds = opened.load()
+    stored = json.loads(ds.attrs["run_spec"])
+    ds.attrs["run_spec"] = json.dumps(dict(stored, seed=5))
+    ds.to_netcdf(tmp_path / "bad.nc", engine="scipy", format="NETCDF3_64BIT")
+    with pytest.raises(ValueError, match="run_spec has seed=5, the attribute seed 4"):
+        crandall.load(tmp_path / "bad.nc")

@@ -11,6 +11,7 @@ Berezin & Zayats (see ``crandall.analytic``).
 """
 
 from ._version import __version__
+from . import bias as _bias  # installs the results' bias estimator
 from .io import load
 from .results import Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene

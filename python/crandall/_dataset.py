@@ -20,8 +20,9 @@ from ._version import __version__
 from ._files import check_moments, write_atomic
 from .bins import Histograms, check_histograms, recorded
 from .methods import METHODS
-from .quantities import VARIABLES, quantity
+from .quantities import VARIABLES, names_for as scene_names_for, quantity
 from .scene import Scene
+from .spec import RunSpec
 
 __all__ = ["to_xarray", "to_pandas", "save", "read", "STATISTICS"]
 
@@ -39,6 +40,8 @@ def _require(module: str):
 
 
 def _stats(result, name):
+    if result.kind == "accuracy":
+        return result.table(name)[..., :len(STATISTICS)]
     out = [result.mean(name), result.var(name), result.std(name), result.stderr(name)]
     if not quantity(name).has_var_stderr:
         out.append(np.full_like(np.asarray(out[0], dtype=float), np.nan))
@@ -49,6 +52,8 @@ def _stats(result, name):
 
 def _accuracy(result, name):
     """bias and total error of the mean and of the variance (the tables' last columns)."""
+    if result.kind == "accuracy":
+        return result.table(name)[..., len(STATISTICS):]
     out = [result._bias(name, "mean", False), result._error(name, "mean", False),
            result._bias(name, "var", False), result._error(name, "var", False)]
     return np.stack([np.asarray(x, dtype=float) for x in out], axis=-1)
@@ -112,6 +117,10 @@ def to_xarray(result):
         acc = np.stack([_accuracy(result, n) for n in stop_names], axis=0)
         data_vars["stop_accuracy"] = (("stop_quantity", "accuracy_statistic"), acc,
                                       {"long_name": "bias and total error at the stop"})
+    if result.kind == "accuracy":
+        _accuracy_vars(result, data_vars, coords)
+        return xr.Dataset(data_vars=data_vars, coords=coords,
+                          attrs=_accuracy_attrs(result))
     held = result.accumulators
     acc_times, acc_stop = held.times, held.stop
     accs = [("", acc_times, "slot")]
@@ -147,6 +156,10 @@ def to_xarray(result):
         "min_steps": _count_attr(spec.min_steps),
         "random_stream": int(result.random_stream),
         "slots": int(acc_times.slots),
+        # Every field of the run's spec but the scene (above), so that a run option saved
+        # here comes back in load's Result.spec; the attributes above repeat the usual ones
+        # for netCDF tools.
+        "run_spec": json.dumps({k: v for k, v in spec.to_dict().items() if k != "scene"}),
     }
     if result.cost["wall_time"] is not None:
         attrs["wall_time"] = float(result.cost["wall_time"])
@@ -157,6 +170,124 @@ def to_xarray(result):
         attrs["scene_distributions"] = " ".join(sc.distributions)
         attrs["scene_bins"] = json.dumps(sc.bins)
     return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+
+
+def _scene_attrs(sc) -> Dict[str, Any]:
+    attrs = {"title": f"crandall result: {sc!r}", "format": _FORMAT,
+             "crandall_version": __version__, "scene": json.dumps(sc.to_dict()),
+             "units_system": sc.units}
+    for k, v in sc.params.items():
+        attrs["scene_" + k] = float(v)
+    return attrs
+
+
+#: The kind of file a run to an accuracy writes (attribute ``kind``; fixed-step files have none).
+ACCURACY_KIND = "accuracy"
+
+
+def _accuracy_vars(result, data_vars, coords) -> None:
+    """The estimates a run to an accuracy is rebuilt from, bitwise: per statistic and slot
+    (value, stderr, bias) before the quantity's factor, and whether it is exact."""
+    rows, values, exact = [], [], []
+    for name in result.names:
+        for stat in result.stats_of(name):
+            est = result._estimates[(name, stat)]
+            for k in range(est.shape[0]):
+                rows.append(f"{name}:{stat}:{k}")
+                values.append(est[k])
+                exact.append(int(result._exact[(name, stat)]))
+    coords["estimate"] = ("estimate", rows)
+    coords["estimate_field"] = ("estimate_field", ["value", "stderr", "bias"])
+    data_vars["estimates"] = (("estimate", "estimate_field"), np.array(values, dtype=float),
+                              {"long_name": "the multilevel estimates per statistic and slot "
+                                            "(before the quantity's factor): value, standard "
+                                            "error, bias"})
+    data_vars["estimate_exact"] = (("estimate",), np.array(exact, dtype=np.int32),
+                                   {"long_name": "1 where the statistic is exact (no bias)"})
+
+
+def _accuracy_attrs(result) -> Dict[str, Any]:
+    attrs = _scene_attrs(result.scene)
+    attrs.update({
+        "kind": ACCURACY_KIND, "method": "mlmc", "seed": str(result.seed),
+        "error_target": (math.nan if result.error_target is None
+                         else float(result.error_target)),
+        "rel_error_target": (math.nan if result.rel_error_target is None
+                             else float(result.rel_error_target)),
+        "levels": json.dumps(result.levels), "path_steps": str(result.cost["path_steps"]),
+        "rounds": _count_attr(result.cost["rounds"]),
+        "random_stream": int(result.random_stream), "slots": int(result.scene.times.size)})
+    if result.cost["wall_time"] is not None:
+        attrs["wall_time"] = float(result.cost["wall_time"])
+    return attrs
+
+
+def _read_accuracy(ds) -> Dict[str, Any]:
+    """The fields of a saved run to an accuracy (the keyword arguments of AccuracyResult),
+    checked; raises _Invalid naming the field."""
+    text = _attr(ds, "scene")
+    try:
+        scene = Scene.from_dict(json.loads(text))
+    except (ValueError, TypeError, AttributeError) as exc:
+        raise _Invalid(f"scene is not a valid scene ({exc})") from None
+    targets = []
+    for key in ("error_target", "rel_error_target"):
+        v = _attr(ds, key)
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, (float, int, np.floating,
+                                                                  np.integer)):
+            raise _Invalid(f"{key} is {v!r}, not a number")
+        v = float(v)
+        if not (math.isnan(v) or (math.isfinite(v) and v > 0)):
+            raise _Invalid(f"{key} is {v!r}, must be > 0 (or NaN: not the target)")
+        targets.append(None if math.isnan(v) else v)
+    if (targets[0] is None) == (targets[1] is None):
+        raise _Invalid("error_target and rel_error_target: exactly one must be given")
+    try:
+        levels = json.loads(_attr(ds, "levels"))
+        if not isinstance(levels, list) or not levels:
+            raise ValueError
+        for i, lv in enumerate(levels):
+            if set(lv) != {"level", "paths", "steps_per_path", "dt"} or lv["level"] != i \
+                    or not isinstance(lv["paths"], int) or lv["paths"] < 1 \
+                    or not isinstance(lv["steps_per_path"], int) or lv["steps_per_path"] < 1 \
+                    or not isinstance(lv["dt"], float) or not (math.isfinite(lv["dt"]) and lv["dt"] > 0):
+                raise ValueError
+    except (ValueError, TypeError, AttributeError):
+        raise _Invalid("levels is not a list of levels 0, 1, ... with their paths, steps "
+                       "per path and step") from None
+    if "estimates" not in ds or "estimate_exact" not in ds:
+        raise _Invalid("estimates is missing")
+    names = [str(x) for x in ds["estimate"].values]
+    values = np.asarray(ds["estimates"].values, dtype=np.float64)
+    exact = np.asarray(ds["estimate_exact"].values)
+    if values.shape != (len(names), 3) or exact.shape != (len(names),) \
+            or not np.all(np.isfinite(values)) or not np.all(np.isin(exact, (0, 1))):
+        raise _Invalid("estimates are not one finite (value, stderr, bias) per statistic")
+    held = set(scene_names_for(scene.observe))
+    estimates: Dict[Any, list] = {}
+    flags: Dict[Any, bool] = {}
+    for label, row, ex in zip(names, values, exact):
+        name, stat, k = (label.split(":") + ["", "", ""])[:3]
+        if name not in held or stat not in ("mean", "var") or not k.isdigit() \
+                or int(k) != len(estimates.get((name, stat), [])):
+            raise _Invalid(f"estimate {label!r} is not a statistic of the scene in order")
+        if row[1] < 0 or row[2] < 0:
+            raise _Invalid(f"estimate {label!r} has a negative error")
+        estimates.setdefault((name, stat), []).append(row)
+        if flags.setdefault((name, stat), bool(ex)) != bool(ex):
+            raise _Invalid(f"estimate_exact of {name}:{stat} differs between slots")
+    for (name, stat), rows in estimates.items():
+        want = 1 if quantity(name).at_stop else scene.times.size
+        if len(rows) != want:
+            raise _Invalid(f"estimates of {name}:{stat}: {len(rows)} slots, the scene has {want}")
+    if not estimates:
+        raise _Invalid("estimates holds no statistic")
+    return dict(scene=scene, seed=_integer(_attr(ds, "seed"), "seed", 0, 2**64 - 1),
+                error_target=targets[0], rel_error_target=targets[1],
+                estimates={k: np.array(v) for k, v in estimates.items()}, exact=flags,
+                levels=levels, path_steps=_integer(_attr(ds, "path_steps"), "path_steps", 0),
+                rounds=_integer(_attr(ds, "rounds"), "rounds", 0),
+                wall_time=_wall_time(ds), random_stream=_core.RANDOM_STREAM)
 
 
 # Counts are stored as doubles (netCDF-3 has no 64-bit integers): exact below 2^53.
@@ -340,7 +471,31 @@ def _check_fields(ds, where: str) -> Dict[str, Any]:
         out[prefix + "moments"] = _core.Moments(n, arrays["counts"], arrays["means"],
                                                 arrays["central"])
     out["histograms"] = _read_histograms(ds, scene, where, out["paths"])
+    out["spec"] = _read_spec(ds, out)
     return out
+
+
+def _read_spec(ds, fields: Dict[str, Any]) -> RunSpec:
+    """The run's spec: from ``run_spec`` (files of this version on) or, in older files, the
+    separate attributes; either way checked as any spec and against those attributes."""
+    plain = {k: fields[k] for k in ("paths", "seed", "dt", "method", "min_steps")}
+    if "run_spec" in ds.attrs:
+        try:
+            stored = json.loads(ds.attrs["run_spec"])
+            if not isinstance(stored, dict) or "scene" in stored:
+                raise ValueError("not a spec without its scene")
+            spec = RunSpec.from_dict({**stored, "scene": fields["scene"]})
+        except (ValueError, TypeError) as exc:
+            raise _Invalid(f"run_spec is not a run's specification ({exc})") from None
+        for k, v in plain.items():
+            if getattr(spec, k) != v:
+                raise _Invalid(f"run_spec has {k}={getattr(spec, k)!r}, the attribute {k} "
+                               f"{v!r}")
+        return spec
+    try:
+        return RunSpec(fields["scene"], **plain)
+    except ValueError as exc:
+        raise _Invalid(str(exc)) from None
 
 
 def read(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
@@ -371,13 +526,17 @@ def read(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
             f"random stream {stream if stream is not None else 'unknown (before version 2)'}; "
             f"this crandall reads stream {_core.RANDOM_STREAM} only: load it with that version")
     where = f"path: {name} is not a valid saved crandall result"
+    if ds.attrs.get("kind") == ACCURACY_KIND:
+        try:
+            return dict(kind=ACCURACY_KIND, **_read_accuracy(ds))
+        except _Invalid as exc:
+            raise ValueError(f"{where}: {exc}") from None
     try:
         f = _check_fields(ds, where)
     except _Invalid as exc:
         raise ValueError(f"{where}: {exc}") from None
-    return dict(scene=f["scene"], paths=f["paths"], seed=f["seed"], dt=f["dt"],
-                method=f["method"], moments=f["moments"], stop_moments=f["stop_moments"],
-                steps_per_path=f["steps_per_path"], min_steps=f["min_steps"],
+    return dict(spec=f["spec"], moments=f["moments"], stop_moments=f["stop_moments"],
+                steps_per_path=f["steps_per_path"],
                 random_stream=_core.RANDOM_STREAM, peaks=f["peaks_moments"],
                 stop_peaks=f["stop_peaks_moments"], histograms=f["histograms"],
                 wall_time=_wall_time(ds))

@@ -38,7 +38,10 @@ from ._files import check_file_writable, refuse_other_run, refuse_other_version,
 from ._resources import available_memory, progress_bar
 from ._version import __version__
 from .quantities import VELOCITY, DISPLACEMENT, DISTANCE, core_flags, names_for, quantity
+from .model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds
+from .results import AccuracyResult
 from .scene import Scene
+from .streams import level_key
 from .spec import MAX_SEED, check_int, default_dt, grid_error
 
 __all__ = ["AdaptiveResult", "simulate_to_error", "BASE_DT_FACTOR", "BASE_MIN_STEPS",
@@ -80,15 +83,6 @@ CONTROL_SLOTS = 64
 STATS = ("mean", "var")
 #: The two-sided normal quantile of the reported 95 % interval.
 Z95 = 1.959963984540054
-
-
-def _level_seed(seed: int, level: int) -> int:
-    """The Philox key of a level's paths: splitmix64 of (seed, level), so that the levels'
-    streams are disjoint and each a pure function of (seed, level)."""
-    z = (seed + 0x9E3779B97F4A7C15 * (level + 1)) & MAX_SEED
-    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & MAX_SEED
-    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & MAX_SEED
-    return z ^ (z >> 31)
 
 
 @dataclass
@@ -149,9 +143,12 @@ def _targets(scene: Scene, statistics: Optional[set] = None) -> List[_Target]:
                 if statistics is not None and (name, stat) not in statistics:
                     continue
                 # Velocity, kinetic energy, stop time; and a quantity whose factor is 0 (the
-                # dissipated energy without friction), which is 0 on every path.
-                exact = q.variable == VELOCITY or q.factor(scene) == 0.0
-                ito = (stat == "mean" and q.variable == DISTANCE and scene.drift > 0)
+                # dissipated energy without friction), which is 0 on every path. Each only
+                # where its identity holds for the scene (crandall.model).
+                exact = ((q.variable == VELOCITY and holds(scene, EXACT_STEP))
+                         or (q.factor(scene) == 0.0 and holds(scene, ZERO_FRICTION)))
+                ito = (stat == "mean" and q.variable == DISTANCE and scene.drift > 0
+                       and holds(scene, ITO_DISTANCE))
                 out.append(_Target(name, slot, ti, stat, q.variable, q.power, exact or ito, ito))
     return out
 
@@ -208,7 +205,7 @@ class _Level:
         o.method = "richardson2" if level > 0 else "exact"
         for flag, on in core_flags(scene.observe).items():
             setattr(o, flag, on)
-        o.seed = _level_seed(seed, level)
+        o.seed = level_key(seed, level)
         o.paths = 1 << 62
         try:
             self.plan = _core.Plan(o)
@@ -936,203 +933,24 @@ def batch_task(config: Dict, level: int, first: int, count: int) -> np.ndarray:
     return engine._batch(engine._level(level), first, count)
 
 
-class AdaptiveResult:
-    """Statistics of a run to a requested accuracy (``crandall.simulate(scene, error=...)``).
+def _result(engine: _Engine, wall: float) -> AccuracyResult:
+    """The run's statistics as a :class:`crandall.results.AccuracyResult` (plain data)."""
+    estimates: Dict[Tuple[str, str], list] = {}
+    for t, e in zip(engine.targets, engine.estimates()):
+        estimates.setdefault((t.name, t.stat), []).append(e[:3])
+    return AccuracyResult(
+        scene=engine.scene, seed=engine.seed, error_target=engine.eps,
+        rel_error_target=engine.rel,
+        estimates={k: np.array(v, dtype=float) for k, v in estimates.items()},
+        exact={(t.name, t.stat): t.exact for t in engine.targets},
+        levels=[{"level": lev.level, "paths": lev.sums.n, "steps_per_path": lev.cost,
+                 "dt": lev.plan.options.dt / 2 ** lev.level}
+                for lev in engine.levels if lev.sums is not None],
+        path_steps=engine.path_steps, rounds=engine.rounds, wall_time=wall)
 
-    Every statistic (the mean and the variance of each quantity at each output time, and at
-    the stop) comes with its standard error, its estimated discretisation bias and the total
-    error sqrt(stderr^2 + bias^2), which the run brought below the target. Time-resolved
-    quantities give arrays over :attr:`times`, stop quantities floats.
-    """
 
-    def __init__(self, engine: _Engine, wall: float) -> None:
-        self.scene = engine.scene
-        self.seed = engine.seed
-        self.error_target = engine.eps
-        self.rel_error_target = engine.rel
-        self.method = "mlmc"
-        self.random_stream = int(_core.RANDOM_STREAM)
-        est = engine.estimates()
-        self._table: Dict[Tuple[str, str], List[Tuple[Optional[int], tuple]]] = {}
-        for t, e in zip(engine.targets, est):
-            self._table.setdefault((t.name, t.stat), []).append((t.time_index, e))
-        self._exact = {(t.name, t.stat): t.exact for t in engine.targets}
-        self.levels = [
-            {"level": lev.level, "paths": lev.sums.n, "steps_per_path": lev.cost,
-             "dt": lev.plan.options.dt / 2 ** lev.level}
-            for lev in engine.levels if lev.sums is not None]
-        #: What the answer cost: wall time (s), path-steps, paths per level, rounds.
-        self.cost = {"wall_time": wall, "path_steps": engine.path_steps,
-                     "paths": [lv["paths"] for lv in self.levels], "rounds": engine.rounds}
-
-    @property
-    def times(self) -> np.ndarray:
-        return self.scene.times
-
-    @property
-    def names(self) -> tuple:
-        """The quantities with at least one statistic in this result."""
-        return tuple(n for n in names_for(self.scene.observe)
-                     if any((n, s) in self._table for s in STATS))
-
-    def _stats_of(self, name: str) -> tuple:
-        return tuple(s for s in STATS if (name, s) in self._table)
-
-    def _get(self, name: str, stat: str, k: int):
-        if stat not in STATS:
-            raise ValueError(f"stat must be one of {', '.join(STATS)}, got {stat!r}")
-        if name not in self.names:
-            raise ValueError(f"name: {name!r} is not in this result; it holds "
-                             f"{', '.join(self.names)}")
-        if (name, stat) not in self._table:
-            raise ValueError(f"stat: the {stat} of {name} was not asked for (the run's "
-                             f"statistics= named {', '.join(self._stats_of(name))} of it)")
-        q = quantity(name)
-        f = q.factor(self.scene)
-        scale = f if stat == "mean" else f * f
-        rows = self._table[(name, stat)]
-        vals = np.array([e[k] for _, e in rows], dtype=float) * scale
-        if k == 0 and stat == "mean" and q.offset is not None:
-            vals = vals + q.offset(self.scene)
-        return float(vals[0]) if q.at_stop else vals
-
-    def mean(self, name: str):
-        """The estimated mean of a quantity."""
-        return self._get(name, "mean", 0)
-
-    def var(self, name: str):
-        """The estimated variance of a quantity."""
-        return self._get(name, "var", 0)
-
-    def std(self, name: str):
-        """The square root of the estimated variance."""
-        return np.sqrt(np.maximum(self.var(name), 0.0))
-
-    def stderr(self, name: str, stat: str = "mean"):
-        """The standard error of a statistic (statistical error only)."""
-        return self._get(name, stat, 1)
-
-    def bias(self, name: str, stat: str = "mean"):
-        """The estimated magnitude of the discretisation bias of a statistic: 0 exactly for
-        the statistics exact in law (velocity, kinetic energy, stop time, mean distance and
-        dissipated energy), see :meth:`exact`."""
-        return self._get(name, stat, 2)
-
-    def error(self, name: str, stat: str = "mean"):
-        """The total error, sqrt(stderr^2 + bias^2): the root-mean-square error estimate the
-        run brought below the target."""
-        return np.hypot(self.stderr(name, stat), self.bias(name, stat))
-
-    def interval(self, name: str, stat: str = "mean"):
-        """The 95 % interval: the estimate +- 1.96 times :meth:`error`."""
-        value = self._get(name, stat, 0)
-        half = Z95 * self.error(name, stat)
-        return value - half, value + half
-
-    def exact(self, name: str, stat: str = "mean") -> bool:
-        """Whether the statistic is exact in law at any step (its bias is 0, not estimated)."""
-        self._get(name, stat, 0)
-        return self._exact[(name, stat)]
-
-    def summary(self) -> str:
-        sc = self.scene
-        target = (f"error <= {self.error_target:g}" if self.error_target is not None
-                  else f"rel_error <= {self.rel_error_target:g}")
-        lines = [f"crandall result: {sc!r}",
-                 f"  {target}  seed={self.seed}  method=mlmc  levels={len(self.levels)}  "
-                 f"paths per level={self.cost['paths']}  "
-                 f"path-steps={self.cost['path_steps']:.3g}  "
-                 f"time={self.cost['wall_time']:.3g} s"]
-        for n in self.names:
-            q = quantity(n)
-            u = sc.units_of(n)
-            lines.append(f"  {n}" + (f" [{u}]" if u else ""))
-            lines.append(f"    {'' if q.at_stop else sc.time_name:>10}  {'stat':>4}  "
-                         f"{'estimate':>13}  {'stderr':>9}  {'bias':>9}  {'error':>9}")
-            for stat in self._stats_of(n):
-                vals = np.atleast_1d(self._get(n, stat, 0))
-                ses = np.atleast_1d(self.stderr(n, stat))
-                bs = np.atleast_1d(self.bias(n, stat))
-                ts = [None] if q.at_stop else list(self.times)
-                for j, t in enumerate(ts):
-                    tt = "stop" if t is None else f"{t:.4g}"
-                    b = "exact" if self._exact[(n, stat)] else f"{bs[j]:.2g}"
-                    lines.append(f"    {tt:>10}  {stat:>4}  {vals[j]:>13.6g}  {ses[j]:>9.2g}  "
-                                 f"{b:>9}  {math.hypot(ses[j], bs[j]):>9.2g}")
-        return "\n".join(lines)
-
-    def __str__(self) -> str:
-        return self.summary()
-
-    def to_xarray(self):
-        """The statistics as an ``xarray.Dataset`` (needs ``crandall[io]``): ``accuracy``
-        (time x observable x stat x field) for the quantities over time and
-        ``stop_accuracy`` (stop_quantity x stat x field) at the stop, with stat in
-        (mean, var) and field in (estimate, stderr, bias, error); NaN where a statistic was
-        not asked for. Attributes: the scene (JSON), the target, the seed, the cost."""
-        try:
-            import xarray as xr
-        except ImportError:  # pragma: no cover - depends on the environment
-            raise ImportError("this needs xarray: pip install 'crandall[io]'") from None
-        fields = ("estimate", "stderr", "bias", "error")
-        sc = self.scene
-
-        def table(name):
-            out = np.full((len(STATS), len(fields), 1 if quantity(name).at_stop
-                           else len(self.times)), np.nan)
-            for i, stat in enumerate(self._stats_of(name)):
-                i = STATS.index(stat)
-                out[i, 0] = np.atleast_1d(self._get(name, stat, 0))
-                out[i, 1] = np.atleast_1d(self.stderr(name, stat))
-                out[i, 2] = np.atleast_1d(self.bias(name, stat))
-                out[i, 3] = np.atleast_1d(self.error(name, stat))
-            return out
-
-        over_time = [n for n in self.names if not quantity(n).at_stop]
-        at_stop = [n for n in self.names if quantity(n).at_stop]
-        data, coords = {}, {"stat": list(STATS), "field": list(fields)}
-        if over_time:
-            coords["time"] = np.asarray(self.times, dtype=float)
-            coords["observable"] = over_time
-            coords["units"] = ("observable", [sc.units_of(n) or "1" for n in over_time])
-            data["accuracy"] = (("observable", "stat", "field", "time"),
-                                np.stack([table(n) for n in over_time]))
-        if at_stop:
-            coords["stop_quantity"] = at_stop
-            data["stop_accuracy"] = (("stop_quantity", "stat", "field"),
-                                     np.stack([table(n)[:, :, 0] for n in at_stop]))
-        attrs = {"title": f"crandall result to an accuracy: {sc!r}",
-                 "scene": json.dumps(sc.to_dict()), "seed": str(self.seed),
-                 "error_target": math.nan if self.error_target is None else self.error_target,
-                 "rel_error_target": (math.nan if self.rel_error_target is None
-                                      else self.rel_error_target),
-                 "wall_time": float(self.cost["wall_time"]),
-                 "path_steps": str(self.cost["path_steps"]),
-                 "paths_per_level": json.dumps(self.cost["paths"]),
-                 "crandall_version": __version__, "random_stream": self.random_stream}
-        return xr.Dataset(data_vars=data, coords=coords, attrs=attrs)
-
-    def to_pandas(self):
-        """One row per quantity, time and statistic: estimate, stderr, bias, error, exact."""
-        import pandas as pd
-
-        rows = []
-        for n in self.names:
-            q = quantity(n)
-            for stat in self._stats_of(n):
-                vals = np.atleast_1d(self._get(n, stat, 0))
-                ses = np.atleast_1d(self.stderr(n, stat))
-                bs = np.atleast_1d(self.bias(n, stat))
-                ts = [math.nan] if q.at_stop else list(self.times)
-                for j, t in enumerate(ts):
-                    rows.append({"quantity": n, self.scene.time_name: t, "stat": stat,
-                                 "estimate": vals[j], "stderr": ses[j], "bias": bs[j],
-                                 "error": math.hypot(ses[j], bs[j]),
-                                 "exact": self._exact[(n, stat)]})
-        return pd.DataFrame(rows)
-
-    def __repr__(self) -> str:
-        return f"<crandall.AdaptiveResult {self.scene!r} seed={self.seed} cost={self.cost}>"
+#: The result of a run to an accuracy (the name earlier versions gave it).
+AdaptiveResult = AccuracyResult
 
 
 def _check_target(name: str, value) -> float:
@@ -1148,7 +966,7 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                       rel_error: Optional[float] = None, seed: int, threads: int,
                       statistics=None, checkpoint=None, client=None,
                       task_threads: int = 1, progress=None,
-                      max_seconds: float = MAX_SECONDS) -> AdaptiveResult:
+                      max_seconds: float = MAX_SECONDS) -> AccuracyResult:
     """Run ``scene`` until every statistic's estimated total error is within the target
     (see :func:`crandall.simulate`)."""
     if progress is not None and not isinstance(progress, bool):
@@ -1164,6 +982,10 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
         raise ValueError("observe: 'peaks' is not available with error= or rel_error= (the "
                          "peaks are maxima over the grid, whose shortfall the levels do not "
                          "estimate); run the peaks with paths=")
+    if scene.distributions:
+        raise ValueError("distributions: a run to an accuracy estimates means and variances "
+                         "and keeps no histograms; leave distributions out of the scene, or "
+                         "run them with paths=")
     chosen = _check_statistics(scene, statistics)
     engine = _Engine(scene, eps=eps, rel=rel, seed=seed, threads=threads, statistics=chosen)
     engine.max_seconds = max_seconds
@@ -1180,4 +1002,4 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
     finally:
         if engine.bar is not None:
             engine.bar.close()
-    return AdaptiveResult(engine, engine.wall_before + time.perf_counter() - start)
+    return _result(engine, engine.wall_before + time.perf_counter() - start)

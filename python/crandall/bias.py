@@ -38,10 +38,12 @@ from typing import Dict, Tuple
 import numpy as np
 
 from . import _core
-from .adaptive import _level_seed  # the same key derivation as the levels of a run
-from .quantities import VELOCITY, core_flags, quantity
+from . import engine, results
+from .model import exact_in_law
+from .quantities import quantity
+from .streams import bias_key
 
-__all__ = ["estimate", "exact_in_law", "BIAS_PATHS"]
+__all__ = ["estimate", "BIAS_PATHS"]
 
 #: Paths of the coupled run: the run's own number, at most this (so that the estimate never
 #: costs more than about 1/16 of a run of a million paths, nor more than the run itself).
@@ -52,33 +54,20 @@ BIAS_BYTES = 256 << 20
 #: so that the run's grid is the coarsest of the coupled grids ("exact"), the middle one
 #: ("richardson2") or the finest ("richardson").
 REFINEMENT = {"exact": 2, "richardson2": 1, "richardson": 0}
-#: The key of the coupled run's paths is splitmix64 of (seed, this).
-_STREAM = 1 << 20
 
 
 def _sum(values: np.ndarray, threads: int) -> float:
     return float(_core.sum_products(values[:, None], [1], threads)[0])
 
 
-def exact_in_law(name: str) -> bool:
-    """Whether every statistic of the quantity is exact at any step (a function of the
-    velocity at the output times, or the stop time; not the peaks, maxima over the grid)."""
-    q = quantity(name)
-    return q.variable == VELOCITY and not q.peak
-
-
 def _samples(result, threads: int) -> np.ndarray:
+    # The run's own options (every field of its spec), on coupled grids that include the
+    # run's grid, with a stream of its own.
     scene = result.scene
-    o = _core.Options()
-    o.drift, o.noise, o.switch_off = scene.drift, scene.noise, scene.t0
-    o.times = scene.times.tolist()
-    o.dt = result.dt
-    o.min_steps = result.min_steps
+    o = engine.plan_options(result.spec, histograms=False)
     o.method = "richardson"
     o.refinement = REFINEMENT[result.method]
-    for flag, on in core_flags(scene.observe).items():
-        setattr(o, flag, on)
-    o.seed = _level_seed(result.seed, _STREAM)
+    o.seed = bias_key(result.seed)
     # At most BIAS_BYTES of per-path values (3 grids x 3 variables per output slot).
     per_path = 8 * 9 * (len(scene.times) + (1 if "stop" in scene.observe else 0))
     n = int(min(result.paths, BIAS_PATHS, max(2, BIAS_BYTES // per_path)))
@@ -93,7 +82,7 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
     out: Dict[Tuple[str, str], Tuple[np.ndarray, bool]] = {}
     names = result.names
     needs_run = result.paths >= 2 and method in ("exact", "richardson", "richardson2") and any(
-        not exact_in_law(n) and not quantity(n).peak for n in names)
+        not exact_in_law(n, result.scene) and not quantity(n).peak for n in names)
     samples = _samples(result, threads) if needs_run else None
     w3 = np.array(_core.richardson_weights("richardson"))
     w2 = np.array(list(_core.richardson_weights("richardson2")))
@@ -110,7 +99,7 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
         slots = [n_times] if q.at_stop else list(range(n_times))
         f = q.factor(result.scene)
         for stat in ("mean", "var"):
-            if exact_in_law(name):
+            if exact_in_law(name, result.scene):
                 out[(name, stat)] = (np.zeros(len(slots)), False)
                 continue
             if samples is None or q.peak:
@@ -153,3 +142,7 @@ def _difference(v: np.ndarray, a: np.ndarray, b: np.ndarray, stat: str, threads:
     mean = _sum(phi, threads) / n
     var = _sum((phi - mean) ** 2, threads) / max(n - 1, 1)
     return d, math.sqrt(var / n)
+
+
+# Results ask this module for their bias through the hook (results never import an engine).
+results.set_bias_estimator(estimate)

@@ -21,6 +21,7 @@ from ._version import __version__
 from ._files import check_folder_writable, write_atomic
 from .methods import DEFAULT_METHOD, METHODS
 from .quantities import quantity
+from .model import ANALYTIC, holds
 from .scene import Scene
 from .simulate import simulate
 
@@ -203,10 +204,9 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ())
     written, notes = [], []
     try:
         try:
-            if hasattr(result, "save"):  # a run to an accuracy has a table only
-                path = os.path.join(out, "result.nc")
-                result.save(path)
-                written.append(path)
+            path = os.path.join(out, "result.nc")
+            result.save(path)
+            written.append(path)
             path = os.path.join(out, "result.csv")
             result.to_pandas().to_csv(path, index=False)
             written.append(path)
@@ -250,7 +250,8 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
         return _run_to_error(scene, settings, error=error, rel_error=rel_error, paths=paths,
                              seed=seed, threads=threads, dt=dt, method=method, out=out,
                              checkpoint=checkpoint, scheduler=scheduler, files=files,
-                             earlier=earlier, progress=progress, max_seconds=max_seconds)
+                             earlier=earlier, progress=progress, max_seconds=max_seconds,
+                             figures=figures, is_paper=is_paper)
     if max_seconds is not None:
         raise ValueError("--max-seconds: only with --error or --rel-error")
     for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method)):
@@ -311,7 +312,7 @@ def _client(scheduler: Optional[str]):
 
 def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, threads, dt, method,
                   out, checkpoint, scheduler, files, earlier, progress=None,
-                  max_seconds=None) -> int:
+                  max_seconds=None, figures: bool = True, is_paper: bool = False) -> int:
     """``crandall run --error EPS``: a run to a requested accuracy."""
     for option, value in (("--paths", paths), ("--dt", dt), ("--method", method)):
         if value is not None:
@@ -334,11 +335,14 @@ def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, thre
         if client is not None:
             client.close()
     print(result.summary())
+    if is_paper:
+        print()
+        print(paper.comparison(result))
     c = result.cost
     print(f"\n{c['path_steps']:.3g} path-steps in {c['wall_time']:.1f} s "
           f"(levels {len(c['paths'])}, paths per level {c['paths']}, seed {result.seed})")
     if files:
-        _write_and_tell(result, out, False, earlier)
+        _write_and_tell(result, out, figures, earlier)
     return 0
 
 
@@ -370,6 +374,9 @@ def quantile_table(result, names=plots.STOP_DISTRIBUTIONS, probabilities=QUANTIL
 
 def _analytic_table(scene: Scene) -> str:
     sc = scene
+    if not holds(sc, ANALYTIC):
+        raise ValueError(f"scene: the analytic layer's closed forms do not hold for a scene "
+                         f"with {', '.join(sorted(sc.effects))}")
     if sc.units == "SI" and sc.scaling is None:
         raise ValueError("scene: the analytic layer needs mu > 0 and h > 0 (eq8)")
     if sc.units == "scaled":

@@ -20,7 +20,7 @@ from .bins import REACH, VARIABLE_COUNT, Axis, axes as _scene_axes
 from .quantities import core_flags
 from .spec import RunSpec, grid_error
 
-__all__ = ["make_plan", "run_chunk", "run_chunks", "velocity_samples", "histogram_axes",
+__all__ = ["make_plan", "plan_options", "run_chunk", "run_chunks", "velocity_samples", "histogram_axes",
            "axis_edges", "plain_axes", "Chunk", "RANDOM_STREAM", "CHUNK_PATHS"]
 
 #: Version of the random stream this build draws (docs/random-numbers.md).
@@ -75,11 +75,12 @@ def axis_edges(axes: Sequence[Axis]) -> List[np.ndarray]:
     return [np.asarray(_bin_edges(a).edges, dtype=np.float64) for a in axes]
 
 
-def make_plan(spec: RunSpec, axes: Optional[Sequence[Axis]] = None) -> "_core.Plan":
-    """The core's validated plan of a run: its time grid and its partition into chunks.
-
-    ``axes``: the histogram axes (default: :func:`histogram_axes` of the spec).
-    """
+def plan_options(spec: RunSpec, axes: Optional[Sequence[Axis]] = None, *,
+                 histograms: bool = True) -> "_core.Options":
+    """The core's options of a run: every field of the spec, the scene's observables and (with
+    ``histograms``) its histogram axes (default: :func:`histogram_axes` of the spec). Every
+    plan of a run is built from these (the run's own and the bias estimate's coupled run), so
+    a run option reaches each of them here."""
     scene = spec.scene
     o = _core.Options()
     o.drift = scene.drift
@@ -91,7 +92,7 @@ def make_plan(spec: RunSpec, axes: Optional[Sequence[Axis]] = None) -> "_core.Pl
     o.method = spec.method
     for flag, on in core_flags(scene.observe).items():
         setattr(o, flag, on)
-    recorded = histogram_axes(spec, axes)
+    recorded = histogram_axes(spec, axes) if histograms else []
     if recorded:
         # Only a scene that asks sets the option: one that does not runs as before.
         slots = scene.times.size + (1 if "stop" in scene.observe else 0)
@@ -101,10 +102,18 @@ def make_plan(spec: RunSpec, axes: Optional[Sequence[Axis]] = None) -> "_core.Pl
         o.histogram_axes = full
     o.seed = spec.seed
     o.paths = spec.paths
+    return o
+
+
+def make_plan(spec: RunSpec, axes: Optional[Sequence[Axis]] = None) -> "_core.Plan":
+    """The core's validated plan of a run: its time grid and its partition into chunks.
+
+    ``axes``: the histogram axes (default: :func:`histogram_axes` of the spec).
+    """
     try:
-        return _core.Plan(o)
+        return _core.Plan(plan_options(spec, axes))
     except ValueError as exc:
-        raise grid_error(exc, scene, dt_given=True) from None
+        raise grid_error(exc, spec.scene, dt_given=True) from None
 
 
 def _recorded_indices(plan: "_core.Plan") -> List[int]:

@@ -15,7 +15,7 @@ from typing import Union
 
 from ._dataset import STATISTICS, save, to_pandas, to_xarray
 from ._dataset import read as _read
-from .results import Result
+from .results import AccuracyResult, Result
 
 __all__ = ["to_xarray", "to_pandas", "save", "load", "STATISTICS"]
 
@@ -40,4 +40,7 @@ def load(path: Union[str, "os.PathLike[str]"]) -> Result:
         missing, of the wrong type, inconsistent with the others (shapes, the scene's output
         times, counts against paths) or not finite: the message names the file and the field.
     """
-    return Result(**_read(path))
+    fields = _read(path)
+    if fields.pop("kind", None) == "accuracy":
+        return AccuracyResult(**fields)
+    return Result(**fields)

@@ -14,6 +14,7 @@ import numpy as np
 
 from . import analytic
 from .quantities import quantity
+from .model import ANALYTIC, holds
 from .results import Result
 from .scene import Scene
 
@@ -63,6 +64,9 @@ def scaled_factors(result: Result):
     h > 0 (eq8); otherwise ValueError. :func:`to_scaled` converts a value directly.
     """
     sc = result.scene
+    if not holds(sc, ANALYTIC):
+        raise ValueError(f"result: the paper's closed forms do not hold for a scene with "
+                         f"{', '.join(sorted(sc.effects))}")
     s = _scaling(result)
     if s is None:
         return sc.times, sc.t0, 1.0, 1.0, 1.0

@@ -21,6 +21,7 @@ from . import analytic, distributions
 from .engine import velocity_samples
 from .paper import CURVES, Curve, curve, scaled_factors
 from .quantities import quantity
+from .model import ANALYTIC, holds
 from .results import Result
 from .spec import MAX_SEED, check_int
 
@@ -285,7 +286,7 @@ def _analytic_law(result: Result, name: str, time):
     """(pdf(x), sf(x)) of ``name`` in the result's units where the analytic layer has the
     law (the velocity while the noise is on, the stop time), else None."""
     sc = result.scene
-    if sc.units == "SI" and sc.scaling is None:
+    if (sc.units == "SI" and sc.scaling is None) or not holds(sc, ANALYTIC):
         return None
     s = None if sc.units == "scaled" else sc.scaling
     tau0 = sc.t0 if s is None else s.to_tau(sc.t0)

@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import math
 import numbers
+import statistics as _statistics
 import warnings
-from typing import NamedTuple, Optional
+from typing import Callable, Dict, List, NamedTuple, Optional, Tuple
 
 import numpy as np
 
-from . import _core, _dataset, distributions
-from . import bias as _bias
+from . import _core, _dataset, _render, distributions
 from .bins import Histograms
+from .model import exact_in_law
 from .quantities import core_flags, find, names_for, quantity
 from .scene import Scene
 from .spec import RunSpec
@@ -86,6 +87,30 @@ def _fold(edges: np.ndarray, cells: np.ndarray):
     return pos, folded
 
 
+#: The engine layer's estimate of a fixed-step run's bias (crandall.bias.estimate, set when
+#: that module is imported, as ``import crandall`` does): a result asks it on the first call of
+#: :meth:`Result.bias` and keeps the answer, without importing an engine itself.
+_bias_estimator: Optional[Callable] = None
+
+
+def set_bias_estimator(estimate: Callable) -> None:
+    """Install the function ``estimate(result, threads)`` that results ask for their bias."""
+    global _bias_estimator
+    _bias_estimator = estimate
+
+
+def _estimate_bias(result):
+    if _bias_estimator is None:
+        raise RuntimeError("no bias estimator is installed: import crandall (which imports "
+                           "crandall.bias)")
+    return _bias_estimator(result)
+
+
+def z_of(level: float) -> float:
+    """The two-sided standard normal quantile of a coverage ``level``."""
+    return _statistics.NormalDist().inv_cdf(0.5 + 0.5 * float(level))
+
+
 class Accumulators(NamedTuple):
     """The merged accumulators a result's statistics come from (``Result.accumulators``).
 
@@ -146,17 +171,28 @@ class Result:
         most t / min_steps (0: steps of dt only). See :func:`crandall.simulate`.
     """
 
-    def __init__(self, *, scene: Scene, paths: int, seed: int, dt: float, method: str,
-                 moments, stop_moments, steps_per_path: int, min_steps: int = 0,
+    def __init__(self, *, moments, stop_moments, steps_per_path: int,
+                 scene: Optional[Scene] = None, paths: Optional[int] = None,
+                 seed: Optional[int] = None, dt: Optional[float] = None,
+                 method: Optional[str] = None, min_steps: int = 0,
                  random_stream: Optional[int] = None, peaks=None, stop_peaks=None,
                  histograms: Optional[Histograms] = None,
-                 wall_time: Optional[float] = None) -> None:
-        self.scene = scene
-        self.paths = int(paths)
-        self.seed = int(seed)
-        self.dt = float(dt)
-        self.method = method
-        self.min_steps = int(min_steps)
+                 wall_time: Optional[float] = None, spec: Optional[RunSpec] = None) -> None:
+        # The run's spec (given, or made from the fields): what Result.spec, saved files and
+        # the bias estimate read, so that every run option travels with the result.
+        if spec is None:
+            spec = RunSpec(scene, paths, seed, dt, method, min_steps)
+        elif any(v is not None and v != getattr(spec, k) for k, v in (
+                ("scene", scene), ("paths", paths), ("seed", seed), ("dt", dt),
+                ("method", method))) or min_steps not in (0, spec.min_steps):
+            raise ValueError("spec: the result's fields differ from its spec")
+        self._spec = spec
+        self.scene = spec.scene
+        self.paths = spec.paths
+        self.seed = spec.seed
+        self.dt = spec.dt
+        self.method = spec.method
+        self.min_steps = spec.min_steps
         #: Version of the random stream that drew the paths (docs/random-numbers.md): the same
         #: seed gives the same numbers only within one stream version.
         self.random_stream = int(_core.RANDOM_STREAM if random_stream is None else random_stream)
@@ -174,10 +210,11 @@ class Result:
 
     @property
     def spec(self) -> RunSpec:
-        """The run's specification (scene, paths, seed, dt, method, min_steps): what a
-        checkpoint of the run records. ``min_steps > 0`` is the default graded grid, which
-        ``simulate`` repeats with ``dt=None``."""
-        return RunSpec(self.scene, self.paths, self.seed, self.dt, self.method, self.min_steps)
+        """The run's specification (scene, paths, seed, dt, method, min_steps, and any other
+        run option): what a checkpoint of the run records and its saved file stores.
+        ``min_steps > 0`` is the default graded grid, which ``simulate`` repeats with
+        ``dt=None``."""
+        return self._spec
 
     @property
     def accumulators(self) -> Accumulators:
@@ -568,9 +605,10 @@ class Result:
 
     def exact(self, name: str, stat: str = "mean") -> bool:
         """Whether the statistic is exact in law at any step (its bias is 0, not estimated):
-        every statistic of the velocity, the kinetic energy and the stop time."""
+        every statistic of the velocity, the kinetic energy and the stop time (of a scene for
+        which the exact step's identity holds: crandall.model)."""
         self._check_stat(name, stat)
-        return _bias.exact_in_law(name)
+        return exact_in_law(name, self.scene)
 
     def _check_stat(self, name: str, stat: str) -> None:
         if stat not in ("mean", "var"):
@@ -580,7 +618,7 @@ class Result:
     def _bias(self, name: str, stat: str, warn: bool):
         self._check_stat(name, stat)
         if self._bias_cache is None:
-            self._bias_cache = _bias.estimate(self)
+            self._bias_cache = _estimate_bias(self)
         values, _ = self._bias_cache[(name, stat)]
         if warn and np.isnan(values).any():
             why = ("not estimated for the peaks (maxima over the grid: their shortfall is "
@@ -630,6 +668,20 @@ class Result:
         standard error of the mean (:meth:`stderr`) or of the variance (:meth:`var_stderr`)."""
         return self._error(name, stat, True)
 
+    def interval(self, name: str, stat: str = "mean", level: float = 0.95):
+        """The interval estimate +- z :meth:`error` of a statistic, z the two-sided normal
+        quantile of ``level`` (1.96 for 0.95): (low, high), arrays over the times or floats
+        at the stop. Its coverage rests on the error estimate (the bias is an estimate, not a
+        bound; bench/calibration.py measures the coverage)."""
+        if isinstance(level, (bool, np.bool_)) or not isinstance(level, numbers.Real) \
+                or not 0.0 < float(level) < 1.0:
+            raise ValueError(f"level must be a number strictly between 0 and 1, got {level!r}")
+        value = self.mean(name) if stat == "mean" else self.var(name) if stat == "var" else None
+        if value is None:
+            raise ValueError(f"stat must be 'mean' or 'var', got {stat!r}")
+        half = z_of(level) * self.error(name, stat)
+        return value - half, value + half
+
     # -- presentation -------------------------------------------------------------------
 
     def summary(self) -> str:
@@ -676,6 +728,10 @@ class Result:
 
     def __str__(self) -> str:
         return self.summary()
+
+    def _repr_html_(self) -> str:
+        """The statistics as an HTML table (Jupyter shows it for a result)."""
+        return _render.table_html(self)
 
     # -- export -------------------------------------------------------------------------
 
@@ -724,3 +780,215 @@ class Result:
     def __repr__(self) -> str:
         return (f"<crandall.Result {self.scene!r} paths={self.paths} seed={self.seed} "
                 f"method={self.method!r}>")
+
+    #: What made the result: "fixed_step" (``simulate(paths=...)``) or "accuracy"
+    #: (``simulate(error=...)``, :class:`AccuracyResult`).
+    kind = "fixed_step"
+
+
+#: The fields of an estimate of a run to an accuracy, per statistic and slot.
+ESTIMATE_FIELDS = ("value", "stderr", "bias")
+
+
+class AccuracyResult(Result):
+    """Statistics of a run to a requested accuracy (``crandall.simulate(scene, error=...)``).
+
+    A :class:`Result`: the same statistics (``mean``, ``var``, ``std``, ``stderr``,
+    ``var_stderr``), accuracy (``bias``, ``error``, ``interval``, ``exact``), tables
+    (``to_pandas``, ``to_xarray``, the same layout), files (``save``, ``crandall.load``,
+    bitwise) and figures. Every statistic (the mean and the variance of each quantity at each
+    output time, and at the stop) comes from the multilevel estimator with its standard
+    error, its estimated discretisation bias and the total error sqrt(stderr^2 + bias^2),
+    which the run brought below the target. ``stderr(name, "var")`` is the standard error of
+    the variance (as ``var_stderr``). A statistic the run was not asked for (``statistics=``)
+    raises ValueError naming ``stat``; in tables it is NaN.
+
+    It holds no per-path accumulators: no histograms (a scene that asks for distributions is
+    refused by ``simulate(error=...)``), no mixed moments (:meth:`moment`).
+
+    Attributes
+    ----------
+    error_target, rel_error_target : float or None
+        The target the run met (one of them).
+    levels : list of dict
+        Per level: ``level``, ``paths``, ``steps_per_path``, ``dt`` (its step).
+    paths : int
+        Paths over all levels.
+    dt : float
+        The finest level's step.
+    """
+
+    kind = "accuracy"
+    method = "mlmc"
+
+    def __init__(self, *, scene: Scene, seed: int, error_target: Optional[float],
+                 rel_error_target: Optional[float],
+                 estimates: Dict[Tuple[str, str], np.ndarray],
+                 exact: Dict[Tuple[str, str], bool], levels: List[dict], path_steps: int,
+                 rounds: int, wall_time: Optional[float] = None,
+                 random_stream: Optional[int] = None) -> None:
+        self.scene = scene
+        self.seed = int(seed)
+        self.error_target = None if error_target is None else float(error_target)
+        self.rel_error_target = None if rel_error_target is None else float(rel_error_target)
+        self.random_stream = int(_core.RANDOM_STREAM if random_stream is None else random_stream)
+        self._estimates = {k: np.asarray(v, dtype=np.float64) for k, v in estimates.items()}
+        self._exact = dict(exact)
+        self.levels = [dict(lv) for lv in levels]
+        self.paths = int(sum(lv["paths"] for lv in self.levels))
+        self.dt = float(self.levels[-1]["dt"]) if self.levels else math.nan
+        self.min_steps = 0
+        self.steps_per_path = int(self.levels[-1]["steps_per_path"]) if self.levels else 0
+        self._path_steps = int(path_steps)
+        self._rounds = int(rounds)
+        self._wall_time = None if wall_time is None else float(wall_time)
+        self._histograms = None
+        self._warned: set = set()
+
+    # -- what the run holds --------------------------------------------------------------
+
+    @property
+    def spec(self):
+        raise ValueError("spec: a run to an accuracy has no fixed-step specification; its "
+                         "target, seed and scene are error_target, rel_error_target, seed "
+                         "and scene")
+
+    @property
+    def accumulators(self):
+        raise ValueError("accumulators: a run to an accuracy keeps its estimates, not "
+                         "per-path accumulators")
+
+    @property
+    def names(self) -> tuple:
+        """The quantities with at least one statistic in this result."""
+        return tuple(n for n in names_for(self.scene.observe)
+                     if any((n, s) in self._estimates for s in ("mean", "var")))
+
+    def stats_of(self, name: str) -> tuple:
+        """The statistics ("mean", "var") the run estimated for a quantity."""
+        return tuple(s for s in ("mean", "var") if (name, s) in self._estimates)
+
+    @property
+    def cost(self) -> dict:
+        """What the answer cost: ``wall_time`` (s), ``path_steps``, ``paths`` per level,
+        ``rounds``."""
+        return {"wall_time": self._wall_time, "path_steps": self._path_steps,
+                "paths": [lv["paths"] for lv in self.levels], "rounds": self._rounds}
+
+    def _get(self, name: str, stat: str, field: int, missing_nan: bool = False):
+        if stat not in ("mean", "var"):
+            raise ValueError(f"stat must be 'mean' or 'var', got {stat!r}")
+        if name not in self.names:
+            raise ValueError(f"name: {name!r} is not in this result; it holds "
+                             f"{', '.join(self.names)}")
+        q = quantity(name)
+        if (name, stat) not in self._estimates:
+            if missing_nan:
+                out = np.full(1 if q.at_stop else self.times.size, math.nan)
+                return float(out[0]) if q.at_stop else out
+            raise ValueError(f"stat: the {stat} of {name} was not asked for (the run's "
+                             f"statistics= named {', '.join(self.stats_of(name))} of it)")
+        f = q.factor(self.scene)
+        scale = f if stat == "mean" else f * f
+        vals = self._estimates[(name, stat)][:, field] * scale
+        if field == 0 and stat == "mean" and q.offset is not None:
+            vals = vals + q.offset(self.scene)
+        return float(vals[0]) if q.at_stop else vals
+
+    # -- statistics -----------------------------------------------------------------------
+
+    def mean(self, name: str):
+        """The estimated mean of a quantity."""
+        return self._get(name, "mean", 0)
+
+    def var(self, name: str):
+        """The estimated variance of a quantity."""
+        return self._get(name, "var", 0)
+
+    def std(self, name: str):
+        """The square root of the estimated variance (0 where the estimate is below 0)."""
+        return np.sqrt(np.maximum(self.var(name), 0.0))
+
+    def stderr(self, name: str, stat: str = "mean"):
+        """The standard error of a statistic (statistical error only); of the mean unless
+        ``stat="var"``."""
+        return self._get(name, stat, 1)
+
+    def var_stderr(self, name: str):
+        """The standard error of the variance."""
+        return self._get(name, "var", 1)
+
+    def _bias(self, name: str, stat: str, warn: bool):
+        return self._get(name, stat, 2, missing_nan=not warn)
+
+    def bias(self, name: str, stat: str = "mean"):
+        """The estimated magnitude of the discretisation bias of a statistic: 0 exactly for
+        the statistics exact in law (see :meth:`exact`), otherwise Giles' estimate from the
+        finest levels."""
+        return self._bias(name, stat, True)
+
+    def bias_is_bound(self, name: str, stat: str = "mean") -> bool:
+        """False: the levels' bias is an estimate, never a bound."""
+        self._get(name, stat, 2)
+        return False
+
+    def _error(self, name: str, stat: str, warn: bool):
+        return np.hypot(self._get(name, stat, 1, missing_nan=not warn),
+                        self._get(name, stat, 2, missing_nan=not warn))
+
+    def exact(self, name: str, stat: str = "mean") -> bool:
+        """Whether the statistic is exact (its bias is 0, not estimated): exact in law at any
+        step, or given by an identity (the mean distance through Ito's formula)."""
+        self._get(name, stat, 0)
+        return self._exact[(name, stat)]
+
+    def moment(self, j: int, k: int, l: int):  # noqa: E741 - the paper's index
+        raise ValueError("moment: a run to an accuracy estimates means and variances only; "
+                         "run mixed moments with paths=")
+
+    def table(self, name: str) -> np.ndarray:
+        """The tables' row(s) of a quantity: (mean, var, std, stderr, var_stderr, bias_mean,
+        error_mean, bias_var, error_var), NaN for a statistic not estimated; shape (times, 9),
+        or (9,) at the stop."""
+        m = [self._get(name, "mean", k, True) for k in (0, 1, 2)]
+        v = [self._get(name, "var", k, True) for k in (0, 1, 2)]
+        cols = [m[0], v[0], np.sqrt(np.maximum(v[0], 0.0)), m[1], v[1],
+                m[2], np.hypot(m[1], m[2]), v[2], np.hypot(v[1], v[2])]
+        return np.stack([np.asarray(c, dtype=float) for c in cols], axis=-1)
+
+    # -- presentation ---------------------------------------------------------------------
+
+    def target_text(self) -> str:
+        return (f"error <= {self.error_target:g}" if self.error_target is not None
+                else f"rel_error <= {self.rel_error_target:g}")
+
+    def summary(self) -> str:
+        """A readable table: every statistic with its standard error, bias and total error."""
+        sc = self.scene
+        wall = self._wall_time
+        lines = [f"crandall result: {sc!r}",
+                 f"  {self.target_text()}  seed={self.seed}  method=mlmc  "
+                 f"levels={len(self.levels)}  paths per level={self.cost['paths']}  "
+                 f"path-steps={self._path_steps:.3g}"
+                 + ("" if wall is None else f"  time={wall:.3g} s")]
+        for n in self.names:
+            q = quantity(n)
+            u = sc.units_of(n)
+            lines.append(f"  {n}" + (f" [{u}]" if u else ""))
+            lines.append(f"    {'' if q.at_stop else sc.time_name:>10}  {'stat':>4}  "
+                         f"{'estimate':>13}  {'stderr':>9}  {'bias':>9}  {'error':>9}")
+            for stat in self.stats_of(n):
+                vals = np.atleast_1d(self._get(n, stat, 0))
+                ses = np.atleast_1d(self._get(n, stat, 1))
+                bs = np.atleast_1d(self._get(n, stat, 2))
+                ts = [None] if q.at_stop else list(self.times)
+                for j, t in enumerate(ts):
+                    tt = "stop" if t is None else f"{t:.4g}"
+                    b = "exact" if self._exact[(n, stat)] else f"{bs[j]:.2g}"
+                    lines.append(f"    {tt:>10}  {stat:>4}  {vals[j]:>13.6g}  {ses[j]:>9.2g}  "
+                                 f"{b:>9}  {math.hypot(ses[j], bs[j]):>9.2g}")
+        return "\n".join(lines)
+
+    def __repr__(self) -> str:
+        return (f"<crandall.Result {self.scene!r} {self.target_text()} seed={self.seed} "
+                f"method='mlmc' paths={self.paths}>")

@@ -309,6 +309,14 @@ class Scene:
         return out
 
     @property
+    def effects(self) -> frozenset:
+        """The effects this scene holds beyond the paper's (a body at rest at the origin, one
+        constant intensity until t0): none for the scenes of this version. Each identity or
+        closed form that crandall uses lists the effects it still holds under
+        (:mod:`crandall.model`) and is used only for scenes whose effects it supports."""
+        return frozenset()
+
+    @property
     def bins(self):
         """The scene's ``bins`` as plain data: None (automatic, the default resolution), an
         int (bins per octave) or a dict of quantity names to ints or lists of edges."""

@@ -27,6 +27,7 @@ from .results import MONOMIALS, Result, StatisticsWarning
 from .scene import Scene
 from .spec import MAX_PATHS, RunSpec, check_int, default_dt
 from .errors import UnresolvableGrid
+from .model import EXACT_STEP, check_simulated, holds
 
 __all__ = ["simulate", "simulate_many", "default_dt", "METHODS", "MAX_PATHS"]
 
@@ -203,10 +204,9 @@ class _Run:
         hist = None
         if self.indices:
             hist = Histograms(self.indices, self.edges, tuple(acc.counts))
-        return Result(scene=spec.scene, paths=spec.paths, seed=spec.seed, dt=spec.dt,
-                      method=spec.method, moments=acc.times,
+        return Result(spec=spec, moments=acc.times,
                       stop_moments=acc.stop if stop else None,
-                      steps_per_path=self.plan.steps_per_path, min_steps=spec.min_steps,
+                      steps_per_path=self.plan.steps_per_path,
                       random_stream=engine.RANDOM_STREAM,
                       peaks=acc.peaks if self.peaks else None,
                       stop_peaks=acc.peaks_stop if self.peaks and stop else None,
@@ -438,6 +438,8 @@ def _exact_part(scene: Scene, statistics) -> Optional[Scene]:
     """The scene cut to its observables that need no internal steps (with the distributions
     and bins of their quantities), or None if that leaves nothing, or nothing out, or drops a
     statistic asked for by name."""
+    if not holds(scene, EXACT_STEP):
+        return None
     d = scene.to_dict()
     keep = [o for o in d["observe"] if o in EXACT_OBSERVABLES]
     if not keep or len(keep) == len(d["observe"]):
@@ -467,6 +469,8 @@ def _exact_part(scene: Scene, statistics) -> Optional[Scene]:
 def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, client, progress,
               error, rel_error, statistics, max_seconds):
     """simulate's work, for one scene as given."""
+    if isinstance(scene, Scene):
+        check_simulated(scene)
     if error is not None or rel_error is not None:
         for name, value in (("paths", paths), ("dt", dt), ("method", method)):
             if value is not None:

@@ -10,6 +10,7 @@ enter it. A new run option is a new field here (docs/architecture.md).
 from __future__ import annotations
 
 import math
+import dataclasses
 from dataclasses import dataclass
 from typing import Any, Dict, Optional
 
@@ -159,8 +160,9 @@ class RunSpec:
         The identity of a checkpoint (``crandall.checkpoint.identity``), the run attributes
         of a saved result and the argument of a Dask task are this dictionary.
         """
-        return {"scene": self.scene.to_dict(), "paths": self.paths, "seed": self.seed,
-                "dt": self.dt, "method": self.method, "min_steps": self.min_steps}
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        out["scene"] = self.scene.to_dict()
+        return out
 
     @classmethod
     def from_dict(cls, data: Dict[str, Any]) -> "RunSpec":

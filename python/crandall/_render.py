@@ -1,0 +1,58 @@
+"""HTML rendering of a result for notebooks (``Result._repr_html_``).
+
+Reads the statistics table a result already provides (the rows of ``to_pandas``: the
+statistics and their accuracy per quantity and time, computed once) and lays it out; the text
+summary (``Result.summary``) is the other renderer of the same statistics.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from typing import List
+
+import numpy as np
+
+from . import _dataset
+from .quantities import quantity
+
+
+def _num(x: float, spec: str = ".6g") -> str:
+    return "n/a" if not np.isfinite(x) else format(float(x), spec)
+
+
+def _header(result) -> str:
+    sc = result.scene
+    if result.kind == "accuracy":
+        run = (f"{result.target_text()}, seed {result.seed}, multilevel: "
+               f"{len(result.levels)} levels, paths per level {result.cost['paths']}")
+    else:
+        run = (f"{result.paths:,} paths, seed {result.seed}, method {result.method}, "
+               f"dt {result.dt:.4g}")
+    return (f"<p><b>crandall result</b>: {html.escape(repr(sc))}<br>"
+            f"{html.escape(run)}</p>")
+
+
+def table_html(result) -> str:
+    """The result's statistics as an HTML table: per quantity and time, the mean with its
+    standard error and bias, the variance with its standard error and bias."""
+    sc = result.scene
+    rows: List[str] = []
+    for name in result.names:
+        stats = np.atleast_2d(_dataset._stats(result, name))
+        acc = np.atleast_2d(_dataset._accuracy(result, name))
+        times = [math.nan] if quantity(name).at_stop else list(result.times)
+        unit = sc.units_of(name) or "1"
+        for t, s, a in zip(times, stats, acc):
+            mean, var, _, se, vse = s
+            bias_mean, _, bias_var, _ = a
+            when = "stop" if math.isnan(t) else _num(t, ".4g")
+            rows.append(
+                f"<tr><td>{html.escape(name)}</td><td>{when}</td><td>{html.escape(unit)}</td>"
+                f"<td>{_num(mean)} &plusmn; {_num(se, '.2g')}</td><td>{_num(bias_mean, '.2g')}</td>"
+                f"<td>{_num(var)} &plusmn; {_num(vse, '.2g')}</td><td>{_num(bias_var, '.2g')}</td>"
+                "</tr>")
+    head = (f"<tr><th>quantity</th><th>{html.escape(sc.time_name)}</th><th>units</th>"
+            "<th>mean &plusmn; stderr</th><th>bias</th><th>var &plusmn; stderr</th>"
+            "<th>bias</th></tr>")
+    return (_header(result) + "<table>" + head + "".join(rows) + "</table>")

@@ -1,0 +1,83 @@
+"""Model features: the effects a scene holds beyond the paper's, and the identities and
+formulas that may be used for it.
+
+The paper's scene is a body at rest at the origin on a foundation shaken by white noise of
+one constant intensity, switched off once (Berezin & Zayats). Several numbers crandall reports
+rest on that: the mean distance through the Ito identity E S(t) = (sigma^2 min(t, t0) -
+E V(t)^2) / (2 c), the mean distance at the stop sigma^2 t0 / (2 c), the analytic layer's
+closed forms. A scene that holds more (an initial state, a piecewise intensity, ...) names
+each extra effect in :attr:`crandall.Scene.effects`; every identity below lists the effects
+under which it still holds, and is used only for scenes whose effects it all supports.
+Otherwise the estimator falls back to simulating the quantity (with its bias estimated) and
+nothing is reported exact for it. The core likewise lists the effects it simulates, and a
+scene with an effect it does not simulate is refused before any path is drawn.
+
+To add an effect: give it a name here, let the scenes that hold it list it in ``effects``,
+add it to :data:`SIMULATED` once the core steps it, and to the ``supports`` of each identity
+proven to hold with it (with a test against the simulation).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import FrozenSet
+
+from .quantities import VELOCITY, quantity
+
+__all__ = ["Identity", "EXACT_STEP", "ITO_DISTANCE", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
+           "holds", "check_simulated", "exact_in_law"]
+
+
+@dataclass(frozen=True)
+class Identity:
+    """A shortcut, an exactness claim or a closed form, and the extra effects it holds under."""
+
+    name: str
+    #: What it states.
+    what: str
+    #: The scene effects (beyond the paper's scene) under which it still holds.
+    supports: FrozenSet[str] = frozenset()
+
+
+#: The velocity's step is exact in law from any state, so the statistics of the velocity at
+#: the output times, of functions of it (the kinetic energy) and of the stop time have no step
+#: bias.
+EXACT_STEP = Identity(
+    "exact_step", "statistics of the velocity, the kinetic energy and the stop time are exact "
+    "in law at any step (no step bias)")
+#: The mean distance from the velocity's second moment (Ito's formula for V^2 with the energy
+#: balance), and at the stop (V = 0) the constant sigma^2 t0 / (2 c).
+ITO_DISTANCE = Identity(
+    "ito_distance", "E S(t) = (sigma^2 min(t, t0) - E V(t)^2) / (2 c), and sigma^2 t0 / (2 c) "
+    "at the stop, for a body starting at rest under one constant intensity")
+#: Without friction the dissipated energy is 0 on every path.
+ZERO_FRICTION = Identity(
+    "zero_friction", "without friction (mu = 0) the dissipated energy is 0 on every path")
+#: The analytic layer's closed forms (crandall.analytic): the paper's scene only.
+ANALYTIC = Identity("analytic", "the closed forms of crandall.analytic (the paper's scene)")
+
+#: The effects the core simulates (it starts every path at rest at the origin and applies one
+#: intensity until the switch-off): none beyond the paper's scene yet.
+SIMULATED: FrozenSet[str] = frozenset()
+
+
+def holds(scene, identity: Identity) -> bool:
+    """Whether ``identity`` may be used for ``scene``: it supports every effect the scene holds."""
+    return frozenset(scene.effects) <= identity.supports
+
+
+def check_simulated(scene) -> None:
+    """Refuse, naming the effects, a scene that holds an effect the core does not simulate
+    (its paths would be the paper's scene's, silently)."""
+    missing = sorted(frozenset(scene.effects) - SIMULATED)
+    if missing:
+        raise ValueError(f"scene: holds {', '.join(missing)}, which this crandall does not "
+                         "simulate")
+
+
+def exact_in_law(name: str, scene) -> bool:
+    """Whether every statistic of the quantity is exact at any step for this scene: a function
+    of the velocity at the output times, or the stop time (not the peaks, maxima over the
+    grid), where :data:`EXACT_STEP` holds."""
+    q = quantity(name)
+    return q.variable == VELOCITY and not q.peak and holds(scene, EXACT_STEP)

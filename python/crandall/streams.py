@@ -1,0 +1,44 @@
+"""Every random stream of a run, derived from its seed in one place.
+
+The core draws a path's noise from Philox4x32-10 keyed by a 64-bit key, with the path's index
+and the step pair in the counter (docs/rng.md): a path's draws depend on (key, path index)
+only, so chunks, threads, Dask tasks and resumed checkpoints give the same paths. The keys:
+
+- a fixed-step run: the seed itself (its paths 0, 1, ...; the refine method's substeps use
+  the same key with the path index's top bit set);
+- level l of a run to an accuracy: :func:`level_key` (seed, l); the pilot that fits the
+  control coefficients is the first paths of level 0, which the estimate then leaves out;
+- the coupled run of a fixed-step run's bias estimate: :func:`bias_key` (seed), the stream
+  2^20, beyond any level.
+
+Derived keys are splitmix64 of (seed, stream), in the manner of numpy's SeedSequence.spawn:
+each is a pure function of the seed and the stream's number, and distinct streams are
+decorrelated. A new estimator takes a stream number of its own here.
+"""
+
+from __future__ import annotations
+
+__all__ = ["key", "level_key", "bias_key", "BIAS_STREAM"]
+
+_MASK = (1 << 64) - 1
+#: The stream of a fixed-step run's bias estimate (beyond the levels of a run to an accuracy).
+BIAS_STREAM = 1 << 20
+
+
+def key(seed: int, stream: int) -> int:
+    """The Philox key of stream ``stream`` of a run with this seed: splitmix64 of
+    (seed, stream)."""
+    z = (seed + 0x9E3779B97F4A7C15 * (stream + 1)) & _MASK
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & _MASK
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & _MASK
+    return z ^ (z >> 31)
+
+
+def level_key(seed: int, level: int) -> int:
+    """The key of level ``level``'s paths in a run to an accuracy."""
+    return key(seed, level)
+
+
+def bias_key(seed: int) -> int:
+    """The key of the coupled run that estimates a fixed-step run's bias."""
+    return key(seed, BIAS_STREAM)
