@@ -77,6 +77,8 @@ void Options::validate() const {
   validate_model(drift, noise);
   require(!std::isnan(switch_off) && switch_off >= 0.0,
           "switch_off must be >= 0 (or +inf for never)");
+  require(std::isfinite(start_velocity), "start_velocity must be finite");
+  require(std::isfinite(start_displacement), "start_displacement must be finite");
   for (std::size_t i = 0; i < times.size(); ++i) {
     require(std::isfinite(times[i]) && times[i] >= 0.0, "times must be finite and >= 0");
     require(i == 0 || times[i] > times[i - 1], "times must be strictly increasing");
@@ -89,7 +91,8 @@ void Options::validate() const {
   require(!times.empty() || stop, "times must not be empty unless only the stop is observed");
   if (stop) {
     require(std::isfinite(switch_off), "the stop needs a finite switch_off (t0)");
-    require(drift > 0.0 || noise == 0.0, "without friction the body never stops");
+    require(drift > 0.0 || (noise == 0.0 && start_velocity == 0.0),
+            "without friction the body never stops");
   }
   if (!histogram_axes.empty()) {
     const std::size_t slots = histogram_slots();

@@ -24,6 +24,8 @@ class Options:
     drift: float
     noise: float
     switch_off: float
+    start_velocity: float
+    start_displacement: float
     times: List[float]
     dt: float
     #: Graded grid: the step before time t is at most t / min_steps (0: off).

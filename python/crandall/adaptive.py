@@ -38,7 +38,7 @@ from ._files import check_file_writable, refuse_other_run, refuse_other_version,
 from ._resources import available_memory, progress_bar
 from ._version import __version__
 from .quantities import VELOCITY, DISPLACEMENT, DISTANCE, core_flags, names_for, quantity
-from .model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds
+from .model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds, ito_constant
 from .results import AccuracyResult
 from .scene import Scene
 from .streams import level_key
@@ -198,6 +198,7 @@ class _Level:
                  integrals: bool) -> None:
         o = _core.Options()
         o.drift, o.noise, o.switch_off = scene.drift, scene.noise, scene.t0
+        o.start_velocity, o.start_displacement = scene.v0, scene.u0
         o.times = scene.times.tolist()
         o.dt = base_dt
         o.min_steps = BASE_MIN_STEPS
@@ -421,7 +422,7 @@ class _Engine:
                     kind.append(2 if t.time_index is not None else 3)
                     elapsed = (min(sc.times[t.time_index], sc.t0) if t.time_index is not None
                                else sc.t0)
-                    const.append(sc.noise ** 2 * elapsed)
+                    const.append(ito_constant(sc, elapsed))
                 else:
                     first = t.power == 1 or (t.stat == "mean" and t.variable == VELOCITY
                                              and t.time_index is None)

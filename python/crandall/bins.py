@@ -320,6 +320,23 @@ def _slot_scales(scene, t: float) -> Tuple[float, float, float, float, float]:
     return v, x, dm, dsd, 0.0
 
 
+def _with_start(scene, t: float, v_sd: float, x_sd: float, d_mean: float, stop: float):
+    """The scales of a body that starts at v0, u0: at least the start's own (the speed |v0|,
+    |u0| plus the distance it coasts, its coasting time), since the analytic layer's are those
+    of a start at rest. NaN scales (beyond the analytic layer) stay NaN."""
+    v0, c = abs(scene.v0), scene.drift
+    horizon = scene.t0 if math.isinf(t) else t
+    coast_time = v0 / c if c > 0 else math.inf
+    travelled = v0 * min(horizon, coast_time) if math.isfinite(horizon) else (
+        v0 * coast_time if math.isfinite(coast_time) else math.nan)
+
+    def at_least(scale, floor):
+        return scale if math.isnan(scale) or not math.isfinite(floor) else max(scale, floor)
+
+    return (at_least(v_sd, v0), at_least(x_sd, abs(scene.u0) + travelled),
+            at_least(d_mean, travelled), at_least(stop, coast_time))
+
+
 def _usable(scale: float, fallback: float) -> float:
     if not (math.isfinite(scale) and scale > 0):
         scale = fallback
@@ -389,6 +406,8 @@ def _axes(scene, dist) -> List[Axis]:
             # hints (the edges need them within a factor of about 2), so the scene's units
             # stand in, and every value is still counted (under- and overflow included).
             v_sd = x_sd = d_mean = d_sd = stop = math.nan
+        if scene.v0 != 0.0 or scene.u0 != 0.0:
+            v_sd, x_sd, d_mean, stop = _with_start(scene, t, v_sd, x_sd, d_mean, stop)
         for var in wanted:
             name = axis_name(at_stop, var)
             given = settings.get(name)

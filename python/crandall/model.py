@@ -24,8 +24,12 @@ from typing import FrozenSet
 
 from .quantities import VELOCITY, quantity
 
-__all__ = ["Identity", "EXACT_STEP", "ITO_DISTANCE", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
+__all__ = ["Identity", "INITIAL_STATE", "ito_constant", "EXACT_STEP", "ITO_DISTANCE", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
            "holds", "check_simulated", "exact_in_law"]
+
+
+#: The body starts with a velocity v0 or a displacement u0 (Scene(v0=, u0=)).
+INITIAL_STATE = "initial_state"
 
 
 @dataclass(frozen=True)
@@ -44,21 +48,25 @@ class Identity:
 #: bias.
 EXACT_STEP = Identity(
     "exact_step", "statistics of the velocity, the kinetic energy and the stop time are exact "
-    "in law at any step (no step bias)")
+    "in law at any step (no step bias)", frozenset({INITIAL_STATE}))
 #: The mean distance from the velocity's second moment (Ito's formula for V^2 with the energy
-#: balance), and at the stop (V = 0) the constant sigma^2 t0 / (2 c).
+#: balance, from any start): E S(t) = (v0^2 + sigma^2 min(t, t0) - E V(t)^2) / (2 c), and at
+#: the stop (V = 0) the constant (v0^2 + sigma^2 t0) / (2 c). :func:`ito_constant` gives the
+#: numerator's constant part.
 ITO_DISTANCE = Identity(
-    "ito_distance", "E S(t) = (sigma^2 min(t, t0) - E V(t)^2) / (2 c), and sigma^2 t0 / (2 c) "
-    "at the stop, for a body starting at rest under one constant intensity")
+    "ito_distance", "E S(t) = (v0^2 + sigma^2 min(t, t0) - E V(t)^2) / (2 c), and "
+    "(v0^2 + sigma^2 t0) / (2 c) at the stop, under one constant intensity",
+    frozenset({INITIAL_STATE}))
 #: Without friction the dissipated energy is 0 on every path.
 ZERO_FRICTION = Identity(
-    "zero_friction", "without friction (mu = 0) the dissipated energy is 0 on every path")
+    "zero_friction", "without friction (mu = 0) the dissipated energy is 0 on every path",
+    frozenset({INITIAL_STATE}))
 #: The analytic layer's closed forms (crandall.analytic): the paper's scene only.
 ANALYTIC = Identity("analytic", "the closed forms of crandall.analytic (the paper's scene)")
 
-#: The effects the core simulates (it starts every path at rest at the origin and applies one
-#: intensity until the switch-off): none beyond the paper's scene yet.
-SIMULATED: FrozenSet[str] = frozenset()
+#: The effects the core simulates: a start from any state (it applies one intensity until the
+#: switch-off).
+SIMULATED: FrozenSet[str] = frozenset({INITIAL_STATE})
 
 
 def holds(scene, identity: Identity) -> bool:
@@ -81,3 +89,9 @@ def exact_in_law(name: str, scene) -> bool:
     grid), where :data:`EXACT_STEP` holds."""
     q = quantity(name)
     return q.variable == VELOCITY and not q.peak and holds(scene, EXACT_STEP)
+
+
+def ito_constant(scene, elapsed: float) -> float:
+    """The constant part v0^2 + sigma^2 elapsed of :data:`ITO_DISTANCE`'s numerator, with
+    ``elapsed`` the noise's time so far (min(t, t0))."""
+    return scene.v0 ** 2 + scene.noise ** 2 * elapsed

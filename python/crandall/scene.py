@@ -23,7 +23,8 @@ __all__ = ["Scene", "OBSERVABLES", "STOP_QUANTITIES", "RUN_SETTINGS", "MAX_RANGE
            "ParameterError"]
 
 
-def _number(name: str, value, *, positive: bool = False, allow_inf: bool = False) -> float:
+def _number(name: str, value, *, positive: bool = False, allow_inf: bool = False,
+            signed: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(name, f"{name} must be a real number, got {value!r}")
     value = float(value)
@@ -31,7 +32,7 @@ def _number(name: str, value, *, positive: bool = False, allow_inf: bool = False
         raise ParameterError(name, f"{name} must not be NaN")
     if math.isinf(value) and not (allow_inf and value > 0):
         raise ParameterError(name, f"{name} must be finite, got {value!r}")
-    if value < 0 or (positive and value == 0):
+    if (value < 0 and not signed) or (positive and value == 0):
         raise ParameterError(name, f"{name} must be {'> 0' if positive else '>= 0'}, got {value!r}")
     return value
 
@@ -127,7 +128,8 @@ class Scene:
 
     The body's velocity V relative to the foundation obeys (paper eq1)
     ``dV = -mu g sign(V) dt + h dW`` for ``t < t0`` and ``dV = -mu g sign(V) dt`` after,
-    starting at rest; displacement ``U = int V dt``, distance ``S = int |V| dt``.
+    starting at rest (or at ``v0``); displacement ``U = u0 + int V dt``, distance
+    ``S = int |V| dt``.
 
     Parameters
     ----------
@@ -142,6 +144,12 @@ class Scene:
         Acceleration of gravity, m s^-2, > 0.
     mass : float, default 1.0
         Mass of the body, kg, > 0 (scales the energies only).
+    v0 : float, default 0.0
+        Velocity of the body relative to the foundation at t = 0, m/s (any sign): a body
+        already sliding when the shaking starts.
+    u0 : float, default 0.0
+        Displacement at t = 0, m: the displacement (and its peaks) are measured from where it
+        is recorded, the body starting u0 away. The distance starts at 0.
     times : sequence of float
         Output times, s, strictly increasing, >= 0; may lie beyond t0 and the stop.
     observe : str or sequence of str
@@ -190,6 +198,8 @@ class Scene:
         t0: float,
         g: float = 9.81,
         mass: float = 1.0,
+        v0: float = 0.0,
+        u0: float = 0.0,
         times: Iterable[float],
         observe: Optional[Sequence[str]] = None,
         distributions: Any = None,
@@ -215,6 +225,8 @@ class Scene:
             scaling=_scaling(mu, h, g),
             distributions=distributions,
             bins=bins,
+            v0=v0,
+            u0=u0,
         )
 
     @classmethod
@@ -223,6 +235,8 @@ class Scene:
         *,
         tau0: float,
         times: Iterable[float],
+        v0: float = 0.0,
+        u0: float = 0.0,
         observe: Optional[Sequence[str]] = None,
         distributions: Any = None,
         bins: Any = None,
@@ -237,6 +251,8 @@ class Scene:
         ----------
         tau0 : float
             Scaled switch-off time, >= 0, or ``math.inf``.
+        v0, u0 : float, default 0.0
+            The initial scaled velocity U1(0) and displacement U2(0).
         times, observe, distributions, bins
             As for :class:`Scene`, in scaled units.
         """
@@ -254,12 +270,25 @@ class Scene:
             scaling=None,
             distributions=distributions,
             bins=bins,
+            v0=v0,
+            u0=u0,
         )
         return self
 
     def _setup(self, *, units, drift, noise, t0, times, observe, mass, params, scaling,
-               distributions=None, bins=None):
-        can_stop = math.isfinite(t0) and (drift > 0 or noise == 0)
+               distributions=None, bins=None, v0=0.0, u0=0.0):
+        v0 = _number("v0", v0, signed=True)
+        u0 = _number("u0", u0, signed=True)
+        # Only a scene that starts away from rest at the origin lists its start (the plain
+        # data, and so the checkpoints and files, of other scenes stay as they were).
+        params = dict(params)
+        if v0 != 0.0:
+            params["v0"] = v0
+        if u0 != 0.0:
+            params["u0"] = u0
+        # Without friction a body that moves never stops; one at rest with no noise has
+        # stopped.
+        can_stop = math.isfinite(t0) and (drift > 0 or (noise == 0 and v0 == 0.0))
         if observe is None:
             observe = (DEFAULT_OBSERVE if can_stop
                        else tuple(n for n in DEFAULT_OBSERVE if n != "stop"))
@@ -269,6 +298,9 @@ class Scene:
             raise ParameterError("observe", f"observe: 'stop' needs a finite {name}: the excitation never ends")
         if "stop" in observe and not can_stop:
             raise ParameterError("observe", "observe: 'stop' needs mu > 0: without friction the body never stops")
+        #: The state at t = 0: velocity and displacement, in the scene's units.
+        self.v0 = float(v0)
+        self.u0 = float(u0)
         self.units = units
         self.drift = float(drift)
         self.noise = float(noise)
@@ -311,10 +343,11 @@ class Scene:
     @property
     def effects(self) -> frozenset:
         """The effects this scene holds beyond the paper's (a body at rest at the origin, one
-        constant intensity until t0): none for the scenes of this version. Each identity or
-        closed form that crandall uses lists the effects it still holds under
-        (:mod:`crandall.model`) and is used only for scenes whose effects it supports."""
-        return frozenset()
+        constant intensity until t0): ``"initial_state"`` when it starts with a velocity or a
+        displacement. Each identity or closed form that crandall uses lists the effects it
+        still holds under (:mod:`crandall.model`) and is used only for scenes whose effects it
+        supports."""
+        return frozenset({"initial_state"}) if (self.v0 != 0.0 or self.u0 != 0.0) else frozenset()
 
     @property
     def bins(self):

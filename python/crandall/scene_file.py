@@ -34,8 +34,9 @@ MAX_RANGE_TIMES = 10_000_000
 #: A scene's parameters besides times and observe, in SI and in scaled units.
 SI_KEYS = ("mu", "h", "t0", "g", "mass")
 SCALED_KEYS = ("tau0",)
-#: Keys of either kind of scene.
-COMMON_KEYS = ("times", "observe", "distributions", "bins")
+#: Keys of either kind of scene: the initial state (velocity v0 and displacement u0, in the
+#: scene's units), the output times and what to observe.
+COMMON_KEYS = ("v0", "u0", "times", "observe", "distributions", "bins")
 _RANGE_KEYS = ("start", "stop", "num", "step")
 
 

@@ -281,13 +281,24 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
   for (std::uint64_t offset = 0; offset < count; offset += kLanes) {
     const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
     const std::uint64_t path0 = first + offset;
-    double x[kLanes] = {}, u[kLanes] = {}, s[kLanes] = {};
-    // Running maxima of |x| and |u| over the points computed so far (the path starts at 0).
-    alignas(32) double pv[kLanes] = {}, pu[kLanes] = {};
+    // Every path starts at the plan's start state (velocity, displacement; distance 0).
+    double x[kLanes], u[kLanes], s[kLanes] = {};
+    // Running maxima of |x| and |u| over the points computed so far (from the start).
+    alignas(32) double pv[kLanes], pu[kLanes];
     [[maybe_unused]] const double zero[kLanes] = {};
     // Richardson's coarse grids g = 1, 2 (steps 2^g times the fine one): integrals, and x where
     // their step began.
-    double xc[kGrids][kLanes] = {}, uc[kGrids][kLanes] = {}, sc[kGrids][kLanes] = {};
+    double xc[kGrids][kLanes], uc[kGrids][kLanes], sc[kGrids][kLanes] = {};
+    for (int l = 0; l < kLanes; ++l) {
+      x[l] = o.start_velocity;
+      u[l] = o.start_displacement;
+      pv[l] = std::abs(o.start_velocity);
+      pu[l] = std::abs(o.start_displacement);
+      for (int g = 0; g < kGrids; ++g) {
+        xc[g][l] = o.start_velocity;
+        uc[g][l] = o.start_displacement;
+      }
+    }
     PairNoise<kLanes> z;
     std::uint64_t k = 0;  // step index along the path; selects the random numbers
     // The step's constants, rounded exactly as exact_step rounds them; recomputed only when the

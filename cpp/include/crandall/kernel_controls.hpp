@@ -45,7 +45,11 @@ void simulate_block_controls(const Plan& plan, std::uint64_t first, std::uint64_
     const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
     const std::uint64_t path0 = first + offset;
     std::fill(acc.begin(), acc.end(), 0.0);
-    alignas(64) double x[kLanes] = {}, u[kLanes] = {}, s[kLanes] = {};
+    alignas(64) double x[kLanes], u[kLanes], s[kLanes] = {};
+    for (int l = 0; l < kLanes; ++l) {
+      x[l] = o.start_velocity;
+      u[l] = o.start_displacement;
+    }
     PairNoise<kLanes> z;
     std::uint64_t k = 0;
     std::size_t pending = 0;  // chosen slots before this one are behind the path

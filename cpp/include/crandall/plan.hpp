@@ -55,6 +55,9 @@ struct Options {
   double drift = 2.0;        // friction deceleration (mu g; 2 in the paper's scaled units)
   double noise = 1.4142135623730951;  // white-noise intensity (the paper's h; sqrt 2 in scaled units)
   double switch_off = std::numeric_limits<double>::infinity();  // t0; may be +inf
+  // The state at t = 0: velocity X(0) and displacement U(0) (the distance starts at 0).
+  double start_velocity = 0.0;
+  double start_displacement = 0.0;
   std::vector<double> times;  // output times, strictly increasing, >= 0
   double dt = 0.01;           // longest internal step where integrals are observed
   // Graded grid: in the segment that ends at time t (an output time or the switch-off) the step

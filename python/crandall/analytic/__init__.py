@@ -38,6 +38,12 @@ from .laws import (
     velocity_sf,
 )
 from .physical import physical
+from .start import (
+    coast_distance,
+    coast_stop_time,
+    distance_at_stop_mean_from,
+    distance_mean_from_velocity,
+)
 from .switch_off import (
     displacement_at_stop_var,
     distance_at_stop_mean,
@@ -48,6 +54,10 @@ from .switch_off import (
 )
 
 __all__ = [
+    "coast_distance",
+    "coast_stop_time",
+    "distance_at_stop_mean_from",
+    "distance_mean_from_velocity",
     "displacement_at_stop_var",
     "displacement_var",
     "distance_at_stop_mean",
