@@ -269,18 +269,41 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
   }
 }
 
+// What the exact method's path loop shows an observer besides the outputs: for each group of
+// kLanes paths, every step with the state before it and its Brownian increment, and every
+// output slot the path passes (ControlSums, kernel_controls.hpp, sums functions of the state
+// times the increments). This one observes nothing: its calls compile to nothing, and
+// simulate_block with it is the plain path loop.
+struct NoObserver {
+  static constexpr bool kActive = false;
+  NoObserver(const Plan&, Workspace&) {}
+  // A group of paths starts at rest.
+  void begin_paths() {}
+  // Before the step from `time`: x, u, s the lanes' state there, db = sqrt(step) Z the step's
+  // Brownian increment (Z the normals the step takes).
+  void step(const double*, const double*, const double*, const double*, double) {}
+  // The path has reached the output time of `slot`.
+  void passed_slot(std::size_t) {}
+  // The group's paths path0 .. path0 + lanes - 1 have taken all their steps.
+  void end_paths(std::uint64_t, int) {}
+};
+
 // Simulate paths [first, first + count) (count <= kBlockPaths) into ws (reset by the caller).
 // kPeaks: track the running maxima of |velocity| and |displacement| (Options::peaks), compiled
 // in only when asked for. Histograms are a run-time choice made at output slots only.
-template <Method M, bool kDisp, bool kDist, bool kPeaks>
+// Observer: what else the exact method's steps feed (NoObserver: nothing).
+template <Method M, bool kDisp, bool kDist, bool kPeaks, class Observer = NoObserver>
 void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, Workspace& ws) {
+  static_assert(M == Method::exact || !Observer::kActive, "only the exact method's steps are observed");
   constexpr int kGrids = grids(M, kDisp || kDist);
   constexpr bool kCoarse = kGrids > 1;
   const Options& o = plan.options();
   const double drift = o.drift, noise = o.noise;
+  Observer observer(plan, ws);
   for (std::uint64_t offset = 0; offset < count; offset += kLanes) {
     const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
     const std::uint64_t path0 = first + offset;
+    observer.begin_paths();
     // Every path starts at the plan's start state (velocity, displacement; distance 0).
     double x[kLanes], u[kLanes], s[kLanes] = {};
     // Running maxima of |x| and |u| over the points computed so far (from the start).
@@ -307,11 +330,14 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
     double cached_step = -1.0, near = 0.0;
     StepConstants c{};
     bool all_regular = false;
+    // For the observer: sqrt(step), and the segment's start time.
+    [[maybe_unused]] double root_step = 0.0, start = 0.0;
     for (const Segment& seg : plan.segments()) {
       const double step = seg.step;
       if (step != cached_step) {
         cached_step = step;
         near = kRefineWithin * noise * std::sqrt(step);
+        if constexpr (Observer::kActive) root_step = std::sqrt(step);
         c = step_constants(step, drift, noise);
         all_regular = segment_regular(c);
       }
@@ -365,6 +391,11 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
           }
           if constexpr (kPeaks) track_peaks<kDisp>(x, u, pv, pu);
         } else {
+          if constexpr (Observer::kActive) {
+            alignas(64) double db[kLanes];
+            for (int l = 0; l < kLanes; ++l) db[l] = root_step * zn[l];
+            observer.step(x, u, s, db, start + static_cast<double>(i) * step);
+          }
           // exact_step (exact_step.hpp) over all lanes, its parts in separate loops so that they
           // vectorise; the padding lanes of a partial group compute harmless values that are
           // never read.
@@ -425,6 +456,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
           if constexpr (kPeaks) track_peaks<kDisp>(x, u, pv, pu);
         }
       }
+      if constexpr (Observer::kActive) start += static_cast<double>(seg.steps) * step;
       if (seg.slot >= 0) {
         ws.times.add(static_cast<std::size_t>(seg.slot), x, u, s, lanes, ws.active);
         ws.record(static_cast<std::size_t>(seg.slot), 0, path0, x, u, s, lanes);
@@ -442,8 +474,10 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
                                        ws.active);
             ws.record(static_cast<std::size_t>(seg.slot), g, path0, x, uc[g], sc[g], lanes);
           }
+        observer.passed_slot(static_cast<std::size_t>(seg.slot));
       }
     }
+    observer.end_paths(path0, lanes);
     if (ws.states)
       for (int l = 0; l < lanes; ++l) ws.states[path0 + l] = x[l];
     if (!plan.needs_switch_state()) continue;
