@@ -77,6 +77,16 @@ void Options::validate() const {
   validate_model(drift, noise);
   require(!std::isnan(switch_off) && switch_off >= 0.0,
           "switch_off must be >= 0 (or +inf for never)");
+  require(piece_ends.size() == piece_noise.size(),
+          "piece_ends and piece_noise must have the same length");
+  for (std::size_t i = 0; i < piece_ends.size(); ++i) {
+    require(std::isfinite(piece_ends[i]) && piece_ends[i] > (i == 0 ? 0.0 : piece_ends[i - 1]),
+            "piece_ends must be finite, > 0 and strictly increasing");
+    require(std::isfinite(piece_noise[i]) && piece_noise[i] >= 0.0,
+            "piece_noise must be finite and >= 0");
+  }
+  require(piece_ends.empty() || piece_ends.back() == switch_off,
+          "the last of piece_ends must be switch_off");
   require(std::isfinite(start_velocity), "start_velocity must be finite");
   require(std::isfinite(start_displacement), "start_displacement must be finite");
   for (std::size_t i = 0; i < times.size(); ++i) {
@@ -130,6 +140,13 @@ Plan::Plan(Options options) : options_(std::move(options)) {
   // exact velocity step is exact for any length, so velocity-only scenes jump.
   // A peak is a maximum over the grid's points, so peaks need the fine grid too.
   const bool fine = o.integrals() || o.method == Method::euler || o.peaks;
+  // The intensity of the piece that ends at or after `until` (one piece: noise).
+  std::size_t piece = 0;
+  auto noise_until = [&](double until) {
+    if (o.piece_ends.empty()) return o.noise;
+    while (piece + 1 < o.piece_ends.size() && o.piece_ends[piece] < until) ++piece;
+    return o.piece_noise[piece];
+  };
   double previous = 0.0;
   long slot = 0;
   auto add = [&](double until, long s) {
@@ -150,16 +167,30 @@ Plan::Plan(Options options) : options_(std::move(options)) {
       const std::uint64_t group = std::uint64_t{1} << (o.grids() - 1);
       n = (n + group - 1) / group * group;
     }
-    segments_.push_back({n > 0 ? gap / static_cast<double>(n) : 0.0, n, s});
+    segments_.push_back({n > 0 ? gap / static_cast<double>(n) : 0.0, n, s, noise_until(until)});
     steps_per_path_ += n;
     previous = until;
   };
-  for (; slot < static_cast<long>(o.times.size()) && o.times[slot] <= end; ++slot)
-    add(o.times[slot], slot);
+  // Segments end at the output times and at the pieces' ends (before `end`), in time order;
+  // an output time at a piece's end ends one segment there.
+  std::size_t next_piece = 0;
+  for (;;) {
+    const bool time_left = slot < static_cast<long>(o.times.size()) && o.times[slot] <= end;
+    while (next_piece < o.piece_ends.size() && o.piece_ends[next_piece] <= previous) ++next_piece;
+    const bool piece_left = next_piece < o.piece_ends.size() && o.piece_ends[next_piece] < end;
+    if (piece_left && (!time_left || o.piece_ends[next_piece] < o.times[slot])) {
+      add(o.piece_ends[next_piece], -1);
+    } else if (time_left) {
+      add(o.times[slot], slot);
+      ++slot;
+    } else {
+      break;
+    }
+  }
   if (previous < end) add(end, -1);
   // The step's arithmetic has a range (exact_step.hpp); beyond it a step would overflow.
   for (const Segment& seg : segments_)
-    require(step_in_range(seg.step, o.drift, o.noise),
+    require(step_in_range(seg.step, o.drift, seg.noise),
             "times and switch_off are too long for this drift and noise: a step would exceed "
             "the range of doubles");
   for (; slot < static_cast<long>(o.times.size()); ++slot) {

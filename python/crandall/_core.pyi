@@ -24,6 +24,8 @@ class Options:
     drift: float
     noise: float
     switch_off: float
+    piece_ends: List[float]
+    piece_noise: List[float]
     start_velocity: float
     start_displacement: float
     times: List[float]

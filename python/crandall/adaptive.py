@@ -42,6 +42,7 @@ from .model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds, ito_constant
 from .results import AccuracyResult
 from .scene import Scene
 from .streams import level_key
+from .engine import scene_options
 from .spec import MAX_SEED, check_int, default_dt, grid_error
 
 __all__ = ["AdaptiveResult", "simulate_to_error", "BASE_DT_FACTOR", "BASE_MIN_STEPS",
@@ -196,16 +197,11 @@ def _lower(w: int) -> np.ndarray:
 class _Level:
     def __init__(self, scene: Scene, level: int, seed: int, base_dt: float, threads: int,
                  integrals: bool) -> None:
-        o = _core.Options()
-        o.drift, o.noise, o.switch_off = scene.drift, scene.noise, scene.t0
-        o.start_velocity, o.start_displacement = scene.v0, scene.u0
-        o.times = scene.times.tolist()
+        o = scene_options(scene)
         o.dt = base_dt
         o.min_steps = BASE_MIN_STEPS
         o.refinement = level
         o.method = "richardson2" if level > 0 else "exact"
-        for flag, on in core_flags(scene.observe).items():
-            setattr(o, flag, on)
         o.seed = level_key(seed, level)
         o.paths = 1 << 62
         try:
@@ -612,7 +608,9 @@ class _Engine:
             var_d = sum(c[0, 0] / lev.sums.n for (_, c), lev in zip(groups, used))
             if t.stat == "mean":
                 value = self.centre[i] + d
-                level_var = [c[0, 0] for _, c in groups]
+                # A column constant on every path (a quantity identically 0 on a level, an
+                # identity's constant) can leave its sum of squares a rounding below 0.
+                level_var = [max(c[0, 0], 0.0) for _, c in groups]
                 level_mean = [m[0] for m, _ in groups]
             else:
                 m2 = sum(m[1] for m, _ in groups)

@@ -20,7 +20,7 @@ from .bins import REACH, VARIABLE_COUNT, Axis, axes as _scene_axes
 from .quantities import core_flags
 from .spec import RunSpec, grid_error
 
-__all__ = ["make_plan", "plan_options", "run_chunk", "run_chunks", "velocity_samples", "histogram_axes",
+__all__ = ["make_plan", "plan_options", "scene_options", "run_chunk", "run_chunks", "velocity_samples", "histogram_axes",
            "axis_edges", "plain_axes", "Chunk", "RANDOM_STREAM", "CHUNK_PATHS"]
 
 #: Version of the random stream this build draws (docs/random-numbers.md).
@@ -75,6 +75,24 @@ def axis_edges(axes: Sequence[Axis]) -> List[np.ndarray]:
     return [np.asarray(_bin_edges(a).edges, dtype=np.float64) for a in axes]
 
 
+def scene_options(scene) -> "_core.Options":
+    """The core's options that a scene sets, for every estimator's plans: the model (friction,
+    intensity or its pieces, switch-off, start state), the output times and what to observe."""
+    o = _core.Options()
+    o.drift = scene.drift
+    o.noise = scene.noise
+    o.switch_off = scene.t0
+    if scene.pieces is not None:
+        o.piece_ends = [e for e, _ in scene.pieces]
+        o.piece_noise = [n for _, n in scene.pieces]
+    o.start_velocity = scene.v0
+    o.start_displacement = scene.u0
+    o.times = scene.times.tolist()
+    for flag, on in core_flags(scene.observe).items():
+        setattr(o, flag, on)
+    return o
+
+
 def plan_options(spec: RunSpec, axes: Optional[Sequence[Axis]] = None, *,
                  histograms: bool = True) -> "_core.Options":
     """The core's options of a run: every field of the spec, the scene's observables and (with
@@ -82,18 +100,10 @@ def plan_options(spec: RunSpec, axes: Optional[Sequence[Axis]] = None, *,
     plan of a run is built from these (the run's own and the bias estimate's coupled run), so
     a run option reaches each of them here."""
     scene = spec.scene
-    o = _core.Options()
-    o.drift = scene.drift
-    o.noise = scene.noise
-    o.switch_off = scene.t0
-    o.start_velocity = scene.v0
-    o.start_displacement = scene.u0
-    o.times = scene.times.tolist()
+    o = scene_options(scene)
     o.dt = spec.dt
     o.min_steps = spec.min_steps
     o.method = spec.method
-    for flag, on in core_flags(scene.observe).items():
-        setattr(o, flag, on)
     recorded = histogram_axes(spec, axes) if histograms else []
     if recorded:
         # Only a scene that asks sets the option: one that does not runs as before.

@@ -24,12 +24,15 @@ from typing import FrozenSet
 
 from .quantities import VELOCITY, quantity
 
-__all__ = ["Identity", "INITIAL_STATE", "ito_constant", "EXACT_STEP", "ITO_DISTANCE", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
+__all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
            "holds", "check_simulated", "exact_in_law"]
 
 
 #: The body starts with a velocity v0 or a displacement u0 (Scene(v0=, u0=)).
 INITIAL_STATE = "initial_state"
+#: The intensity is piecewise constant (Scene(h=[...], t0=[...])): pauses, envelopes,
+#: aftershocks.
+PIECEWISE_INTENSITY = "piecewise_intensity"
 
 
 @dataclass(frozen=True)
@@ -48,25 +51,25 @@ class Identity:
 #: bias.
 EXACT_STEP = Identity(
     "exact_step", "statistics of the velocity, the kinetic energy and the stop time are exact "
-    "in law at any step (no step bias)", frozenset({INITIAL_STATE}))
+    "in law at any step (no step bias)", frozenset({INITIAL_STATE, PIECEWISE_INTENSITY}))
 #: The mean distance from the velocity's second moment (Ito's formula for V^2 with the energy
-#: balance, from any start): E S(t) = (v0^2 + sigma^2 min(t, t0) - E V(t)^2) / (2 c), and at
-#: the stop (V = 0) the constant (v0^2 + sigma^2 t0) / (2 c). :func:`ito_constant` gives the
-#: numerator's constant part.
+#: balance, from any start, under any intensity schedule): E S(t) = (v0^2 + int_0^t sigma^2
+#: - E V(t)^2) / (2 c), and at the stop (V = 0) the constant (v0^2 + int sigma^2) / (2 c).
+#: :func:`ito_constant` gives the numerator's constant part.
 ITO_DISTANCE = Identity(
-    "ito_distance", "E S(t) = (v0^2 + sigma^2 min(t, t0) - E V(t)^2) / (2 c), and "
-    "(v0^2 + sigma^2 t0) / (2 c) at the stop, under one constant intensity",
-    frozenset({INITIAL_STATE}))
+    "ito_distance", "E S(t) = (v0^2 + int_0^t sigma(s)^2 ds - E V(t)^2) / (2 c), and "
+    "(v0^2 + int sigma^2) / (2 c) at the stop",
+    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY}))
 #: Without friction the dissipated energy is 0 on every path.
 ZERO_FRICTION = Identity(
     "zero_friction", "without friction (mu = 0) the dissipated energy is 0 on every path",
-    frozenset({INITIAL_STATE}))
+    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY}))
 #: The analytic layer's closed forms (crandall.analytic): the paper's scene only.
 ANALYTIC = Identity("analytic", "the closed forms of crandall.analytic (the paper's scene)")
 
-#: The effects the core simulates: a start from any state (it applies one intensity until the
-#: switch-off).
-SIMULATED: FrozenSet[str] = frozenset({INITIAL_STATE})
+#: The effects the core simulates: a start from any state, and a piecewise intensity (no step
+#: straddles a piece's end).
+SIMULATED: FrozenSet[str] = frozenset({INITIAL_STATE, PIECEWISE_INTENSITY})
 
 
 def holds(scene, identity: Identity) -> bool:
@@ -92,6 +95,19 @@ def exact_in_law(name: str, scene) -> bool:
 
 
 def ito_constant(scene, elapsed: float) -> float:
-    """The constant part v0^2 + sigma^2 elapsed of :data:`ITO_DISTANCE`'s numerator, with
-    ``elapsed`` the noise's time so far (min(t, t0))."""
-    return scene.v0 ** 2 + scene.noise ** 2 * elapsed
+    """The constant part v0^2 + int_0^elapsed sigma(s)^2 ds of :data:`ITO_DISTANCE`'s
+    numerator, with ``elapsed`` the time so far (min(t, t0))."""
+    return scene.v0 ** 2 + noise_energy(scene, elapsed)
+
+
+def noise_energy(scene, until: float) -> float:
+    """int_0^until sigma(s)^2 ds: twice the energy per unit mass the noise has fed in by
+    ``until`` (at most the last switch-off)."""
+    if scene.pieces is None:
+        return scene.noise ** 2 * until
+    total, start = 0.0, 0.0
+    for end, noise in scene.pieces:
+        if until > start:
+            total += noise ** 2 * (min(end, until) - start)
+        start = end
+    return total

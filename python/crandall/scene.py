@@ -37,6 +37,33 @@ def _number(name: str, value, *, positive: bool = False, allow_inf: bool = False
     return value
 
 
+def _schedule(h, t0, h_name: str, t0_name: str):
+    """(h, t0) as given: two numbers (one intensity until t0; t0 may be inf), or two
+    sequences of the same length (piece i acts on [t0[i-1], t0[i]) with intensity h[i], no
+    noise after the last t0). Returns (intensities, ends) as tuples of floats, and whether
+    the schedule was given as sequences."""
+    seq_h = isinstance(h, (list, tuple, np.ndarray))
+    seq_t = isinstance(t0, (list, tuple, np.ndarray))
+    if not seq_h and not seq_t:
+        return (_number(h_name, h),), (_number(t0_name, t0, allow_inf=True),), False
+    if not (seq_h and seq_t):
+        raise ParameterError(f"{h_name}, {t0_name}",
+                             f"{h_name}, {t0_name}: give both as numbers, or both as sequences "
+                             "of the same length (a piecewise intensity)")
+    hs, ts = list(np.asarray(h, dtype=object).ravel()), list(np.asarray(t0, dtype=object).ravel())
+    if len(hs) != len(ts) or not hs:
+        raise ParameterError(f"{h_name}, {t0_name}",
+                             f"{h_name}, {t0_name}: a piecewise intensity needs as many "
+                             f"intensities as ends, at least one (got {len(hs)} and {len(ts)})")
+    hs = [_number(f"{h_name}[{i}]", v) for i, v in enumerate(hs)]
+    ts = [_number(f"{t0_name}[{i}]", v) for i, v in enumerate(ts)]
+    for i, t in enumerate(ts):
+        if t <= (ts[i - 1] if i else 0.0):
+            raise ParameterError(t0_name, f"{t0_name}: the pieces' ends must be > 0 and strictly "
+                                          f"increasing, got {t0_name}[{i}] = {t!r}")
+    return tuple(hs), tuple(ts), True
+
+
 def _check_real(items) -> None:
     for i, v in enumerate(items):
         if isinstance(v, (list, tuple, np.ndarray)):
@@ -135,11 +162,16 @@ class Scene:
     ----------
     mu : float
         Coefficient of kinetic friction, >= 0 (0: a free Brownian body, which never stops).
-    h : float
+    h : float or sequence of float
         Intensity of the white-noise acceleration of the foundation, m s^-3/2, >= 0
-        (0: the body stays at rest).
-    t0 : float
-        Time the excitation is switched off, s, >= 0; ``math.inf`` for never.
+        (0: the body stays at rest). A sequence, with ``t0`` a sequence of the same length:
+        a piecewise intensity, ``h[i]`` acting on ``[t0[i-1], t0[i])`` (from 0 for i = 0), 0
+        for a pause, no noise after the last ``t0`` (crandall.envelopes builds such schedules
+        from smooth envelopes). The scene's scaled units and default step are those of the
+        largest ``h[i]``.
+    t0 : float or sequence of float
+        Time the excitation is switched off, s, >= 0; ``math.inf`` for never. A sequence: the
+        pieces' ends, > 0 and strictly increasing (finite).
     g : float, default 9.81
         Acceleration of gravity, m s^-2, > 0.
     mass : float, default 1.0
@@ -206,8 +238,10 @@ class Scene:
         bins: Any = None,
     ) -> None:
         mu = _number("mu", mu)
-        h = _number("h", h)
-        t0 = _number("t0", t0, allow_inf=True)
+        hs, ends, piecewise = _schedule(h, t0, "h", "t0")
+        # The reference intensity of a piecewise scene (its scaled units, its default step):
+        # the largest of its pieces.
+        h, t0 = max(hs), ends[-1]
         g = _number("g", g, positive=True)
         mass = _number("mass", mass, positive=True)
         if not math.isfinite(mu * g):
@@ -221,8 +255,10 @@ class Scene:
             times=times,
             observe=observe,
             mass=mass,
-            params={"mu": mu, "h": h, "t0": t0, "g": g, "mass": mass},
+            params={"mu": mu, "h": list(hs) if piecewise else h,
+                    "t0": list(ends) if piecewise else t0, "g": g, "mass": mass},
             scaling=_scaling(mu, h, g),
+            pieces=tuple(zip(ends, hs)) if piecewise else None,
             distributions=distributions,
             bins=bins,
             v0=v0,
@@ -237,6 +273,7 @@ class Scene:
         times: Iterable[float],
         v0: float = 0.0,
         u0: float = 0.0,
+        h: Any = None,
         observe: Optional[Sequence[str]] = None,
         distributions: Any = None,
         bins: Any = None,
@@ -253,11 +290,22 @@ class Scene:
             Scaled switch-off time, >= 0, or ``math.inf``.
         v0, u0 : float, default 0.0
             The initial scaled velocity U1(0) and displacement U2(0).
+        h : sequence of float, optional
+            A piecewise intensity: with ``tau0`` a sequence of the pieces' ends, ``h[i]`` is
+            piece i's intensity relative to the scaled unit (the noise is sqrt(2) h[i]; 1 is
+            the paper's intensity, 0 a pause). Default: 1 until ``tau0``.
         times, observe, distributions, bins
             As for :class:`Scene`, in scaled units.
         """
         self = cls.__new__(cls)
-        tau0 = _number("tau0", tau0, allow_inf=True)
+        if h is None and not isinstance(tau0, (list, tuple, np.ndarray)):
+            hs, ends, piecewise = (1.0,), (_number("tau0", tau0, allow_inf=True),), False
+        elif not isinstance(h, (list, tuple, np.ndarray)):
+            raise ParameterError("h", "h: in scaled units one intensity is the unit itself; give "
+                                      "h only as a sequence, with tau0 the pieces' ends")
+        else:
+            hs, ends, piecewise = _schedule(1.0 if h is None else h, tau0, "h", "tau0")
+        tau0 = ends[-1]
         self._setup(
             units="scaled",
             drift=2.0,
@@ -266,8 +314,9 @@ class Scene:
             times=times,
             observe=observe,
             mass=1.0,
-            params={"tau0": tau0},
+            params={"tau0": list(ends), "h": list(hs)} if piecewise else {"tau0": tau0},
             scaling=None,
+            pieces=tuple((e, math.sqrt(2.0) * x) for e, x in zip(ends, hs)) if piecewise else None,
             distributions=distributions,
             bins=bins,
             v0=v0,
@@ -276,7 +325,7 @@ class Scene:
         return self
 
     def _setup(self, *, units, drift, noise, t0, times, observe, mass, params, scaling,
-               distributions=None, bins=None, v0=0.0, u0=0.0):
+               distributions=None, bins=None, v0=0.0, u0=0.0, pieces=None):
         v0 = _number("v0", v0, signed=True)
         u0 = _number("u0", u0, signed=True)
         # Only a scene that starts away from rest at the origin lists its start (the plain
@@ -286,9 +335,16 @@ class Scene:
             params["v0"] = v0
         if u0 != 0.0:
             params["u0"] = u0
+        #: A piecewise intensity: ((end, noise), ...) in the scene's units (noise in the core's
+        #: sense: h, or sqrt(2) times the relative intensity in scaled units); None: ``noise``
+        #: until ``t0``.
+        self.pieces = pieces
+        if pieces is not None:
+            noise = max(n for _, n in pieces) if units == "SI" else noise
         # Without friction a body that moves never stops; one at rest with no noise has
         # stopped.
-        can_stop = math.isfinite(t0) and (drift > 0 or (noise == 0 and v0 == 0.0))
+        silent = noise == 0 and (pieces is None or all(n == 0 for _, n in pieces))
+        can_stop = math.isfinite(t0) and (drift > 0 or (silent and v0 == 0.0))
         if observe is None:
             observe = (DEFAULT_OBSERVE if can_stop
                        else tuple(n for n in DEFAULT_OBSERVE if n != "stop"))
@@ -347,7 +403,12 @@ class Scene:
         displacement. Each identity or closed form that crandall uses lists the effects it
         still holds under (:mod:`crandall.model`) and is used only for scenes whose effects it
         supports."""
-        return frozenset({"initial_state"}) if (self.v0 != 0.0 or self.u0 != 0.0) else frozenset()
+        out = set()
+        if self.v0 != 0.0 or self.u0 != 0.0:
+            out.add("initial_state")
+        if self.pieces is not None:
+            out.add("piecewise_intensity")
+        return frozenset(out)
 
     @property
     def bins(self):

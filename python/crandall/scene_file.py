@@ -33,7 +33,7 @@ MAX_RANGE_TIMES = 10_000_000
 
 #: A scene's parameters besides times and observe, in SI and in scaled units.
 SI_KEYS = ("mu", "h", "t0", "g", "mass")
-SCALED_KEYS = ("tau0",)
+SCALED_KEYS = ("tau0", "h")
 #: Keys of either kind of scene: the initial state (velocity v0 and displacement u0, in the
 #: scene's units), the output times and what to observe.
 COMMON_KEYS = ("v0", "u0", "times", "observe", "distributions", "bins")
@@ -199,6 +199,9 @@ def read(path) -> SceneFile:
             # Checked by the scene (ints, lists of edges, a table of them); errors come back
             # named scene.bins.
             kwargs[k] = v
+        elif k in ("h", "t0", "tau0") and isinstance(v, list):
+            # A piecewise intensity: the intensities and the pieces' ends.
+            kwargs[k] = [_real(path, f"scene.{k}[{i}]", x) for i, x in enumerate(v)]
         else:
             kwargs[k] = _real(path, f"scene.{k}", v)
     return SceneFile(os.fspath(path), units, kwargs, allowed, data.get("run", {}))

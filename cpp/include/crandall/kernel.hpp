@@ -298,7 +298,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
   constexpr int kGrids = grids(M, kDisp || kDist);
   constexpr bool kCoarse = kGrids > 1;
   const Options& o = plan.options();
-  const double drift = o.drift, noise = o.noise;
+  const double drift = o.drift;
   Observer observer(plan, ws);
   for (std::uint64_t offset = 0; offset < count; offset += kLanes) {
     const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
@@ -327,15 +327,16 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
     // The step's constants, rounded exactly as exact_step rounds them; recomputed only when the
     // step length changes (a velocity-only scene has one step per segment, and these square
     // roots would otherwise cost about a tenth of its time).
-    double cached_step = -1.0, near = 0.0;
+    double cached_step = -1.0, cached_noise = -1.0, near = 0.0, noise = 0.0;
     StepConstants c{};
     bool all_regular = false;
     // For the observer: sqrt(step), and the segment's start time.
     [[maybe_unused]] double root_step = 0.0, start = 0.0;
     for (const Segment& seg : plan.segments()) {
       const double step = seg.step;
-      if (step != cached_step) {
+      if (step != cached_step || seg.noise != cached_noise) {
         cached_step = step;
+        cached_noise = noise = seg.noise;
         near = kRefineWithin * noise * std::sqrt(step);
         if constexpr (Observer::kActive) root_step = std::sqrt(step);
         c = step_constants(step, drift, noise);

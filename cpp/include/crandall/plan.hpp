@@ -55,6 +55,11 @@ struct Options {
   double drift = 2.0;        // friction deceleration (mu g; 2 in the paper's scaled units)
   double noise = 1.4142135623730951;  // white-noise intensity (the paper's h; sqrt 2 in scaled units)
   double switch_off = std::numeric_limits<double>::infinity();  // t0; may be +inf
+  // A piecewise intensity: piece i acts on [piece_ends[i - 1], piece_ends[i]) (from 0 for
+  // i = 0) with noise piece_noise[i] (0: a pause); the last end is switch_off. Empty: one
+  // piece, `noise` until switch_off.
+  std::vector<double> piece_ends;
+  std::vector<double> piece_noise;
   // The state at t = 0: velocity X(0) and displacement U(0) (the distance starts at 0).
   double start_velocity = 0.0;
   double start_displacement = 0.0;
@@ -103,6 +108,8 @@ struct Segment {
   double step;
   std::uint64_t steps;
   long slot;
+  // The intensity on the segment: a segment never straddles a piece boundary.
+  double noise;
 };
 
 // Canonical partition of the paths: chunk c holds paths [c * kChunkPaths, ...), and block b of
