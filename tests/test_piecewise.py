@@ -102,3 +102,15 @@ def test_scaled_pieces_and_scene_files(tmp_path):
                     't0 = [1.0, 1.5, 2.5]\ntimes = [1.0, 3.0]\n')
     f = crandall.Scene.from_toml(path)
     assert f.pieces == ((1.0, 1.0), (1.5, 0.0), (2.5, 0.6)) and f.t0 == 2.5
+
+
+@pytest.mark.parametrize("name", ["cabinet_amin_ang.toml", "aftershock.toml"])
+def test_the_shipped_piecewise_scenes_keep_the_energy_law(name):
+    import pathlib
+    path = pathlib.Path(__file__).resolve().parent.parent / "scenes" / name
+    sc = crandall.Scene.from_toml(path)
+    assert model.PIECEWISE_INTENSITY in sc.effects
+    r = crandall.simulate(sc, paths=4000, seed=6)
+    want = sc.mass * model.noise_energy(sc, sc.t0) / 2  # J: m/2 int h^2 dt
+    got = r.mean("dissipated_energy_at_stop")
+    assert abs(got - want) <= 4 * r.error("dissipated_energy_at_stop"), (got, want)

@@ -1,0 +1,154 @@
+"""Shaking that builds up and decays: smooth intensity envelopes as piecewise schedules.
+
+crandall simulates a piecewise-constant intensity exactly (``Scene(h=[...], t0=[...])``). A
+smooth envelope h(t) is replaced by pieces whose intensity keeps the mean of h^2 over each
+piece, h_i^2 = (1 / (t_i - t_{i-1})) int h(t)^2 dt, so the energy the noise feeds in
+(int h^2 dt / 2 per unit mass, the mean friction loss at the stop) is the envelope's on every
+piece. Within a piece the intensity is constant where the envelope is not: that replacement,
+not the simulation, is what is approximate; halve the pieces (``pieces=2 n``) to see how much
+an answer moves.
+
+Each function returns ``(h, t0)``, the lists to give ``crandall.Scene(h=h, t0=t0, ...)``.
+
+The envelopes (t in s, h the intensity of the strong phase in m s^-3/2):
+
+- :func:`amin_ang`: Amin & Ang (1968), a variance envelope: h(t)^2 = h^2 I(t), I = (t / t1)^2
+  while it builds up, 1 in the strong phase [t1, t2), exp(-c (t - t2)) as it decays.
+- :func:`jennings`: Jennings, Housner & Tsai (1968), an amplitude envelope: h(t) = h e(t),
+  e = (t / t1)^2, 1 on [t1, t2), exp(-c (t - t2)).
+- :func:`shinozuka_sato`: Shinozuka & Sato (1967), an amplitude envelope: h(t) = h (exp(-a t)
+  - exp(-b t)) / max, b > a > 0, 1 at its peak.
+- :func:`from_function`: any h(t).
+
+And :func:`intensity_from_psd`, the intensity of white noise from the power spectral density
+of the ground acceleration.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, List, Optional, Sequence, Tuple
+
+import numpy as np
+from scipy import integrate
+
+__all__ = ["from_function", "amin_ang", "jennings", "shinozuka_sato", "intensity_from_psd"]
+
+Schedule = Tuple[List[float], List[float]]
+
+
+def _positive(name: str, value, *, zero: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or value < 0 or (value == 0 and not zero):
+        raise ValueError(f"{name} must be finite and {'>= 0' if zero else '> 0'}, got {value!r}")
+    return value
+
+
+def _ends(end: float, pieces: int, breaks: Sequence[float] = ()) -> List[float]:
+    if isinstance(pieces, bool) or not isinstance(pieces, (int, np.integer)) or pieces < 1:
+        raise ValueError(f"pieces must be an integer >= 1, got {pieces!r}")
+    if pieces > 100_000:
+        raise ValueError(f"pieces must be <= 100000, got {pieces!r}")
+    grid = set(np.linspace(0.0, end, int(pieces) + 1)[1:].tolist())
+    # The envelope's own corners are piece ends too (no piece straddles a change of form).
+    grid.update(b for b in breaks if 0.0 < b < end)
+    grid.add(end)
+    return sorted(grid)
+
+
+def from_function(h: Callable[[float], float], end: float, pieces: int = 32,
+                  breaks: Sequence[float] = ()) -> Schedule:
+    """The schedule of an intensity function h(t) >= 0 on [0, end]: ``pieces`` equal pieces
+    (and a piece end at each of ``breaks``, where h changes form), each with the root mean
+    square of h over it. Raises ValueError for a bad argument or an h that is negative or not
+    finite somewhere."""
+    end = _positive("end", end)
+    if not callable(h):
+        raise ValueError(f"h must be a function of t, got {h!r}")
+    ends = _ends(end, pieces, breaks)
+    out, start = [], 0.0
+    for e in ends:
+        value, _ = integrate.quad(lambda t: float(h(t)) ** 2, start, e, limit=200)
+        if not math.isfinite(value) or value < 0:
+            raise ValueError(f"h: its square does not integrate to a finite value >= 0 on "
+                             f"[{start:g}, {e:g}]")
+        out.append(math.sqrt(value / (e - start)))
+        start = e
+    for t in np.linspace(0.0, end, 17):
+        v = float(h(float(t)))
+        if not (math.isfinite(v) and v >= 0):
+            raise ValueError(f"h({t:g}) = {v!r}: an intensity is finite and >= 0")
+    return out, ends
+
+
+def _three_phase(name: str, h, t1, t2, c, end, pieces, amplitude: bool) -> Schedule:
+    h = _positive("h", h, zero=True)
+    t1, t2 = _positive("t1", t1), _positive("t2", t2)
+    c = _positive("c", c)
+    if t2 < t1:
+        raise ValueError(f"t2 must be >= t1 (the strong phase [t1, t2)), got t1={t1!r}, t2={t2!r}")
+    end = _positive("end", end) if end is not None else t2 + math.log(1e4) / c
+    if end <= t1:
+        raise ValueError(f"end must be after t1 = {t1!r}, got {end!r}")
+
+    def shape(t: float) -> float:
+        if t < t1:
+            return (t / t1) ** 2
+        if t < t2:
+            return 1.0
+        return math.exp(-c * (t - t2))
+
+    if amplitude:
+        return from_function(lambda t: h * shape(t), end, pieces, (t1, t2))
+    return from_function(lambda t: h * math.sqrt(shape(t)), end, pieces, (t1, t2))
+
+
+def amin_ang(h: float, t1: float, t2: float, c: float, end: Optional[float] = None,
+             pieces: int = 32) -> Schedule:
+    """Amin & Ang's variance envelope: h(t)^2 = h^2 (t / t1)^2 on [0, t1), h^2 on [t1, t2),
+    h^2 exp(-c (t - t2)) after, cut at ``end`` (default: where the variance is 1e-4 of the
+    strong phase's, t2 + ln(1e4) / c)."""
+    return _three_phase("amin_ang", h, t1, t2, c, end, pieces, amplitude=False)
+
+
+def jennings(h: float, t1: float, t2: float, c: float, end: Optional[float] = None,
+             pieces: int = 32) -> Schedule:
+    """Jennings, Housner & Tsai's amplitude envelope: h(t) = h (t / t1)^2 on [0, t1), h on
+    [t1, t2), h exp(-c (t - t2)) after, cut at ``end`` (default t2 + ln(1e4) / c, where the
+    amplitude is 1e-4 of the strong phase's)."""
+    return _three_phase("jennings", h, t1, t2, c, end, pieces, amplitude=True)
+
+
+def shinozuka_sato(h: float, a: float, b: float, end: Optional[float] = None,
+                   pieces: int = 32) -> Schedule:
+    """Shinozuka & Sato's amplitude envelope: h(t) = h (exp(-a t) - exp(-b t)) / peak, b > a > 0,
+    1 at its peak t* = ln(b / a) / (b - a); cut at ``end`` (default: where it has fallen to 1e-4
+    of its peak, about t* + ln(1e4) / a)."""
+    h = _positive("h", h, zero=True)
+    a, b = _positive("a", a), _positive("b", b)
+    if not b > a:
+        raise ValueError(f"b must be > a, got a={a!r}, b={b!r}")
+    peak_t = math.log(b / a) / (b - a)
+    peak = math.exp(-a * peak_t) - math.exp(-b * peak_t)
+    end = _positive("end", end) if end is not None else peak_t + math.log(1e4) / a
+    return from_function(lambda t: h * (math.exp(-a * t) - math.exp(-b * t)) / peak, end,
+                         pieces, (peak_t,))
+
+
+def intensity_from_psd(psd: float, sided: str = "two") -> float:
+    """The intensity h (m s^-3/2) of white-noise ground acceleration from its power spectral
+    density in (m/s^2)^2 per rad/s.
+
+    ``sided="two"``: S0 defined on -inf < omega < inf, the acceleration's autocorrelation
+    2 pi S0 delta(tau), so h^2 = 2 pi S0. ``sided="one"``: G0 on omega >= 0 (G0 = 2 S0), so
+    h^2 = pi G0. A density per Hz is 2 pi times the density per rad/s: divide it by 2 pi
+    first.
+    """
+    psd = _positive("psd", psd, zero=True)
+    if sided == "two":
+        return math.sqrt(2.0 * math.pi * psd)
+    if sided == "one":
+        return math.sqrt(math.pi * psd)
+    raise ValueError(f"sided must be 'one' or 'two', got {sided!r}")

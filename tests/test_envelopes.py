@@ -1,0 +1,73 @@
+"""crandall.envelopes: smooth envelopes as piecewise schedules that keep the mean h^2 on each
+piece (so the noise's energy), and the intensity from a power spectral density."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy import integrate
+
+import crandall
+from crandall import envelopes, model
+
+
+def _energy(h, t0):
+    return sum(x * x * (e - s) for x, s, e in zip(h, [0.0] + t0[:-1], t0))
+
+
+def test_each_piece_keeps_the_envelope_energy():
+    h, t0 = envelopes.amin_ang(1.2, t1=2.0, t2=6.0, c=0.5, pieces=16)
+    assert t0[-1] == pytest.approx(6.0 + math.log(1e4) / 0.5) and 2.0 in t0 and 6.0 in t0
+    # int h(t)^2 dt of the envelope itself, in closed form: h^2 (t1 / 3 + (t2 - t1) +
+    # (1 - e^{-c (end - t2)}) / c).
+    end = t0[-1]
+    want = 1.44 * (2.0 / 3 + 4.0 + (1 - math.exp(-0.5 * (end - 6.0))) / 0.5)
+    assert _energy(h, t0) == pytest.approx(want, rel=1e-10)
+    # The strong phase is flat: its pieces have the strong intensity exactly.
+    strong = [x for x, s, e in zip(h, [0.0] + t0[:-1], t0) if 2.0 <= s and e <= 6.0]
+    assert strong and np.allclose(strong, 1.2, rtol=1e-12)
+    # Jennings: the amplitude is (t/t1)^2 while building up, so h^2 goes as (t/t1)^4.
+    hj, tj = envelopes.jennings(1.0, t1=1.0, t2=2.0, c=1.0, end=4.0, pieces=8)
+    assert _energy(hj, tj) == pytest.approx(1 / 5 + 1.0 + (1 - math.exp(-4.0)) / 2, rel=1e-10)
+
+
+def test_shinozuka_sato_peaks_at_one_and_a_scene_takes_the_schedule():
+    h, t0 = envelopes.shinozuka_sato(0.8, a=0.2, b=1.0, pieces=24)
+    peak_t = math.log(5.0) / 0.8
+    assert peak_t in t0 and max(h) <= 0.8 + 1e-12 and max(h) > 0.75
+    f = lambda t: (0.8 * (math.exp(-0.2 * t) - math.exp(-t)) / (
+        math.exp(-0.2 * peak_t) - math.exp(-peak_t))) ** 2
+    assert _energy(h, t0) == pytest.approx(integrate.quad(f, 0, t0[-1], limit=200)[0], rel=1e-9)
+    sc = crandall.Scene(mu=0.3, h=h, t0=t0, times=[5.0, 10.0])
+    assert model.noise_energy(sc, sc.t0) == pytest.approx(_energy(h, t0), rel=1e-12)
+
+
+def test_any_piece_count_keeps_the_energy():
+    # With 8 or 16 pieces the schedule's energy is the envelope's (each piece keeps it).
+    h8, t8 = envelopes.from_function(lambda t: math.sin(t) ** 2, math.pi, pieces=8)
+    h16, t16 = envelopes.from_function(lambda t: math.sin(t) ** 2, math.pi, pieces=16)
+    assert _energy(h8, t8) == pytest.approx(_energy(h16, t16), rel=1e-10)
+    assert _energy(h8, t8) == pytest.approx(3 * math.pi / 8, rel=1e-10)  # int sin^4
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: envelopes.amin_ang(1.0, t1=3.0, t2=2.0, c=1.0), "t2 must be >= t1"),
+    (lambda: envelopes.amin_ang(-1.0, t1=1.0, t2=2.0, c=1.0), "h must be finite and >= 0"),
+    (lambda: envelopes.shinozuka_sato(1.0, a=1.0, b=0.5), "b must be > a"),
+    (lambda: envelopes.from_function(lambda t: -1.0, 1.0), r"h\(0\) = -1.0"),
+    (lambda: envelopes.from_function(lambda t: 1.0, 1.0, pieces=0), "pieces must be"),
+    (lambda: envelopes.intensity_from_psd(1.0, sided="both"), "sided must be"),
+    (lambda: envelopes.intensity_from_psd(math.nan), "psd must be finite"),
+])
+def test_bad_arguments_are_named(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()
+
+
+def test_intensity_from_psd_conventions():
+    # Two-sided S0: h^2 = 2 pi S0; one-sided G0 = 2 S0 gives the same h.
+    assert envelopes.intensity_from_psd(0.01) ** 2 == pytest.approx(2 * math.pi * 0.01)
+    assert envelopes.intensity_from_psd(0.02, sided="one") == pytest.approx(
+        envelopes.intensity_from_psd(0.01, sided="two"), rel=1e-15)
