@@ -43,10 +43,10 @@ $(VENV)/.dev-installed: $(VPY) Makefile
 venv: $(VENV)/.dev-installed
 
 install: deps venv
-	$(VPY) -m pip install -q --no-build-isolation ".[test,plots,io,distributed,hist]"
+	$(VPY) -m pip install -q --no-build-isolation -Ccmake.define.CRANDALL_WERROR=ON ".[test,plots,io,distributed,hist]"
 
 ctest: deps venv
-	cmake -S . -B build/cpp -G Ninja -DCRANDALL_BUILD_TESTS=ON -DCMAKE_BUILD_TYPE=Release >/dev/null
+	cmake -S . -B build/cpp -G Ninja -DCRANDALL_BUILD_TESTS=ON -DCRANDALL_WERROR=ON -DCMAKE_BUILD_TYPE=Release >/dev/null
 	cmake --build build/cpp
 	cd build/cpp && ctest --output-on-failure
 
@@ -54,7 +54,7 @@ ctest: deps venv
 # minute to build, seconds to run). libgomp is not instrumented but needs no suppressions:
 # ASan and UBSan (unlike ThreadSanitizer) work with it as it is.
 sanitize: deps venv
-	cmake -S . -B build/asan -G Ninja -DCRANDALL_BUILD_TESTS=ON -DCRANDALL_SANITIZE=ON -DCMAKE_BUILD_TYPE=Release >/dev/null
+	cmake -S . -B build/asan -G Ninja -DCRANDALL_BUILD_TESTS=ON -DCRANDALL_SANITIZE=ON -DCRANDALL_WERROR=ON -DCMAKE_BUILD_TYPE=Release >/dev/null
 	cmake --build build/asan
 	cd build/asan && ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 ctest --output-on-failure

@@ -512,3 +512,26 @@ def test_var_stderr_of_a_constant_is_zero_without_warning():
     assert np.all(r.var_stderr("distance") == 0.0)
     r = crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[1.0]), paths=5000, seed=1)
     assert np.all(r.var_stderr("distance") > 0)
+
+
+def test_scenes_compare_by_value_and_hash_alike():
+    a = crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=[1.0, 2.0])
+    b = crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=[1.0, 2.0])
+    c = crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=[1.0, 2.5])
+    assert a == b and hash(a) == hash(b) and a != c and len({a, b, c}) == 2
+    assert a == crandall.Scene.from_dict(a.to_dict()) and a != "scene"
+
+
+def test_numpy_seeds_map_to_documented_ints():
+    sc = crandall.Scene.scaled(tau0=1.0, times=[1.0], observe=["velocity"])
+    ss = np.random.SeedSequence(12345)
+    want = int(np.random.SeedSequence(12345).generate_state(1, np.uint64)[0])
+    r = crandall.simulate(sc, paths=100, seed=ss)
+    assert r.seed == want
+    np.testing.assert_array_equal(r.var("velocity"),
+                                  crandall.simulate(sc, paths=100, seed=want).var("velocity"))
+    g = np.random.default_rng(7)
+    first = int(np.random.default_rng(7).integers(0, 2 ** 64, dtype=np.uint64))
+    assert crandall.simulate(sc, paths=10, seed=g).seed == first
+    assert crandall.simulate_many([sc, sc], paths=10, seed=np.random.SeedSequence(1))[1].seed == \
+        int(np.random.SeedSequence(1).generate_state(1, np.uint64)[0])

@@ -379,3 +379,18 @@ def test_malformed_scheduler_address_exits_2(scene_file, monkeypatch, capsys):
     monkeypatch.setattr(distributed, "Client", client)
     assert cli.main(["run", str(scene_file), "--no-files", "--scheduler", "nonsense"]) == 2
     _one_line_error(capsys, "--scheduler", "nonsense")
+
+
+def test_figures_in_another_format_resolution_and_units(tmp_path, capsys):
+    out = tmp_path / "out"
+    scene = SCENES / "crate.toml"
+    assert cli.main(["run", str(scene), "--paths", "500", "--out", str(out), "--format", "svg",
+                     "--dpi", "80"]) == 0
+    svgs = sorted(p.name for p in out.glob("*.svg"))
+    assert "fig2_distance_mean.svg" in svgs and not list(out.glob("*.png"))
+    # A second run in scaled units replaces them (the manifest lists every format).
+    assert cli.main(["run", str(scene), "--paths", "500", "--out", str(out), "--overwrite",
+                     "--units", "scaled"]) == 0
+    assert not list(out.glob("*.svg")) and (out / "fig2_distance_mean.png").exists()
+    assert cli.main(["run", str(scene), "--paths", "500", "--no-files", "--dpi", "5"]) == 2
+    assert "--dpi must be between 50 and 1200" in capsys.readouterr().err

@@ -114,3 +114,18 @@ def test_the_shipped_piecewise_scenes_keep_the_energy_law(name):
     want = sc.mass * model.noise_energy(sc, sc.t0) / 2  # J: m/2 int h^2 dt
     got = r.mean("dissipated_energy_at_stop")
     assert abs(got - want) <= 4 * r.error("dissipated_energy_at_stop"), (got, want)
+
+
+def test_a_piecewise_scene_with_a_start_saves_and_loads_bitwise(tmp_path):
+    sc = crandall.Scene(mu=0.3, h=[1.0, 0.0, 0.6], t0=[1.0, 1.5, 2.5], v0=0.3, u0=-0.1,
+                        times=[0.5, 2.0, 3.0], distributions=["distance_at_stop"])
+    r = crandall.simulate(sc, paths=1000, seed=3)
+    r.save(tmp_path / "r.nc")
+    back = crandall.load(tmp_path / "r.nc")
+    assert back.scene == sc and back.scene.pieces == sc.pieces and back.scene.v0 == 0.3
+    for name in r.names:
+        assert np.asarray(back.var(name)).tobytes() == np.asarray(r.var(name)).tobytes()
+    a = crandall.simulate(sc.__class__(mu=0.3, h=[1.0, 0.5], t0=[1.0, 2.0], times=[1.0, 2.0]),
+                          error=0.05, seed=3)
+    a.save(tmp_path / "a.nc")
+    assert crandall.load(tmp_path / "a.nc").to_pandas().equals(a.to_pandas())

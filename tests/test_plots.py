@@ -58,15 +58,54 @@ def test_moment_figures_show_the_curve_and_the_points(result, func, name, kind, 
     np.testing.assert_array_equal(py, sim)
 
 
-def test_physical_scene_is_drawn_in_scaled_units(tmp_path):
+def test_physical_scene_is_drawn_in_its_units_or_scaled(tmp_path):
     scene = crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=[0.5, 1.0, 2.0, 3.0])
     r = crandall.simulate(scene, paths=2000, seed=1, dt=0.01)
-    ax = plots.distance_mean(r).axes[0]
-    px, py = [c for c in ax.containers if hasattr(c, "lines")][0].lines[0].get_data()
     s = scene.scaling
+    # Its own units (default): seconds and metres, the analytic curve converted, and a residual
+    # panel of z = (simulated - analytic) / stderr.
+    fig = plots.distance_mean(r)
+    ax, rax = fig.axes
+    px, py = [c for c in ax.containers if hasattr(c, "lines")][0].lines[0].get_data()
+    np.testing.assert_array_equal(px, scene.times)
+    np.testing.assert_array_equal(py, r.mean("distance"))
+    x, y = ax.get_lines()[0].get_data()
+    np.testing.assert_allclose(y, analytic.distance_mean(s.to_tau(x), s.to_tau(2.0))
+                               * s.length_scale, rtol=1e-12)
+    zx, z = [ln for ln in rax.get_lines() if ln.get_marker() == "o"][0].get_data()
+    ref = analytic.distance_mean(s.to_tau(scene.times), s.to_tau(2.0)) * s.length_scale
+    np.testing.assert_allclose(z, (r.mean("distance") - ref) / r.stderr("distance"), rtol=1e-9)
+    assert ax.get_title() == "Mean distance" and "(s)" in rax.get_xlabel()
+    assert ax.get_ylabel() == "mean distance (m)"
+    # The paper's scaled units on request.
+    ax = plots.distance_mean(r, units="scaled").axes[0]
+    px, py = [c for c in ax.containers if hasattr(c, "lines")][0].lines[0].get_data()
     np.testing.assert_allclose(px, scene.times / s.time_scale, rtol=1e-14)
     np.testing.assert_allclose(py, r.mean("distance") / s.length_scale, rtol=1e-14)
-    assert "scaled units" in ax.get_title()
+    with pytest.raises(ValueError, match="units must be one of"):
+        plots.distance_mean(r, units="imperial")
+
+
+def test_scenes_without_closed_forms_are_drawn_without_them(tmp_path):
+    # A piecewise scene: the simulated points, the intensity strip above, no analytic curve or
+    # residual panel; written in each format at the asked resolution.
+    sc = crandall.Scene(mu=0.3, h=[1.0, 0.0, 0.6], t0=[1.0, 1.5, 2.5], times=[0.5, 1.0, 2.0, 3.0],
+                        distributions=["distance_at_stop"])
+    r = crandall.simulate(sc, paths=2000, seed=1)
+    fig = plots.distance_mean(r)
+    strip, ax = fig.axes
+    assert "no closed form" in ax.get_title()
+    xs, ys = strip.get_lines()[0].get_data()
+    assert max(ys) == 1.0 and 0.0 in ys
+    figs = plots.figures(r)
+    assert "velocity_density" not in figs and "distance_at_stop_distribution" in figs
+    for fmt in plots.FORMATS:
+        written = plots.write_figures(r, tmp_path / fmt, format=fmt, dpi=80)
+        assert written and all(p.endswith("." + fmt) for p in written)
+    with pytest.raises(ValueError, match="format must be one of"):
+        plots.write_figures(r, tmp_path / "x", format="gif")
+    with pytest.raises(ValueError, match="dpi must be"):
+        plots.write_figures(r, tmp_path / "x", dpi=5)
 
 
 def test_velocity_density_matches_the_analytic_density():
@@ -115,5 +154,8 @@ def test_unobserved_quantity_and_unscalable_scene():
         plots.distance_mean(r)
     assert sorted(plots.figures(r, paths=200)) == ["fig3_velocity_var", "velocity_density"]
     free = crandall.simulate(crandall.Scene(mu=0.0, h=1.0, t0=1.0, times=[1.0]), paths=100, seed=1)
+    # A frictionless scene has no scaled units: drawn in its own, without closed forms.
+    figs = plots.figures(free)
+    assert "no closed form" in figs["fig3_velocity_var"].axes[0].get_title()
     with pytest.raises(ValueError, match="mu > 0"):
-        plots.figures(free)
+        plots.figures(free, units="scaled")

@@ -164,7 +164,9 @@ def to_xarray(result):
     if result.cost["wall_time"] is not None:
         attrs["wall_time"] = float(result.cost["wall_time"])
     for k, v in sc.params.items():
-        attrs["scene_" + k] = float(v)
+        # A piecewise schedule's h and t0 are lists: a 1-D attribute.
+        attrs["scene_" + k] = (np.asarray(v, dtype=float) if isinstance(v, (list, tuple))
+                               else float(v))
     if sc.distributions:
         # For netCDF tools (the scene's JSON above is what load reads).
         attrs["scene_distributions"] = " ".join(sc.distributions)
@@ -177,7 +179,9 @@ def _scene_attrs(sc) -> Dict[str, Any]:
              "crandall_version": __version__, "scene": json.dumps(sc.to_dict()),
              "units_system": sc.units}
     for k, v in sc.params.items():
-        attrs["scene_" + k] = float(v)
+        # A piecewise schedule's h and t0 are lists: a 1-D attribute.
+        attrs["scene_" + k] = (np.asarray(v, dtype=float) if isinstance(v, (list, tuple))
+                               else float(v))
     return attrs
 
 

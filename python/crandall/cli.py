@@ -38,9 +38,12 @@ DEFAULT_OUT = "crandall-out"
 MANIFEST = ".crandall-files.json"
 # Names crandall writes into an output folder: a folder holding any of them (without a
 # manifest, e.g. a run that was killed while writing) holds another run's files.
-_OUTPUT_NAMES = (("result.nc", "result.csv") + tuple(c.figure + ".png" for c in paper.CURVES)
-                 + ("velocity_density.png", "stop_time_density.png", MANIFEST)
-                 + tuple(f"{n}_distribution.png" for n in plots.STOP_DISTRIBUTIONS[1:]))
+_OUTPUT_NAMES = (("result.nc", "result.csv", MANIFEST)
+                 + tuple(f"{stem}.{ext}" for ext in plots.FORMATS
+                         for stem in ([c.figure for c in paper.CURVES]
+                                      + ["velocity_density", "stop_time_density"]
+                                      + [f"{n}_distribution"
+                                         for n in plots.STOP_DISTRIBUTIONS[1:]])))
 #: The probabilities whose quantiles ``crandall run`` prints for the stop quantities.
 QUANTILES = (0.5, 0.9, 0.99, 0.999)
 
@@ -117,6 +120,13 @@ def _parser() -> argparse.ArgumentParser:
                      help="run on a Dask distributed cluster, e.g. tcp://host:8786 "
                           "(pip install 'crandall[distributed]')")
     run.add_argument("--no-figures", action="store_true", help="do not draw the figures")
+    run.add_argument("--format", dest="figure_format", choices=plots.FORMATS, default="png",
+                     help="the figures' file format (default: png)")
+    run.add_argument("--dpi", type=_positive_int, default=150, metavar="N",
+                     help="the resolution of png figures (default: 150)")
+    run.add_argument("--units", dest="figure_units", choices=plots.UNITS, default="scene",
+                     help="draw the figures in the scene's units (default) or the paper's "
+                          "scaled units")
     run.add_argument("--no-files", action="store_true",
                      help="print only: write no results or figures")
     bar = run.add_mutually_exclusive_group()
@@ -193,7 +203,8 @@ def _check_out(out: str, overwrite: bool) -> List[str]:
     return earlier
 
 
-def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ()) -> List[str]:
+def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = (),
+                   figure_options: Optional[dict] = None) -> List[str]:
     check_folder_writable(out, "--out", create=True)
     # The earlier run's files go first, so that none of them is left beside the new ones.
     for name in earlier:
@@ -214,10 +225,10 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ())
             notes.append(f"results not written ({exc})")
         if figures:
             try:
-                written += plots.write_figures(result, out)
+                written += plots.write_figures(result, out, **(figure_options or {}))
             except ImportError as exc:
                 notes.append(f"figures not drawn ({exc})")
-            except ValueError as exc:  # a scene without scaled units (mu = 0 or h = 0)
+            except ValueError as exc:  # --units scaled for a scene without scaled units
                 notes.append(f"figures not drawn: {exc}")
     finally:
         # Even after a failure midway: what was written is listed, so a later --overwrite
@@ -232,7 +243,8 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = ())
 def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None, dt=None,
         method=None, out: str = DEFAULT_OUT, checkpoint=None, scheduler=None,
         figures: bool = True, files: bool = True, progress=None, overwrite: bool = False,
-        error=None, rel_error=None, max_seconds=None) -> int:
+        error=None, rel_error=None, max_seconds=None,
+        figure_options: Optional[dict] = None) -> int:
     """What ``crandall run`` does (arguments as its options); returns the exit status.
 
     Raises
@@ -251,7 +263,7 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
                              seed=seed, threads=threads, dt=dt, method=method, out=out,
                              checkpoint=checkpoint, scheduler=scheduler, files=files,
                              earlier=earlier, progress=progress, max_seconds=max_seconds,
-                             figures=figures, is_paper=is_paper)
+                             figures=figures, is_paper=is_paper, figure_options=figure_options)
     if max_seconds is not None:
         raise ValueError("--max-seconds: only with --error or --rel-error")
     for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method)):
@@ -282,12 +294,13 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     print(f"\n{result.paths:,} paths x {result.steps_per_path} steps in {elapsed:.1f} s "
           f"(seed {result.seed})")
     if files:
-        _write_and_tell(result, out, figures, earlier)
+        _write_and_tell(result, out, figures, earlier, figure_options)
     return 0
 
 
-def _write_and_tell(result, out: str, figures: bool, earlier: Sequence[str]) -> None:
-    written = _write_outputs(result, out, figures, earlier)
+def _write_and_tell(result, out: str, figures: bool, earlier: Sequence[str],
+                    figure_options: Optional[dict] = None) -> None:
+    written = _write_outputs(result, out, figures, earlier, figure_options)
     if written:
         print(f"wrote {len(written)} files to {out}{os.sep}: "
               + ", ".join(os.path.basename(p) for p in written))
@@ -312,7 +325,8 @@ def _client(scheduler: Optional[str]):
 
 def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, threads, dt, method,
                   out, checkpoint, scheduler, files, earlier, progress=None,
-                  max_seconds=None, figures: bool = True, is_paper: bool = False) -> int:
+                  max_seconds=None, figures: bool = True, is_paper: bool = False,
+                  figure_options: Optional[dict] = None) -> int:
     """``crandall run --error EPS``: a run to a requested accuracy."""
     for option, value in (("--paths", paths), ("--dt", dt), ("--method", method)):
         if value is not None:
@@ -342,7 +356,7 @@ def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, thre
     print(f"\n{c['path_steps']:.3g} path-steps in {c['wall_time']:.1f} s "
           f"(levels {len(c['paths'])}, paths per level {c['paths']}, seed {result.seed})")
     if files:
-        _write_and_tell(result, out, figures, earlier)
+        _write_and_tell(result, out, figures, earlier, figure_options)
     return 0
 
 
@@ -455,12 +469,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = _parser().parse_args(argv)
     try:
         if args.command == "run":
+            if not 50 <= args.dpi <= 1200:
+                raise ValueError(f"--dpi must be between 50 and 1200, got {args.dpi}")
             return run(args.scene, paths=args.paths, seed=args.seed, threads=args.threads,
                        dt=args.dt, method=args.method, out=args.out, checkpoint=args.checkpoint,
                        scheduler=args.scheduler, figures=not args.no_figures,
                        files=not args.no_files, progress=args.progress,
                        overwrite=args.overwrite, error=args.error, rel_error=args.rel_error,
-                       max_seconds=args.max_seconds)
+                       max_seconds=args.max_seconds,
+                       figure_options={"format": args.figure_format, "dpi": args.dpi,
+                                       "units": args.figure_units})
         return analytic_command(args.scene, tau0=args.tau0, times=args.times)
     except ValueError as exc:
         print(f"crandall: error: {exc}", file=sys.stderr)

@@ -1,9 +1,11 @@
-"""The paper's figures: analytic curves with simulated points, densities against histograms.
+"""The paper's figures: simulated statistics with their error bars, the analytic curves and
+the residuals where the paper's closed forms hold, densities against histograms.
 
 Every function returns a :class:`matplotlib.figure.Figure` (drawn with the Agg canvas, never
 through pyplot's global state, so it works without a display and in threads);
-:func:`write_figures` writes them all as PNG. Figures are in the paper's scaled units (eq3,
-eq8): a physical scene's statistics are converted (it needs mu > 0 and h > 0).
+:func:`write_figures` writes them all (PNG, PDF or SVG). The moment figures are in the scene's
+units (s, m, J for an SI scene) or, with ``units="scaled"``, the paper's scaled units (eq3,
+eq8); the densities of the paper's scene are in scaled units.
 
 Needs the ``plots`` extra: ``pip install crandall[plots]`` (matplotlib).
 """
@@ -19,6 +21,7 @@ from scipy.stats import beta
 
 from . import analytic, distributions
 from .engine import velocity_samples
+from . import paper
 from .paper import CURVES, Curve, curve, scaled_factors
 from .quantities import quantity
 from .model import ANALYTIC, holds
@@ -36,6 +39,8 @@ __all__ = [
     "STOP_DISTRIBUTIONS",
     "figures",
     "write_figures",
+    "UNITS",
+    "FORMATS",
 ]
 
 #: Error bars are this many standard errors (a 95 % interval).
@@ -71,37 +76,142 @@ def _curve_grid(tau, tau0):
 def _switch_off_line(ax, tau0, right):
     if math.isfinite(tau0) and tau0 <= right:
         ax.axvline(tau0, color="0.6", ls=":", lw=1)
-        ax.annotate(r"switch-off $\tau_0$", (tau0, 1.0), xycoords=("data", "axes fraction"),
+        ax.annotate("switch-off", (tau0, 1.0), xycoords=("data", "axes fraction"),
                     xytext=(3, -12), textcoords="offset points", fontsize=8, color="0.4")
 
 
-def _moment_figure(result: Result, c: Curve):
+#: The units a figure is drawn in: the scene's own (s, m, J for an SI scene; scaled for a
+#: scaled one), or the paper's scaled units.
+UNITS = ("scene", "scaled")
+#: Output formats of write_figures.
+FORMATS = ("png", "pdf", "svg")
+
+
+def _check_units(units) -> str:
+    if units not in UNITS:
+        raise ValueError(f"units must be one of {', '.join(UNITS)}, got {units!r}")
+    return units
+
+
+def _has_closed_forms(result: Result) -> bool:
+    """Whether the paper's closed forms describe this result's scene (and its scaled units
+    exist)."""
+    sc = result.scene
+    return holds(sc, ANALYTIC) and (sc.units == "scaled" or sc.scaling is not None)
+
+
+def _axes_converter(result: Result, units: str):
+    """(to_x, to_y, x label, y suffix): scaled tau and a scaled statistic of ``kind ** power``
+    to the figure's units, and the labels."""
+    sc = result.scene
+    s = None if sc.units == "scaled" else sc.scaling
+    if units == "scaled" or s is None:
+        if units == "scaled" and sc.units == "SI" and s is None:
+            raise ValueError("units: this scene has no scaled units (mu = 0, h = 0, or scales "
+                             "beyond doubles); draw it in units='scene'")
+        return (lambda tau: tau), (lambda v, kind, power: v), r"scaled time $\tau$", ""
+    return (s.to_t, lambda v, kind, power: s.to_si(v, kind, power), "time $t$ (s)", "SI")
+
+
+def _schedule_strip(ax, result: Result, right: float, to_x) -> None:
+    """The intensity over time, a step plot (a piecewise scene); ``to_x`` takes the scene's
+    times to the figure's."""
+    sc = result.scene
+    pieces = tuple((to_x(e), n) for e, n in (sc.pieces if sc.pieces is not None
+                                              else ((sc.t0, sc.noise),)))
+    xs, ys, start = [], [], 0.0
+    for end, noise in pieces:
+        e = min(end, right) if math.isfinite(end) else right
+        xs += [start, e]
+        ys += [noise, noise]
+        start = end
+        if start >= right:
+            break
+    if start < right:
+        xs += [start, right]
+        ys += [0.0, 0.0]
+    ax.fill_between(xs, ys, step=None, color="0.75", lw=0)
+    ax.plot(xs, ys, color="0.35", lw=1)
+    ax.set_ylabel("noise" if sc.units == "scaled" else "h", fontsize=8)
+    ax.set_ylim(bottom=0)
+    ax.tick_params(labelsize=7, labelbottom=False)
+
+
+def _moment_figure(result: Result, c: Curve, units: str = "scene"):
     if not isinstance(result, Result):
         raise ValueError(f"result must be a crandall.Result, got {type(result).__name__}")
     if c.quantity not in result.names:
         raise ValueError(f"result: {c.quantity!r} was not observed in this scene")
-    tau, tau0, *_ = scaled_factors(result)
-    sim, se = c.simulated_scaled(result)
-    fig = _figure()
-    ax = fig.add_subplot()
-    grid = _curve_grid(tau, tau0)
-    ax.plot(grid, c.analytic(grid, tau0), label="analytic", **_CURVE)
-    ax.errorbar(tau, sim, yerr=Z95 * se, label=f"simulated, ±{Z95} stderr ({result.paths:,} paths)",
-                **_SIM)
-    right = max(grid[-1], float(np.max(tau)) if np.size(tau) else 0.0)
-    _switch_off_line(ax, tau0, right)
+    _check_units(units)
+    sc = result.scene
+    kind = quantity(c.quantity).kind
+    power = 1 if c.statistic == "mean" else 2
+    closed = _has_closed_forms(result)
+    sim, se = c.simulated(result)
+    times = np.asarray(result.times, dtype=float)
+    if units == "scaled":
+        sim, se = (paper.to_scaled(result, x, kind, power) for x in (sim, se))
+        times = np.asarray(scaled_factors(result)[0] if closed else (
+            times if sc.units == "scaled" else sc.scaling.to_tau(times)), dtype=float)
+    to_x, to_y, xlabel, _ = _axes_converter(result, units)
+    strip = sc.pieces is not None
+    rows = [1] * strip + [3] + [1] * closed
+    fig = _figure(6.4, 4.4 + 0.9 * (len(rows) - 1))
+    axes = fig.subplots(len(rows), 1, sharex=True, gridspec_kw={"height_ratios": rows})
+    axes = np.atleast_1d(axes)
+    ax = axes[1 if strip else 0]
+    right = float(np.max(times)) if times.size else 1.0
+    if closed:
+        tau, tau0, *_ = scaled_factors(result)
+        grid = _curve_grid(tau, tau0)
+        ax.plot(to_x(grid), to_y(c.analytic(grid, tau0), kind, power), label="analytic",
+                **_CURVE)
+        right = max(right, float(to_x(grid[-1])))
+        _switch_off_line(ax, to_x(tau0), right)
+    elif math.isfinite(sc.t0):
+        t0 = sc.t0 if units == "scene" or sc.units == "scaled" else sc.scaling.to_tau(sc.t0)
+        _switch_off_line(ax, t0, right)
+    ax.errorbar(times, sim, yerr=Z95 * np.asarray(se),
+                label=f"simulated, ±{Z95} stderr ({result.paths:,} paths)", **_SIM)
     ax.set_xlim(0, right * 1.02)
     ax.set_ylim(bottom=0)
-    ax.set_xlabel(r"scaled time $\tau$")
-    ax.set_ylabel(c.ylabel)
-    where = "" if result.scene.units == "scaled" else " (SI scene in scaled units, eq8)"
-    ax.set_title(c.title + where, fontsize=10)
+    unit = "" if (units == "scaled" or sc.units == "scaled") else sc.units_of(c.quantity)
+    name = ("mean " if c.statistic == "mean" else "variance of ") + c.quantity
+    scaled = units == "scaled" or sc.units == "scaled"
+    ax.set_ylabel(c.ylabel if scaled
+                  else f"{name} (({unit})$^2$)" if power == 2 else f"{name} ({unit})")
+    title = c.title if scaled else f"{name[0].upper()}{name[1:]}"
+    ax.set_title(title + ("" if closed else " (no closed form for this scene)"), fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, loc="best")
+    if strip:
+        scene_to_x = (sc.scaling.to_tau if units == "scaled" and sc.units == "SI"
+                      else (lambda t: t))
+        _schedule_strip(axes[0], result, right * 1.02, scene_to_x)
+    if closed:
+        # The residual: z = (simulated - analytic) / stderr at each output time, with the
+        # +-2 band a correct error bar keeps about 95 % of the points in.
+        tau, tau0, *_ = scaled_factors(result)
+        ref = to_y(np.asarray(c.analytic(tau, tau0), dtype=float), kind, power)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z = (np.asarray(sim, dtype=float) - ref) / np.asarray(se, dtype=float)
+        rax = axes[-1]
+        rax.axhline(0, color="0.5", lw=0.8)
+        for y in (-2, 2):
+            rax.axhline(y, color="0.6", ls="--", lw=0.8)
+        rax.plot(times, z, "o", ms=3, color="C3")
+        rax.set_ylabel("z", fontsize=8)
+        finite = np.abs(z[np.isfinite(z)])
+        top = max(3.0, float(finite.max()) * 1.15) if finite.size else 3.0
+        rax.set_ylim(-top, top)
+        rax.grid(alpha=0.3)
+        rax.set_xlabel(xlabel)
+    else:
+        ax.set_xlabel(xlabel)
     return fig
 
 
-def distance_mean(result: Result):
+def distance_mean(result: Result, units: str = "scene"):
     """Figure 2 of the paper: the mean scaled distance E U3(tau), eq10r, with the simulation.
 
     Parameters
@@ -113,10 +223,10 @@ def distance_mean(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, curve("distance_mean"))
+    return _moment_figure(result, curve("distance_mean"), units)
 
 
-def velocity_var(result: Result):
+def velocity_var(result: Result, units: str = "scene"):
     """Figure 3: the variance of the scaled velocity Var U1(tau), eq10s, with the simulation.
 
     Parameters
@@ -128,10 +238,10 @@ def velocity_var(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, curve("velocity_var"))
+    return _moment_figure(result, curve("velocity_var"), units)
 
 
-def displacement_var(result: Result):
+def displacement_var(result: Result, units: str = "scene"):
     """Figure 4: the variance of the scaled displacement Var U2(tau), eq10t, with the simulation.
 
     The analytic curve is drawn while the noise is on (tau <= tau0), where it is known in
@@ -146,10 +256,10 @@ def displacement_var(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, curve("displacement_var"))
+    return _moment_figure(result, curve("displacement_var"), units)
 
 
-def distance_var(result: Result):
+def distance_var(result: Result, units: str = "scene"):
     """Figure 5: the variance of the scaled distance Var U3(tau), eq10u (corrected).
 
     The analytic curve is drawn while the noise is on (tau <= tau0).
@@ -163,7 +273,7 @@ def distance_var(result: Result):
     -------
     matplotlib.figure.Figure
     """
-    return _moment_figure(result, curve("distance_var"))
+    return _moment_figure(result, curve("distance_var"), units)
 
 
 def _check_samples(paths, seed):
@@ -391,23 +501,29 @@ def distribution(result: Result, name: str, times: Optional[Sequence[float]] = N
     return fig
 
 
-def figures(result: Result, *, paths: int = 200_000) -> Dict[str, object]:
+def figures(result: Result, *, paths: int = 200_000, units: str = "scene") -> Dict[str, object]:
     """Every figure that suits a result, by file stem.
 
-    Figures 2-5 for the observed quantities; the velocity density at up to three of the
-    scene's output times while the noise is on (or 0.25, 1, 5 if none); the stop-time density
-    when the scene stops. When the run holds the distributions (``Scene(distributions=...)``)
-    the densities are its own histograms, with their exceedance curves (:func:`distribution`),
-    and so are those of the stop quantities of ``STOP_DISTRIBUTIONS`` it holds
-    (``NAME_distribution``); otherwise the densities use ``paths`` samples of a separate
-    sampler seeded by the result's seed.
+    Figures 2-5 for the observed quantities, in the scene's units (``units="scene"``: seconds,
+    metres and joules for an SI scene) or the paper's scaled units (``units="scaled"``), with
+    the analytic curve and a residual panel (z of the simulated points against it) where the
+    paper's closed forms hold for the scene, and the intensity over time above them for a
+    piecewise scene. Where the closed forms hold, also the velocity density at up to three of
+    the scene's output times while the noise is on (or 0.25, 1, 5 if none) and the stop-time
+    density (scaled units): from the run's own histograms when it holds the distributions
+    (``Scene(distributions=...)``, with their exceedance curves, :func:`distribution`),
+    otherwise from ``paths`` samples of a separate sampler seeded by the result's seed. The
+    stop quantities of ``STOP_DISTRIBUTIONS`` whose distributions the run holds
+    (``NAME_distribution``), for any scene.
 
     Parameters
     ----------
     result : Result
-        Scaled, or physical with mu > 0 and h > 0.
+        Any result (a run to an accuracy too).
     paths : int
         Samples per density.
+    units : str
+        "scene" (default) or "scaled" (needs mu > 0 and h > 0 in an SI scene).
 
     Returns
     -------
@@ -416,56 +532,70 @@ def figures(result: Result, *, paths: int = 200_000) -> Dict[str, object]:
         ``fig5_distance_var``, ``velocity_density``, ``stop_time_density``, and
         ``NAME_distribution`` for the stop quantities.
     """
-    tau, tau0, *_ = scaled_factors(result)  # raises ValueError for scenes without scaled units
+    _check_units(units)
     names = result.names
-    out = {c.figure: _moment_figure(result, c) for c in CURVES if c.quantity in names}
-    seed = result.seed
-    on = sorted({float(t) for t in np.atleast_1d(tau) if 0 < t <= tau0})
-    if len(on) > 3:
-        # The first, the last and the one nearest their geometric mean: the law changes fast at
-        # first and is nearly stationary after tau ~ 2.
-        mid = min(on[1:-1], key=lambda t: abs(math.log(t / math.sqrt(on[0] * on[-1]))))
-        on = [on[0], mid, on[-1]]
+    out = {c.figure: _moment_figure(result, c, units) for c in CURVES if c.quantity in names}
     held = result.distributions
-    if "velocity" in held and on:
-        # The run's own histograms at those times (the scene's times, in its units).
-        shown = [float(t) for t, s in zip(result.times, np.atleast_1d(tau)) if float(s) in on]
-        out["velocity_density"] = distribution(result, "velocity", shown)
-    else:
-        out["velocity_density"] = velocity_density(on or (0.25, 1.0, 5.0), paths=paths,
-                                                   seed=seed)
-    if "stop" in result.scene.observe and tau0 > 0:
-        if "stop_time" in held:
-            out["stop_time_density"] = distribution(result, "stop_time")
+    if _has_closed_forms(result):
+        tau, tau0, *_ = scaled_factors(result)
+        seed = result.seed
+        on = sorted({float(t) for t in np.atleast_1d(tau) if 0 < t <= tau0})
+        if len(on) > 3:
+            # The first, the last and the one nearest their geometric mean: the law changes
+            # fast at first and is nearly stationary after tau ~ 2.
+            mid = min(on[1:-1], key=lambda t: abs(math.log(t / math.sqrt(on[0] * on[-1]))))
+            on = [on[0], mid, on[-1]]
+        if "velocity" in held and on:
+            # The run's own histograms at those times (the scene's times, in its units).
+            shown = [float(t) for t, s in zip(result.times, np.atleast_1d(tau)) if float(s) in on]
+            out["velocity_density"] = distribution(result, "velocity", shown)
         else:
-            out["stop_time_density"] = stop_time_density(tau0, paths=paths, seed=seed)
+            out["velocity_density"] = velocity_density(on or (0.25, 1.0, 5.0), paths=paths,
+                                                       seed=seed)
+        if "stop" in result.scene.observe and tau0 > 0:
+            if "stop_time" in held:
+                out["stop_time_density"] = distribution(result, "stop_time")
+            else:
+                out["stop_time_density"] = stop_time_density(tau0, paths=paths, seed=seed)
+    elif "stop_time" in held:
+        out["stop_time_density"] = distribution(result, "stop_time")
     for name in STOP_DISTRIBUTIONS[1:]:
         if name in held:
             out[f"{name}_distribution"] = distribution(result, name)
     return out
 
 
-def write_figures(result: Result, folder, *, paths: int = 200_000) -> List[str]:
-    """Write :func:`figures` as PNG files into ``folder`` (created if missing).
+def write_figures(result: Result, folder, *, paths: int = 200_000, units: str = "scene",
+                  dpi: int = 150, format: str = "png") -> List[str]:
+    """Write :func:`figures` into ``folder`` (created if missing).
 
     Parameters
     ----------
     result : Result
-        Scaled, or physical with mu > 0 and h > 0.
+        Any result.
     folder : str or os.PathLike
-        Output folder; files are named after the keys of :func:`figures` (``*.png``).
+        Output folder; files are named after the keys of :func:`figures`.
     paths : int
         Samples per density.
+    units : str
+        "scene" or "scaled", as :func:`figures`.
+    dpi : int
+        Resolution of raster figures (png), 50 to 1200.
+    format : str
+        One of ``FORMATS``: "png", "pdf" or "svg".
 
     Returns
     -------
     list of str
         The files written.
     """
+    dpi = check_int("dpi", dpi, 50, 1200)
+    if format not in FORMATS:
+        raise ValueError(f"format must be one of {', '.join(FORMATS)}, got {format!r}")
     os.makedirs(folder, exist_ok=True)
     written = []
-    for stem, fig in figures(result, paths=paths).items():
-        path = os.path.join(folder, stem + ".png")
-        fig.savefig(path)
+    for stem, fig in figures(result, paths=paths, units=units).items():
+        path = os.path.join(folder, f"{stem}.{format}")
+        fig.savefig(path, dpi=dpi, format=format)
         written.append(path)
     return written

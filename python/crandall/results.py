@@ -349,6 +349,16 @@ class Result:
             self._warn_nan(name, "the standard error of the variance", se, "; ".join(reasons), 2)
         return float(se[0]) if scalar else se
 
+    def _var_stderr_quiet(self, name: str) -> np.ndarray:
+        """The variance's standard error for tables (NaN, without a warning, where it has none
+        or cannot be estimated)."""
+        known = find(name)
+        if known is not None and not known.has_var_stderr:
+            return np.full(1 if quantity(name).at_stop else self.times.size, math.nan)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", StatisticsWarning)
+            return np.atleast_1d(self.var_stderr(name))
+
     def moment(self, j: int, k: int, l: int) -> np.ndarray:  # noqa: E741 - the paper's index
         """Mixed moment E[U1^j U2^k U3^l] over times, in the paper's scaled units (eq3, eq8).
 
@@ -704,15 +714,17 @@ class Result:
                 u = sc.units_of(n)
                 lines.append(f"  {n}" + (f" [{u}]" if u else ""))
                 lines.append(f"    {sc.time_name:>10}  {'mean':>13}  {'± stderr':>10}  "
-                             f"{'bias':>9}  {'var':>12}  {'std':>12}  {'var bias':>9}")
+                             f"{'bias':>9}  {'var':>12}  {'± stderr':>10}  {'var bias':>9}  "
+                             f"{'std':>12}")
                 mean, var, cnt = self._stats(n)
                 bm, bv = self._bias(n, "mean", False), self._bias(n, "var", False)
+                vse = self._var_stderr_quiet(n)
                 for i, t in enumerate(self.times):
                     lines.append(f"    {t:>10.4g}  {mean[i]:>13.6g}  "
                                  f"{_fmt(_sqrt(var[i] / cnt[i]), '10.2g')}  "
                                  f"{_fmt(bm[i], '9.2g')}  "
-                                 f"{_fmt(var[i], '12.6g')}  {_fmt(_sqrt(var[i]), '12.6g')}  "
-                                 f"{_fmt(bv[i], '9.2g')}")
+                                 f"{_fmt(var[i], '12.6g')}  {_fmt(vse[i], '10.2g')}  "
+                                 f"{_fmt(bv[i], '9.2g')}  {_fmt(_sqrt(var[i]), '12.6g')}")
         stop_names = [n for n in self.names if quantity(n).at_stop]
         if stop_names:
             lines.append("  at the stop:")
@@ -722,6 +734,7 @@ class Result:
                 lines.append(f"    {n:<26} mean {mean:.6g} ± {_fmt(_sqrt(var / cnt), '.2g')}"
                              f" (bias {_fmt(self._bias(n, 'mean', False), '.2g')})"
                              f"   var {_fmt(var, '.6g')}"
+                             f" ± {_fmt(self._var_stderr_quiet(n)[0], '.2g')}"
                              f" (bias {_fmt(self._bias(n, 'var', False), '.2g')})"
                              + (f"   [{u}]" if u else ""))
         return "\n".join(lines)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 import numbers
 import os
@@ -506,6 +507,16 @@ class Scene:
         if self.units == "scaled":
             return ""
         return quantity(name).si_unit
+
+    def __eq__(self, other) -> bool:
+        """Scenes are equal when their plain data (:meth:`to_dict`) are: the same model,
+        times, observables, distributions and bins (not the run settings of a file)."""
+        if not isinstance(other, Scene):
+            return NotImplemented
+        return self.to_dict() == other.to_dict()
+
+    def __hash__(self) -> int:
+        return hash(json.dumps(self.to_dict(), sort_keys=True))
 
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())

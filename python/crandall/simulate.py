@@ -25,7 +25,7 @@ from .methods import DEFAULT_METHOD, GRIDS, METHODS
 from .quantities import names_for, quantity, simulated_variables
 from .results import MONOMIALS, Result, StatisticsWarning
 from .scene import Scene
-from .spec import MAX_PATHS, RunSpec, check_int, default_dt
+from .spec import MAX_PATHS, RunSpec, as_seed, check_int, default_dt
 from .errors import UnresolvableGrid
 from .model import EXACT_STEP, check_simulated, holds
 
@@ -351,11 +351,14 @@ def simulate(
         a ValueError quoting the estimate once the time spent and the estimate together pass
         ``max_seconds`` (default 3600; with ``checkpoint`` what was done is kept, so a rerun
         with a larger bound carries on).
-    seed : int, optional
+    seed : int, numpy.random.SeedSequence or numpy.random.Generator, optional
         0 <= seed < 2**64. The result is a pure function of (seed, scene, paths, dt, method,
         crandall version): bitwise the same for any ``threads``, checkpointed or not, local or
         on a Dask cluster. None draws a seed from the operating system and records it as
-        ``Result.seed`` (with an existing ``checkpoint``: the checkpoint's seed).
+        ``Result.seed`` (with an existing ``checkpoint``: the checkpoint's seed). A
+        ``SeedSequence`` gives the int ``seed.generate_state(1, numpy.uint64)[0]`` (the same
+        for the same entropy), a ``Generator`` one draw ``integers(0, 2**64,
+        dtype=numpy.uint64)`` (advancing it); ``Result.seed`` records the int.
     dt : float, optional
         Longest internal step, in the scene's time units, used where a time integral
         (displacement, distance, dissipated energy) is observed, and always by "euler". The
@@ -411,6 +414,7 @@ def simulate(
     --------
     simulate_many : several scenes (a parameter sweep), locally or on a cluster.
     """
+    seed = as_seed(seed)
     given = dict(paths=paths, seed=seed, dt=dt, method=method, threads=threads,
                  checkpoint=checkpoint, client=client, progress=progress, error=error,
                  rel_error=rel_error, statistics=statistics, max_seconds=max_seconds)
@@ -573,6 +577,7 @@ def simulate_many(
         raise ValueError(f"scenes must be a list of crandall.Scene, got {type(scenes).__name__}")
     if not scenes:
         raise ValueError("scenes must not be empty")
+    seed = as_seed(seed)
     files: List[Optional[str]] = [None] * len(scenes)
     if checkpoint_dir is not None:
         if not isinstance(checkpoint_dir, (str, os.PathLike)):

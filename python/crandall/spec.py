@@ -40,6 +40,18 @@ def check_int(name: str, value, minimum: int, maximum: Optional[int] = None) -> 
     return value
 
 
+def as_seed(seed):
+    """A seed as simulate takes it: None, an int, or numpy's ``SeedSequence`` (its first 64-bit
+    word of state: ``int(seed.generate_state(1, numpy.uint64)[0])``, the same for the same
+    entropy) or ``Generator`` (one draw ``integers(0, 2**64, dtype=numpy.uint64)``, which
+    advances it). Ints are checked where the spec is made."""
+    if isinstance(seed, np.random.SeedSequence):
+        return int(seed.generate_state(1, np.uint64)[0])
+    if isinstance(seed, np.random.Generator):
+        return int(seed.integers(0, 2 ** 64, dtype=np.uint64))
+    return seed
+
+
 def default_dt(scene: Scene) -> float:
     """The longest internal step that ``simulate(dt=None)`` uses for this scene, in its units.
 
