@@ -1,0 +1,58 @@
+"""The README's Python examples, from "## Use" to the bias section, run in order, twice, in a
+fresh folder (the scene files beside them): every call a reader copies works and can be run
+again. Path counts and targets are made smaller so that the suite stays short, and the Dask
+example gets a local cluster instead of the README's scheduler address: each substitution is
+listed in SHRINK and must match the README (so an edited example is never silently skipped)."""
+
+from __future__ import annotations
+
+import os
+import pathlib
+import re
+import shutil
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+
+#: (README text, what the test runs instead): smaller runs of the same calls.
+SHRINK = [
+    ("paths=100_000", "paths=2_000"),
+    ("paths=10**8", "paths=3 * 65536"),
+    ("paths=10**9", "paths=2 * 65536"),
+    ("paths=10**6", "paths=20_000"),
+    ("error=1e-3, seed=1, statistics", "error=2e-2, seed=1, statistics"),
+    ('Client("tcp://scheduler:8786")',
+     'Client(LocalCluster(n_workers=1, threads_per_worker=1, processes=False, '
+     'dashboard_address=":0"))'),
+]
+
+
+def _examples() -> str:
+    text = (ROOT / "README.md").read_text()
+    use = text[text.index("## Use"):text.index("## Bias of the integrals")]
+    blocks = re.findall(r"```python\n(.*?)```", use, re.S)
+    code = "\n".join(blocks)
+    for old, new in SHRINK:
+        assert old in code, f"the README no longer has {old!r}: update SHRINK"
+        code = code.replace(old, new)
+    return code
+
+
+def test_the_readme_examples_run_twice_in_order(tmp_path, monkeypatch):
+    pytest.importorskip("xarray")
+    pytest.importorskip("matplotlib")
+    pytest.importorskip("distributed")
+    pytest.importorskip("boost_histogram")
+    shutil.copytree(ROOT / "scenes", tmp_path / "scenes")
+    monkeypatch.chdir(tmp_path)
+    code = "from distributed import LocalCluster\n" + _examples()
+    for run in range(2):
+        namespace: dict = {}
+        exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102 - the README's own code
+        client = namespace.get("client")
+        if client is not None:
+            cluster = client.cluster
+            client.close()
+            cluster.close()
+    assert os.path.exists("crate.nc") and os.path.exists("accurate.nc")
