@@ -452,13 +452,10 @@ def test_to_xarray(run):
     xr = pytest.importorskip("xarray")
     ds = run.to_xarray()
     assert isinstance(ds, xr.Dataset)
-    # The fixed-step layout: statistics and accuracy over (time, observable), and at the stop.
-    got = ds["accuracy"].sel(observable="distance", accuracy_statistic="error_var").values
-    np.testing.assert_array_equal(got, run.error("distance", "var"))
-    got = ds["stop_statistics"].sel(stop_quantity="stop_time", statistic="mean")
-    assert float(got) == run.mean("stop_time")
-    got = ds["statistics"].sel(observable="velocity", statistic="var_stderr").values
-    np.testing.assert_array_equal(got, run.stderr("velocity", "var"))
+    # The fixed-step layout: one variable per quantity and statistic.
+    np.testing.assert_array_equal(ds["distance_error_var"].values, run.error("distance", "var"))
+    assert float(ds["stop_time_mean"]) == run.mean("stop_time")
+    np.testing.assert_array_equal(ds["velocity_var_stderr"].values, run.stderr("velocity", "var"))
     assert ds.attrs["seed"] == "11" and ds.attrs["kind"] == "accuracy"
 
 

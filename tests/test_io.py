@@ -28,25 +28,27 @@ def scaled_result():
 def test_xarray_layout_units_and_scene(physical_result):
     r = physical_result
     ds = r.to_xarray()
-    stats = ds["statistics"]
-    assert stats.dims == ("time", "observable", "statistic")
-    assert list(ds["observable"].values) == [n for n in r.names if not n.endswith("stop_time")
-                                             and "_at_stop" not in n]
-    assert list(ds["statistic"].values) == ["mean", "var", "std", "stderr", "var_stderr"]
+    # CF: one variable per quantity and statistic, each with its own units and long_name.
+    assert ds.attrs["Conventions"] == "CF-1.10"
     np.testing.assert_array_equal(ds["time"].values, [0.5, 1.0, 2.0, 3.0])
     assert ds["time"].attrs["units"] == "s"
-    units = dict(zip(ds["observable"].values, ds["units"].values))
-    assert units == {"velocity": "m/s", "displacement": "m", "distance": "m",
-                     "kinetic_energy": "J", "dissipated_energy": "J"}
+    units = {"velocity": ("m s-1", "m2 s-2"), "displacement": ("m", "m2"),
+             "distance": ("m", "m2"), "kinetic_energy": ("J", "J2"),
+             "dissipated_energy": ("J", "J2"), "stop_time": ("s", "s2")}
+    for name, (first, second) in units.items():
+        for stat in ("mean", "std", "stderr", "bias_mean", "error_mean"):
+            assert ds[f"{name}_{stat}"].attrs["units"] == first, (name, stat)
+        for stat in ("var", "var_stderr", "bias_var", "error_var"):
+            assert ds[f"{name}_{stat}"].attrs["units"] == second, (name, stat)
+        assert name.replace("_", " ").split()[0] in ds[f"{name}_mean"].attrs["long_name"]
     for name in ("velocity", "distance", "dissipated_energy"):
-        cell = stats.sel(observable=name)
-        np.testing.assert_array_equal(cell.sel(statistic="mean").values, r.mean(name))
-        np.testing.assert_array_equal(cell.sel(statistic="var").values, r.var(name))
-        np.testing.assert_array_equal(cell.sel(statistic="stderr").values, r.stderr(name))
-        np.testing.assert_array_equal(cell.sel(statistic="var_stderr").values, r.var_stderr(name))
-    assert np.isnan(stats.sel(observable="kinetic_energy", statistic="var_stderr")).all()
-    stop = ds["stop_statistics"]
-    assert stop.sel(stop_quantity="stop_time", statistic="mean") == r.mean("stop_time")
+        assert ds[f"{name}_mean"].dims == ("time",)
+        np.testing.assert_array_equal(ds[f"{name}_mean"].values, r.mean(name))
+        np.testing.assert_array_equal(ds[f"{name}_var"].values, r.var(name))
+        np.testing.assert_array_equal(ds[f"{name}_stderr"].values, r.stderr(name))
+        np.testing.assert_array_equal(ds[f"{name}_var_stderr"].values, r.var_stderr(name))
+    assert np.isnan(ds["kinetic_energy_var_stderr"]).all()
+    assert ds["stop_time_mean"].dims == () and ds["stop_time_mean"] == r.mean("stop_time")
     assert json.loads(ds.attrs["scene"]) == r.scene.to_dict()
     assert ds.attrs["scene_mu"] == 0.3 and ds.attrs["scene_mass"] == 100.0
     assert ds.attrs["seed"] == "3" and ds.attrs["paths"] == 5000
@@ -55,7 +57,7 @@ def test_xarray_layout_units_and_scene(physical_result):
 
 def test_scaled_units_are_dimensionless(scaled_result):
     ds = scaled_result.to_xarray()
-    assert set(ds["units"].values) == {"1"}
+    assert {v.attrs["units"] for k, v in ds.data_vars.items() if "units" in v.attrs} == {"1"}
     assert ds["time"].attrs["long_name"] == "scaled time tau"
 
 
@@ -71,9 +73,10 @@ def test_save_load_is_exact(tmp_path, request, which):
     assert back.scene.to_dict() == r.scene.to_dict()
     np.testing.assert_array_equal(back.moment(2, 1, 1), r.moment(2, 1, 1))
     assert back.summary() == r.summary()
-    # Plain netCDF: any reader sees the table.
+    # Plain netCDF: any reader sees the statistics, with their units.
     with xr.open_dataset(path, engine="scipy") as ds:
-        np.testing.assert_array_equal(ds["statistics"].values, r.to_xarray()["statistics"].values)
+        np.testing.assert_array_equal(ds["distance_var"].values, r.var("distance"))
+        assert ds["distance_var"].attrs["units"] in ("m2", "1")
 
 
 def test_save_load_stop_only_and_velocity_only(tmp_path):
@@ -295,3 +298,20 @@ def test_save_is_atomic_and_durable(tmp_path, scaled_result, monkeypatch):
     with pytest.raises(ZeroDivisionError):
         scaled_result.save(path)
     assert path.read_bytes() == before and [p.name for p in tmp_path.iterdir()] == ["r.nc"]
+
+
+def test_a_file_in_the_earlier_layout_still_loads(tmp_path, physical_result):
+    # Files of 0.2.0 held the statistics as one mixed table (time x observable x statistic)
+    # and no run_spec: load rebuilds a result from the accumulators, so they load bitwise.
+    r = physical_result
+    ds = r.to_xarray()
+    names = [k for k in ds.data_vars if any(k.startswith(n + "_") for n in r.names)]
+    old = ds.drop_vars(names)
+    old.attrs = {k: v for k, v in ds.attrs.items() if k not in ("run_spec", "Conventions")}
+    old["statistics"] = (("time", "observable", "statistic"), np.zeros((4, 2, 5)))
+    old = old.assign_coords(observable=["velocity", "distance"],
+                            statistic=["mean", "var", "std", "stderr", "var_stderr"])
+    path = tmp_path / "old.nc"
+    old.to_netcdf(path, engine="scipy", format="NETCDF3_64BIT")
+    back = crandall.load(path)
+    assert same_result(r, back) and back.spec.to_dict() == r.spec.to_dict()

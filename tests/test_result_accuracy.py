@@ -77,8 +77,7 @@ def test_cost_and_tables(tmp_path, coarse_exact):
     assert "bias" in r.summary()
     pytest.importorskip("xarray")
     ds = r.to_xarray()
-    assert ds["accuracy"].sel(observable="distance", accuracy_statistic="bias_mean").values.tolist() \
-        == list(r.bias("distance"))
+    assert ds["distance_bias_mean"].values.tolist() == list(r.bias("distance"))
     path = tmp_path / "r.nc"
     r.save(path)
     loaded = crandall.load(path)

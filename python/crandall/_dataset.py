@@ -59,8 +59,31 @@ def _accuracy(result, name):
     return np.stack([np.asarray(x, dtype=float) for x in out], axis=-1)
 
 
-#: The columns of _accuracy, in to_pandas and in the datasets' ``accuracy`` variables.
+#: The columns of _accuracy, in to_pandas and in the datasets' variables.
 ACCURACY = ("bias_mean", "error_mean", "bias_var", "error_var")
+#: Per statistic: what it is, and the power of the quantity's unit it carries.
+_STATISTIC_TEXT = {
+    "mean": ("mean over paths", 1), "var": ("unbiased variance over paths", 2),
+    "std": ("standard deviation over paths", 1), "stderr": ("standard error of the mean", 1),
+    "var_stderr": ("standard error of the variance", 2),
+    "bias_mean": ("estimated discretisation bias of the mean", 1),
+    "error_mean": ("total error sqrt(stderr^2 + bias^2) of the mean", 1),
+    "bias_var": ("estimated discretisation bias of the variance", 2),
+    "error_var": ("total error of the variance", 2),
+}
+#: The quantities' units as UDUNITS strings, to the first and second power.
+_UDUNITS = {"m/s": ("m s-1", "m2 s-2"), "m": ("m", "m2"), "s": ("s", "s2"), "J": ("J", "J2"),
+            "m/s^2": ("m s-2", "m2 s-4")}
+
+
+def _units(unit: str, power: int) -> str:
+    """A CF ``units`` attribute: "1" for a scaled (dimensionless) quantity."""
+    if not unit:
+        return "1"
+    pair = _UDUNITS.get(unit)
+    if pair is not None:
+        return pair[power - 1]
+    return unit if power == 1 else f"({unit})^{power}"
 
 
 def _long_name(result, name):
@@ -83,8 +106,6 @@ def to_xarray(result):
     exps = [tuple(e) for e in _core.monomial_exponents()]
     data_vars = {}
     coords = {
-        "statistic": ("statistic", list(STATISTICS)),
-        "accuracy_statistic": ("accuracy_statistic", list(ACCURACY)),
         "variable": ("variable", list(VARIABLES)),
         "monomial": ("monomial", np.arange(len(exps), dtype=np.int32)),
         "exponents": (("monomial", "variable"), np.array(exps, dtype=np.int32),
@@ -95,28 +116,17 @@ def to_xarray(result):
                   "units": "1" if sc.units == "scaled" else "s"}
     if time_names:
         coords["time"] = ("time", np.asarray(result.times, dtype=float), time_attrs)
-        coords["observable"] = ("observable", time_names)
-        coords["units"] = ("observable", [sc.units_of(n) or "1" for n in time_names])
-        coords["long_name"] = ("observable", [_long_name(result, n) for n in time_names])
-        table = np.stack([_stats(result, n) for n in time_names], axis=1)
-        data_vars["statistics"] = (("time", "observable", "statistic"), table,
-                                   {"long_name": "statistics over paths at each output time "
-                                                 "(var: unbiased; stderr: of the mean; "
-                                                 "var_stderr: of the variance)"})
-        acc = np.stack([_accuracy(result, n) for n in time_names], axis=1)
-        data_vars["accuracy"] = (("time", "observable", "accuracy_statistic"), acc,
-                                 {"long_name": "estimated discretisation bias and total error "
-                                               "sqrt(stderr^2 + bias^2) of the mean and of the "
-                                               "variance (Result.bias, Result.error)"})
-    if stop_names:
-        coords["stop_quantity"] = ("stop_quantity", stop_names)
-        coords["stop_units"] = ("stop_quantity", [sc.units_of(n) or "1" for n in stop_names])
-        table = np.stack([_stats(result, n) for n in stop_names], axis=0)
-        data_vars["stop_statistics"] = (("stop_quantity", "statistic"), table,
-                                        {"long_name": "statistics over paths at the stop"})
-        acc = np.stack([_accuracy(result, n) for n in stop_names], axis=0)
-        data_vars["stop_accuracy"] = (("stop_quantity", "accuracy_statistic"), acc,
-                                      {"long_name": "bias and total error at the stop"})
+    # One variable per quantity and statistic, with its own units (CF: UDUNITS strings).
+    for name in time_names + stop_names:
+        table = np.concatenate([_stats(result, name), _accuracy(result, name)], axis=-1)
+        dims = () if quantity(name).at_stop else ("time",)
+        unit = sc.units_of(name)
+        for j, stat in enumerate(STATISTICS + ACCURACY):
+            what, power = _STATISTIC_TEXT[stat]
+            data_vars[f"{name}_{stat}"] = (
+                dims, table[..., j],
+                {"long_name": f"{what} of {_long_name(result, name)}",
+                 "units": _units(unit, power)})
     if result.kind == "accuracy":
         _accuracy_vars(result, data_vars, coords)
         return xr.Dataset(data_vars=data_vars, coords=coords,
@@ -143,6 +153,7 @@ def to_xarray(result):
         _histogram_vars(result, held.histograms, data_vars)
     spec = result.spec  # the run's fields, checked
     attrs = {
+        "Conventions": "CF-1.10",
         "title": f"crandall result: {sc!r}",
         "format": _FORMAT,
         "crandall_version": __version__,
@@ -175,7 +186,7 @@ def to_xarray(result):
 
 
 def _scene_attrs(sc) -> Dict[str, Any]:
-    attrs = {"title": f"crandall result: {sc!r}", "format": _FORMAT,
+    attrs = {"Conventions": "CF-1.10", "title": f"crandall result: {sc!r}", "format": _FORMAT,
              "crandall_version": __version__, "scene": json.dumps(sc.to_dict()),
              "units_system": sc.units}
     for k, v in sc.params.items():

@@ -754,10 +754,11 @@ class Result:
         Returns
         -------
         xarray.Dataset
-            ``statistics`` (time x observable x statistic: mean, var, std, stderr,
-            var_stderr) for the time-resolved quantities, with their units in the coordinate
-            ``units`` (``"1"`` in scaled units); ``stop_statistics`` (stop_quantity x statistic)
-            for the stop; the raw accumulators (``counts``, ``means``, ``central``; with the
+            One variable per quantity and statistic, ``NAME_STAT`` with STAT one of mean,
+            var, std, stderr, var_stderr, bias_mean, error_mean, bias_var, error_var (over
+            ``time`` for a time-resolved quantity, a scalar at the stop), each with its own
+            CF ``units`` (UDUNITS: ``m s-1``, ``m2``; ``"1"`` in scaled units) and
+            ``long_name``; the file's ``Conventions`` is CF-1.10; the raw accumulators (``counts``, ``means``, ``central``; with the
             peaks ``peaks_*`` and ``stop_peaks_*``) from which :func:`crandall.load` rebuilds
             the result exactly; with distributions, ``histogram_NAME_edges`` and
             ``histogram_NAME_counts`` per binned quantity (over ``time`` for a quantity over
