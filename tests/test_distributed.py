@@ -108,3 +108,16 @@ def test_cluster_histograms_and_peaks_are_bitwise_the_local_ones(client):
         assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
     assert local.mean("peak_speed").tobytes() == remote.mean("peak_speed").tobytes()
     assert remote.quantile("stop_time", 0.99) == local.quantile("stop_time", 0.99)
+
+
+def test_scenes_beyond_the_paper_on_the_cluster_are_bitwise_local(client):
+    # A start in motion and a piecewise intensity travel to the workers in the scene's data.
+    sc = crandall.Scene(mu=0.3, h=[1.0, 0.0, 0.5], t0=[1.0, 1.5, 2.5], v0=0.4, u0=0.1,
+                        times=[0.5, 2.0, 3.0])
+    local = crandall.simulate(sc, paths=70_000, seed=4, threads=2)
+    remote = crandall.simulate(sc, paths=70_000, seed=4, client=client)
+    for name in local.names:
+        assert np.asarray(remote.var(name)).tobytes() == np.asarray(local.var(name)).tobytes()
+    a_local = crandall.simulate(sc, error=5e-2, seed=4, threads=2)
+    a_remote = crandall.simulate(sc, error=5e-2, seed=4, client=client)
+    assert a_remote.to_pandas().equals(a_local.to_pandas())

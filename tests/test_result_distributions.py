@@ -631,3 +631,12 @@ def test_too_many_bin_edges_are_refused_when_the_scene_is_made():
     assert info.value.name == "bins"
     crandall.Scene.scaled(tau0=1.0, times=[1.0], distributions=["velocity"],
                           bins={"velocity": edges[:-1]})  # at the limit: accepted
+
+
+def test_histogram_axes_are_labelled_with_the_quantity_units_and_time():
+    pytest.importorskip("boost_histogram")
+    sc = crandall.Scene(mu=0.3, h=1.0, t0=1.0, times=[0.5, 1.0],
+                        distributions=["velocity", "distance_at_stop"])
+    r = crandall.simulate(sc, paths=500, seed=1)
+    assert r.histogram("velocity", time=0.5).axes[0].label == "velocity [m/s] at t = 0.5"
+    assert r.histogram("distance_at_stop").axes[0].label == "distance_at_stop [m]"

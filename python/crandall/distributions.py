@@ -350,7 +350,7 @@ def exceedance(edges, counts, under, over, level, confidence=0.95) -> Estimate:
     return Estimate(float(min(max(value, 0.0), 1.0)), low, high, inside / n)
 
 
-def to_boost_histogram(edges, counts, under, over):
+def to_boost_histogram(edges, counts, under, over, label: str = ""):
     """The histogram as a ``boost_histogram.Histogram`` (needs the extra ``crandall[hist]``).
 
     Parameters
@@ -361,6 +361,8 @@ def to_boost_histogram(edges, counts, under, over):
         Values in each bin ``[edges[j], edges[j + 1])``.
     under, over : int
         Values below ``edges[0]`` and at or above ``edges[-1]``.
+    label : str
+        The axis label (the quantity, its units and time).
 
     Returns
     -------
@@ -382,5 +384,6 @@ def to_boost_histogram(edges, counts, under, over):
         raise ImportError("to_boost_histogram needs boost-histogram: install the optional extra "
                           "with pip install 'crandall[hist]'") from exc
     h = bh.Histogram(bh.axis.Variable(e, underflow=True, overflow=True), storage=bh.storage.Int64())
+    h.axes[0].label = str(label)
     h.view(flow=True)[...] = cells
     return h

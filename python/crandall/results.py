@@ -516,7 +516,11 @@ class Result:
             raise ValueError(f"name: {name}'s bin edges plus t0 = {self.scene.t0!r} are not "
                              "distinct in doubles; use quantile or exceedance, or give "
                              "coarser bins")
-        return distributions.to_boost_histogram(shown, cells[1:-2], int(cells[0]), int(cells[-2]))
+        unit = self.scene.units_of(name)
+        label = name + (f" [{unit}]" if unit else "") + (
+            "" if time is None else f" at {self.scene.time_name} = {float(time):g}")
+        return distributions.to_boost_histogram(shown, cells[1:-2], int(cells[0]), int(cells[-2]),
+                                                label)
 
     def quantile(self, name: str, q: float, time=None,
                  confidence: float = 0.95) -> distributions.Estimate:
