@@ -692,7 +692,7 @@ def test_form_features_refuses_columns_it_cannot_form():
     samples[:, 1, 0, 2] = 3.0
     assert _core.form_features(samples, columns(slot=[1], power=[2], centre=[1.0]), 2.0, 0,
                                out).ravel().tolist() == [4.0] * 4
-    for bad in (dict(slot=[2]), dict(variable=[3]), dict(kind=[4]), dict(power=[3]),
+    for bad in (dict(slot=[2]), dict(variable=[3]), dict(kind=[5]), dict(power=[3]),
                 dict(centre=[])):
         with pytest.raises(ValueError, match="form_features"):
             _core.form_features(samples, columns(**bad), 2.0, 0, out)

@@ -14,15 +14,17 @@ def test_public_names_still_where_they_were():
     from crandall.scene import OBSERVABLES, STOP_QUANTITIES
 
     assert OBSERVABLES == ("velocity", "displacement", "distance", "kinetic_energy",
-                           "dissipated_energy", "stop", "peaks")
+                           "dissipated_energy", "stop", "peaks", "residual")
     assert crandall.OBSERVABLES is OBSERVABLES
     assert STOP_QUANTITIES == {"stop_time": None, "displacement_at_stop": "displacement",
                                "distance_at_stop": "distance",
                                "dissipated_energy_at_stop": "dissipated_energy",
                                "peak_speed_at_stop": "peaks",
-                               "peak_displacement_at_stop": "peaks"}
-    # The peaks are asked for: a scene's default observables are those it had before them.
-    assert crandall.Scene.scaled(tau0=1.0, times=[1.0]).observe == OBSERVABLES[:-1]
+                               "peak_displacement_at_stop": "peaks",
+                               "residual_displacement": "displacement"}
+    # The peaks and the residual's magnitude are asked for: a scene's default observables are
+    # those it had before them.
+    assert crandall.Scene.scaled(tau0=1.0, times=[1.0]).observe == OBSERVABLES[:-2]
 
 
 def test_twins_point_at_each_other():

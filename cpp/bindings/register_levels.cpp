@@ -68,7 +68,8 @@ void register_levels(py::module_& m) {
   py::class_<crandall::FeatureColumns>(
       m, "FeatureColumns",
       "The feature columns of a run to an accuracy, one entry per column (levels.hpp): slot, "
-      "variable, kind (0 value, 1 its square, 2 the Ito identity, 3 the identity at the stop), "
+      "variable, kind (0 value, 1 its square, 2 the Ito identity, 3 the identity at the stop, "
+      "4 its magnitude), "
       "power (1 or 2), constant, centre, inexact; with control sums, control (the control slot "
       "index) and beta (CONTROLS coefficients per column).")
       .def(py::init<>())

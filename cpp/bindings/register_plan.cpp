@@ -27,6 +27,7 @@ void register_plan(py::module_& m) {
       .def_readwrite("switch_off", &crandall::Options::switch_off)
       .def_readwrite("piece_ends", &crandall::Options::piece_ends)
       .def_readwrite("piece_noise", &crandall::Options::piece_noise)
+      .def_readwrite("residual", &crandall::Options::residual)
       .def_readwrite("start_velocity", &crandall::Options::start_velocity)
       .def_readwrite("start_displacement", &crandall::Options::start_displacement)
       .def_readwrite("times", &crandall::Options::times)

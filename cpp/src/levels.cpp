@@ -73,7 +73,10 @@ double column_value(const double* path, int grids, int grid, const FeatureColumn
   double x = kind == 3 ? 0.0
                        : path[(static_cast<std::size_t>(c.slot[j]) * grids + grid) * 3 +
                               static_cast<std::size_t>(c.variable[j])];
-  double v = kind == 0 ? x : kind == 1 ? x * x : (c.constant[j] - x * x) / two_drift;
+  double v = kind == 0   ? x
+             : kind == 1 ? x * x
+             : kind == 4 ? std::abs(x)
+                         : (c.constant[j] - x * x) / two_drift;
   v = v - c.centre[j];
   return c.power[j] == 2 ? v * v : v;
 }
@@ -95,7 +98,7 @@ void form_features(const double* samples, std::uint64_t rows, std::uint64_t slot
     throw std::invalid_argument("form_features: one control slot and k coefficients per column");
   for (std::size_t j = 0; j < cols; ++j) {
     if (c.slot[j] < 0 || static_cast<std::uint64_t>(c.slot[j]) >= slots || c.variable[j] < 0 ||
-        c.variable[j] > 2 || c.kind[j] < 0 || c.kind[j] > 3 || (c.power[j] != 1 && c.power[j] != 2))
+        c.variable[j] > 2 || c.kind[j] < 0 || c.kind[j] > 4 || (c.power[j] != 1 && c.power[j] != 2))
       throw std::invalid_argument("form_features: a column's slot, variable, kind or power is out of range");
     if (subtract && (c.control[j] < 0 || static_cast<std::uint64_t>(c.control[j]) >= control_slots))
       throw std::invalid_argument("form_features: a column's control slot is out of range");

@@ -87,6 +87,7 @@ void Options::validate() const {
   }
   require(piece_ends.empty() || piece_ends.back() == switch_off,
           "the last of piece_ends must be switch_off");
+  require(!residual || (stop && displacement), "residual needs the stop and the displacement");
   require(std::isfinite(start_velocity), "start_velocity must be finite");
   require(std::isfinite(start_displacement), "start_displacement must be finite");
   for (std::size_t i = 0; i < times.size(); ++i) {

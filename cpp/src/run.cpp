@@ -22,7 +22,7 @@ struct BlockOut {
 ChunkResult empty_result(const Options& o) {
   ChunkResult r;
   r.times = Moments(o.times.size());
-  r.stop = Moments(o.stop ? 1 : 0);
+  r.stop = Moments(o.stop_slots());
   r.peaks = Moments(o.peaks ? o.times.size() : 0);
   r.peaks_stop = Moments(o.peaks && o.stop ? 1 : 0);
   return r;

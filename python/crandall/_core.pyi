@@ -26,6 +26,7 @@ class Options:
     switch_off: float
     piece_ends: List[float]
     piece_noise: List[float]
+    residual: bool
     start_velocity: float
     start_displacement: float
     times: List[float]

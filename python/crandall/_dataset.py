@@ -139,7 +139,7 @@ def to_xarray(result):
     if held.peaks is not None:
         accs.append(("peaks_", held.peaks, "slot"))
     if held.stop_peaks is not None:
-        accs.append(("stop_peaks_", held.stop_peaks, "stop_slot"))
+        accs.append(("stop_peaks_", held.stop_peaks, "stop_peaks_slot"))
     for prefix, acc, dim in accs:
         if acc.slots == 0:
             continue
@@ -468,7 +468,8 @@ def _check_fields(ds, where: str) -> Dict[str, Any]:
             raise _Invalid("time does not match the scene's output times")
     peaks = "peaks" in scene.observe
     for prefix, n, needed in (("", slots, slots > 0),
-                              ("stop_", 1, "stop" in scene.observe),
+                              ("stop_", 2 if "residual" in scene.observe else 1,
+                               "stop" in scene.observe),
                               ("peaks_", slots, peaks and slots > 0),
                               ("stop_peaks_", 1, peaks and "stop" in scene.observe)):
         names = [prefix + k for k in ("counts", "means", "central")]

@@ -98,6 +98,7 @@ class _Target:
     power: int
     exact: bool        # exact in law at any step: level 0 only, bias 0
     ito: bool = False  # the mean distance through the Ito identity
+    magnitude: bool = False  # |variable| (the residual displacement)
 
 
 def _check_statistics(scene: Scene, statistics) -> Optional[set]:
@@ -150,7 +151,8 @@ def _targets(scene: Scene, statistics: Optional[set] = None) -> List[_Target]:
                          or (q.factor(scene) == 0.0 and holds(scene, ZERO_FRICTION)))
                 ito = (stat == "mean" and q.variable == DISTANCE and scene.drift > 0
                        and holds(scene, ITO_DISTANCE))
-                out.append(_Target(name, slot, ti, stat, q.variable, q.power, exact or ito, ito))
+                out.append(_Target(name, slot, ti, stat, q.variable, q.power, exact or ito, ito,
+                                   q.magnitude))
     return out
 
 
@@ -422,7 +424,7 @@ class _Engine:
                 else:
                     first = t.power == 1 or (t.stat == "mean" and t.variable == VELOCITY
                                              and t.time_index is None)
-                    kind.append(0 if first else 1)
+                    kind.append(4 if t.magnitude else 0 if first else 1)
                     const.append(0.0)
             c.slot = [t.slot for t in self.targets]
             c.variable = [VELOCITY if t.ito else t.variable for t in self.targets]

@@ -109,7 +109,8 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
                 continue
             values, bounds = [], []
             for slot in slots:
-                v = samples[:, slot, :, q.variable] ** q.power
+                v = samples[:, slot, :, q.variable]
+                v = np.abs(v) if q.magnitude else v ** q.power
                 v = v - _sum(v[:, 0], threads) / len(v)  # centred: the combinations sum to 1
                 d, se = _difference(v, a, b, stat, threads)
                 resolved = abs(d) > 2 * se

@@ -226,7 +226,9 @@ def load(path, ident: Dict[str, Any], chunks: int, histograms=((), ())):
     observe = scene.get("observe", ())
     stop = "stop" in observe
     peaks = "peaks" in observe
-    slots = {"times_": len(scene.get("times", ())), "stop_": 1 if stop else 0}
+    # The stop's moments: a second slot for |U(t_s)| with "residual" (the core's option).
+    slots = {"times_": len(scene.get("times", ())),
+             "stop_": (2 if "residual" in observe else 1) if stop else 0}
     if peaks:
         # The peaks' moments: the same layout; an unused third variable stays 0.
         slots["peaks_"] = len(scene.get("times", ()))

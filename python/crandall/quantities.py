@@ -22,6 +22,8 @@ VELOCITY, DISPLACEMENT, DISTANCE = 0, 1, 2
 STOP = "stop"
 #: The observable that asks the core for the running maxima of |U1| and |U2| (the peaks).
 PEAKS = "peaks"
+#: The magnitude of the displacement at the stop (with "stop" and "displacement").
+RESIDUAL = "residual"
 #: What the core bins per slot, in the order of its histogram axes (``slot * 5 + index``):
 #: over time U1, U2, U3, max |U1| and max |U2| up to the output time; in the stop slot the
 #: time from the switch-off to the stop, U2 and U3 there, and the peaks over the whole path.
@@ -70,6 +72,9 @@ class Quantity:
     peak : bool
         A running maximum (of |U1| or |U2|): its moments are in the core's peaks accumulator
         (``variable`` 0 for the speed, 1 for |U2|), not in the moments of (U1, U2, U3).
+    magnitude : bool
+        The magnitude |variable| at the stop: its moments are the stop's second slot (the
+        core's ``residual`` option), its distribution the variable's folded at 0.
     """
 
     name: str
@@ -85,6 +90,7 @@ class Quantity:
     kind: Optional[str] = None
     offset: Optional[Callable[[Any], float]] = None
     peak: bool = False
+    magnitude: bool = False
 
     @property
     def histogram_variable(self) -> int:
@@ -152,16 +158,24 @@ def _stop_time_offset(scene) -> float:
 QUANTITIES: Tuple[Quantity, ...] = _OVER_TIME + (
     Quantity("stop_time", VELOCITY, "s", "stop time", (STOP,), at_stop=True, kind="time",
              offset=_stop_time_offset),
-) + tuple(_at_stop(q) for q in _OVER_TIME if q.twin is not None)
+) + tuple(_at_stop(q) for q in _OVER_TIME if q.twin is not None) + (
+    # |U(t_s)|: how far from where it started the body comes to rest, in either direction
+    # (displacement_at_stop is signed).
+    Quantity("residual_displacement", DISPLACEMENT, "m",
+             "residual displacement (magnitude of the displacement)",
+             (STOP, "displacement", RESIDUAL), symbol="|U2|", at_stop=True, kind="length",
+             magnitude=True),
+)
 
 #: Everything a scene can observe: each time-resolved quantity but the peaks, "stop" (the
 #: stop time; with displacement, distance or dissipated energy also observed, their values at
 #: the stop) and "peaks" (the peak speed, and with the displacement the peak displacement, up
 #: to every output time and over the whole path).
-OBSERVABLES: Tuple[str, ...] = tuple(q.name for q in _OVER_TIME if not q.peak) + (STOP, PEAKS)
-#: What a scene observes by default: everything but the peaks (they cost a little in the
-#: kernel; a scene asks for them).
-DEFAULT_OBSERVE: Tuple[str, ...] = tuple(n for n in OBSERVABLES if n != PEAKS)
+OBSERVABLES: Tuple[str, ...] = tuple(q.name for q in _OVER_TIME if not q.peak) + (
+    STOP, PEAKS, RESIDUAL)
+#: What a scene observes by default: everything but the peaks and the residual displacement's
+#: magnitude (each costs a little in the kernel; a scene asks for them).
+DEFAULT_OBSERVE: Tuple[str, ...] = tuple(n for n in OBSERVABLES if n not in (PEAKS, RESIDUAL))
 
 #: Scalar quantities at the stop, and the observable each needs besides "stop".
 STOP_QUANTITIES: Dict[str, Optional[str]] = {
@@ -212,4 +226,6 @@ def core_flags(observe: Iterable[str]) -> Dict[str, bool]:
     flags[STOP] = STOP in set(observe)
     if PEAKS in set(observe):
         flags[PEAKS] = True
+    if RESIDUAL in set(observe):
+        flags[RESIDUAL] = True
     return flags

@@ -56,20 +56,22 @@ def _times_text(times) -> str:
     return shown + (f", ... ({len(times)} times)" if len(times) > 8 else "")
 
 
-def _fold(edges: np.ndarray, cells: np.ndarray):
+def _fold(edges: np.ndarray, cells: np.ndarray, base: str = "velocity",
+          folded_name: str = "kinetic energy"):
     """A symmetric axis folded at 0: the histogram of |x| (edges >= 0; cells [under = 0,
     bins..., over, NaN]). Bin [a, b) of x goes to the bin of |x| starting at a (a >= 0), at
-    -b (b <= 0), or at 0 (a < 0 < b); both flows go to the overflow."""
+    -b (b <= 0), or at 0 (a < 0 < b); both flows go to the overflow. ``base`` and
+    ``folded_name`` name the two in the error of an axis that is not symmetric."""
+    refuse = (f"name: the {base}'s bins are not symmetric about 0, so the {folded_name}'s "
+              "distribution cannot be folded from them")
     atom = edges.size > 2 and edges[edges.size // 2] == distributions.ATOM
     if atom:
         # The atom edge just above 0 has no mirror below: the rest is symmetric.
         rest = np.delete(edges, edges.size // 2)
         if not np.array_equal(rest, -rest[::-1]):
-            raise ValueError("name: the velocity's bins are not symmetric about 0, so the "
-                             "kinetic energy's distribution cannot be folded from them")
+            raise ValueError(refuse)
     elif not np.array_equal(edges, -edges[::-1]):
-        raise ValueError("name: the velocity's bins are not symmetric about 0, so the kinetic "
-                         "energy's distribution cannot be folded from them")
+        raise ValueError(refuse)
     pos = edges[edges >= 0]
     if pos[0] != 0.0:
         pos = np.concatenate(([0.0], pos))
@@ -240,20 +242,24 @@ class Result:
                 f"name: {name!r} is not in this result; it holds {', '.join(self.names)}"
             )
         q = quantity(name)
+        # (accumulators, raw moments, variable, slot of a stop quantity or None).
         if q.peak:
             # Power 1: the raw moments are never needed.
             if q.at_stop:
-                return self._stop_peaks, None, q.variable, True
-            return self._peaks, None, q.variable, False
+                return self._stop_peaks, None, q.variable, 0
+            return self._peaks, None, q.variable, None
+        if q.magnitude:
+            # |U(t_s)|: the first variable of the stop's second slot (the core's residual).
+            return self._stop, self._stop_raw, 0, 1
         if q.at_stop:
-            return self._stop, self._stop_raw, q.variable, True
-        return self._moments, self._raw, q.variable, False
+            return self._stop, self._stop_raw, q.variable, 0
+        return self._moments, self._raw, q.variable, None
 
     def _factor(self, name: str) -> float:
         return quantity(name).factor(self.scene)
 
     def _stats(self, name: str):
-        acc, raw, v, scalar = self._source(name)
+        acc, raw, v, slot = self._source(name)
         n = acc.counts
         f = self._factor(name)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -270,8 +276,8 @@ class Result:
             # An extrapolated second moment may be negative with few paths: truncated at 0
             # (see the class docstring). Fewer than 2 paths: undefined (NaN).
             var = np.where(n >= 2, f * f * np.maximum(spread, 0.0) / (n - 1), np.nan)
-        if scalar:
-            return float(mean[0]), float(var[0]), float(n[0])
+        if slot is not None:
+            return float(mean[slot]), float(var[slot]), float(n[slot])
         return mean, var, n
 
     def _warn_nan(self, name: str, what: str, values, reason: str, stacklevel: int) -> None:
@@ -325,12 +331,14 @@ class Result:
         if known is not None and not known.has_var_stderr:
             raise ValueError(f"name: the variance of {name} has no standard error "
                              "here (needs moments of order 8)")
-        acc, _, v, scalar = self._source(name)
+        acc, _, v, slot = self._source(name)
         n = acc.counts
         f = self._factor(name)
+        rows = slice(None) if slot is None else slice(slot, slot + 1)
+        n = n[rows]
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            m2 = acc.central[:, _e(v, 2)] / n
-            m4 = acc.central[:, _e(v, 4)] / n
+            m2 = acc.central[rows, _e(v, 2)] / n
+            m4 = acc.central[rows, _e(v, 4)] / n
             d = m4 - m2 * m2
             # Rounding can leave a two-point law's m4 - m2^2 = 0 slightly negative.
             tiny = 1e-12 * m2 * m2
@@ -347,7 +355,7 @@ class Result:
                                "m4 - m2^2 is negative (the step is too long for the "
                                "extrapolation; use a smaller dt)")
             self._warn_nan(name, "the standard error of the variance", se, "; ".join(reasons), 2)
-        return float(se[0]) if scalar else se
+        return float(se[0]) if slot is not None else se
 
     def _var_stderr_quiet(self, name: str) -> np.ndarray:
         """The variance's standard error for tables (NaN, without a warning, where it has none
@@ -439,6 +447,9 @@ class Result:
             edges, cells = _fold(edges, cells)
             atom = edges == distributions.ATOM
             edges = edges * edges
+        elif q.magnitude:
+            edges, cells = _fold(edges, cells, "displacement at the stop", name.replace("_", " "))
+            atom = edges == distributions.ATOM
         f = self._factor(name)
         if f == 0.0:
             raise ValueError(f"name: {name} is 0 on every path of this scene (its factor is "

@@ -137,6 +137,9 @@ def _observe(observe) -> tuple:
         )
     if not names:
         raise ParameterError("observe", "observe must name at least one observable")
+    if "residual" in names and not {"stop", "displacement"} <= set(names):
+        raise ParameterError("observe", "observe: 'residual' (the magnitude of the displacement "
+                                        "at the stop) needs 'stop' and 'displacement'")
     return tuple(n for n in OBSERVABLES if n in names)
 
 

@@ -21,7 +21,7 @@ namespace crandall {
 struct Workspace {
   explicit Workspace(const Plan& plan)
       : times(plan.options().times.size()),
-        stop(plan.options().stop ? 1 : 0),
+        stop(plan.options().stop_slots()),
         active(active_monomials(plan.options().displacement, plan.options().distance)),
         peaks(plan.options().peaks ? plan.options().times.size() : 0),
         peaks_stop(plan.options().peaks && plan.options().stop ? 1 : 0),
@@ -29,7 +29,7 @@ struct Workspace {
         histograms(plan.recorded_axes()) {
     for (int j = 1; j < plan.options().grids(); ++j) {
       coarse_times.emplace_back(plan.options().times.size());
-      coarse_stop.emplace_back(plan.options().stop ? 1 : 0);
+      coarse_stop.emplace_back(plan.options().stop_slots());
     }
   }
   // Clears the block's sums; the histograms keep counting across the blocks of a thread.
@@ -255,6 +255,11 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
       ss[l] = st.distance;
     }
     stop.add(0, ts, us, ss, lanes, active);
+    if (o.residual) {
+      double au[kLanes] = {};
+      for (int l = 0; l < lanes; ++l) au[l] = std::abs(us[l]);
+      stop.add(1, au, zero, zero, lanes, active);
+    }
     if (recorder != nullptr) recorder->record(o.times.size(), grid, path0, ts, us, ss, lanes);
     if (peaks) {
       if (pu != nullptr)

@@ -36,8 +36,9 @@ int control_count();
 
 // The feature columns of a run to an accuracy (python/crandall/adaptive.py), one entry per
 // column. A column's value on a grid is its target's: the sample x = samples[slot, grid,
-// variable] itself (kind 0), its square x * x (kind 1), or the Ito identity's
-// (constant - x * x) / two_drift (kind 2; kind 3 the same with x = 0, at the stop); minus
+// variable] itself (kind 0), its square x * x (kind 1), the Ito identity's
+// (constant - x * x) / two_drift (kind 2; kind 3 the same with x = 0, at the stop), or its
+// magnitude |x| (kind 4); minus
 // centre, to the power `power` (1 or 2; squared as x * x).
 struct FeatureColumns {
   std::vector<std::int64_t> slot;

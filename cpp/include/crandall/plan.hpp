@@ -60,6 +60,9 @@ struct Options {
   // piece, `noise` until switch_off.
   std::vector<double> piece_ends;
   std::vector<double> piece_noise;
+  // With stop and displacement: the stop's moments get a second slot, (|U(t_s)|, 0, 0), the
+  // magnitude of the residual displacement (its moments are not functions of U's).
+  bool residual = false;
   // The state at t = 0: velocity X(0) and displacement U(0) (the distance starts at 0).
   double start_velocity = 0.0;
   double start_displacement = 0.0;
@@ -96,6 +99,8 @@ struct Options {
 
   // Throws std::invalid_argument naming the offending field.
   void validate() const;
+  // Slots of the stop's moments: none, the stop, and with residual |U(t_s)|.
+  std::size_t stop_slots() const { return stop ? (residual ? 2 : 1) : 0; }
   bool integrals() const { return displacement || distance; }
   int grids() const { return crandall::grids(method, integrals()); }
   // Output slots that carry histograms: the output times, and the stop if observed.
