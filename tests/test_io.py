@@ -315,3 +315,20 @@ def test_a_file_in_the_earlier_layout_still_loads(tmp_path, physical_result):
     old.to_netcdf(path, engine="scipy", format="NETCDF3_64BIT")
     back = crandall.load(path)
     assert same_result(r, back) and back.spec.to_dict() == r.spec.to_dict()
+
+
+def test_a_sweep_as_one_dataset():
+    scenes = [crandall.Scene(mu=mu, h=1.0, t0=2.0, times=[1.0, 2.0]) for mu in (0.2, 0.3)]
+    ds = crandall.simulate_many(scenes, paths=2000, seed=4, dataset=True)
+    assert ds["distance_mean"].dims == ("scene", "time")
+    np.testing.assert_array_equal(ds["mu"].values, [0.2, 0.3])
+    each = crandall.simulate_many(scenes, paths=2000, seed=4)
+    for i, r in enumerate(each):
+        np.testing.assert_array_equal(ds["distance_var"].values[i], r.var("distance"))
+        assert float(ds["stop_time_mean"][i]) == r.mean("stop_time")
+    assert ds["distance_var"].attrs["units"] == "m2" and ds.attrs["Conventions"] == "CF-1.10"
+    with pytest.raises(ValueError, match="dataset must be True or False"):
+        crandall.simulate_many(scenes, paths=10, dataset="yes")
+    other = crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=[1.0, 3.0])
+    with pytest.raises(ValueError, match="same quantities at the same output times"):
+        crandall.simulate_many(scenes + [other], paths=100, seed=1, dataset=True)

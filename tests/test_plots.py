@@ -159,3 +159,16 @@ def test_unobserved_quantity_and_unscalable_scene():
     assert "no closed form" in figs["fig3_velocity_var"].axes[0].get_title()
     with pytest.raises(ValueError, match="mu > 0"):
         plots.figures(free, units="scaled")
+
+
+def test_density_panels_show_where_the_mass_is():
+    # 1e6 paths in a narrow bulk and one path far out: the panel spans the bulk's bins.
+    counts = np.zeros(200, dtype=np.uint64)
+    counts[90:110] = 50_000
+    counts[199] = 1
+    lo, hi = plots._shown_range(counts)
+    assert (lo, hi) == (90, 110)
+    assert plots._shown_range(np.zeros(5)) == (0, 5)
+    single = np.zeros(10)
+    single[7] = 3
+    assert plots._shown_range(single) == (7, 8)

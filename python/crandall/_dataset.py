@@ -24,7 +24,7 @@ from .quantities import VARIABLES, names_for as scene_names_for, quantity
 from .scene import Scene
 from .spec import RunSpec
 
-__all__ = ["to_xarray", "to_pandas", "save", "read", "STATISTICS"]
+__all__ = ["to_xarray", "to_pandas", "save", "read", "sweep", "STATISTICS"]
 
 #: The statistics a table holds, per quantity and time.
 STATISTICS = ("mean", "var", "std", "stderr", "var_stderr")
@@ -384,6 +384,39 @@ def _read_histograms(ds, scene, where: str, paths: int) -> Optional[Histograms]:
     except ValueError as exc:
         raise _Invalid(str(exc).split(": ", 1)[-1]) from None
     return Histograms(tuple(index), tuple(edges), tuple(counts))
+
+
+def sweep(results):
+    """Several results (a parameter sweep, simulate_many) as one ``xarray.Dataset``: every
+    statistic variable of :func:`to_xarray` with a leading dimension ``scene``, and each scene
+    parameter (mu, h, t0, ... as the scenes give them; a piecewise schedule as its JSON text)
+    as a coordinate over ``scene``. The results must hold the same quantities at the same
+    output times."""
+    xr = _require("xarray")
+    results = list(results)
+    if not results:
+        raise ValueError("results must not be empty")
+    first = results[0]
+    for i, r in enumerate(results[1:], 1):
+        if r.names != first.names or not np.array_equal(r.times, first.times):
+            raise ValueError(f"results[{i}]: a sweep's results must hold the same quantities at "
+                             "the same output times")
+    stats = [f"{n}_{s}" for n in first.names for s in STATISTICS + ACCURACY]
+    parts = [to_xarray(r)[stats] for r in results]
+    ds = xr.concat(parts, dim="scene", combine_attrs="override")
+    keys = sorted({k for r in results for k in r.scene.params})
+    coords = {}
+    for k in keys:
+        values = [r.scene.params.get(k) for r in results]
+        if all(isinstance(v, (int, float)) for v in values):
+            coords[k] = ("scene", np.array(values, dtype=float))
+        else:
+            coords[k] = ("scene", [json.dumps(v) for v in values])
+    ds = ds.assign_coords(scene=np.arange(len(results)), **coords)
+    ds.attrs = {"Conventions": "CF-1.10", "title": "crandall parameter sweep",
+                "crandall_version": __version__, "units_system": first.scene.units,
+                "seeds": " ".join(str(r.seed) for r in results)}
+    return ds
 
 
 def to_pandas(result):

@@ -13,11 +13,11 @@ from __future__ import annotations
 import os
 from typing import Union
 
-from ._dataset import STATISTICS, save, to_pandas, to_xarray
+from ._dataset import STATISTICS, save, sweep, to_pandas, to_xarray
 from ._dataset import read as _read
 from .results import AccuracyResult, Result
 
-__all__ = ["to_xarray", "to_pandas", "save", "load", "STATISTICS"]
+__all__ = ["to_xarray", "to_pandas", "save", "load", "sweep", "STATISTICS"]
 
 
 def load(path: Union[str, "os.PathLike[str]"]) -> Result:

@@ -383,13 +383,25 @@ def _binned(result: Result, name: str, time):
     return edges, cells[1:-1], cells[0], cells[-1], float(cells.sum())
 
 
-def _shown_range(counts):
-    """The bins from the first to the last non-empty one (the automatic edges reach 50
-    scales; the figure shows where the paths are)."""
-    filled = np.flatnonzero(counts)
-    if not filled.size:
+#: The density panels show the bins that hold this much of the paths (the exceedance panel,
+#: on a log scale, shows the tails).
+SHOWN_MASS = 0.999
+
+
+def _shown_range(counts, mass: float = SHOWN_MASS):
+    """The bins from the one where the lowest (1 - mass) / 2 of the paths end to the one where
+    the highest (1 - mass) / 2 begin (the automatic edges reach 50 scales, and a few paths far
+    out would squeeze the bulk into a spike)."""
+    counts = np.asarray(counts, dtype=float)
+    total = counts.sum()
+    if not total > 0:
         return 0, len(counts)
-    return int(filled[0]), int(filled[-1]) + 1
+    cum = np.cumsum(counts)
+    tail = 0.5 * (1.0 - mass) * total
+    lo = int(np.searchsorted(cum, tail, side="right"))
+    hi = int(np.searchsorted(cum, total - tail, side="left")) + 1
+    lo = min(lo, int(np.flatnonzero(counts)[-1]))
+    return lo, max(hi, lo + 1)
 
 
 def _analytic_law(result: Result, name: str, time):

@@ -16,6 +16,7 @@ from typing import Any, List, Optional, Sequence, Union
 
 import numpy as np
 
+from . import _dataset
 from . import checkpoint as _ckpt
 from . import engine
 from ._resources import available_memory, progress_bar
@@ -542,7 +543,8 @@ def simulate_many(
     checkpoint_dir: Optional[Union[str, "os.PathLike[str]"]] = None,
     client: Any = None,
     progress: Optional[bool] = None,
-) -> List[Result]:
+    dataset: bool = False,
+):
     """Simulate several scenes (a parameter sweep); one :class:`Result` per scene, in order.
 
     Each result is bitwise ``simulate(scene, paths=paths, seed=seed, dt=dt, method=method)``.
@@ -569,10 +571,17 @@ def simulate_many(
         checkpoint. Checkpoints of a different sweep (scene, paths, seed, dt, method) are a
         ValueError.
 
+    dataset : bool
+        Return one ``xarray.Dataset`` instead (needs ``crandall[io]``): every statistic with a
+        leading dimension ``scene`` and the scenes' parameters as coordinates over it
+        (``crandall.io.sweep``). The scenes must have the same quantities and output times.
+
     Returns
     -------
-    list of Result
+    list of Result, or xarray.Dataset with ``dataset=True``
     """
+    if not isinstance(dataset, bool):
+        raise ValueError(f"dataset must be True or False, got {dataset!r}")
     if isinstance(scenes, Scene) or not isinstance(scenes, (list, tuple)):
         raise ValueError(f"scenes must be a list of crandall.Scene, got {type(scenes).__name__}")
     if not scenes:
@@ -610,4 +619,5 @@ def simulate_many(
     finally:
         if bar is not None:
             bar.close()
-    return [run.result() for run in runs]
+    results = [run.result() for run in runs]
+    return _dataset.sweep(results) if dataset else results
