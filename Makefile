@@ -15,7 +15,8 @@ export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 DEBS := g++ make librandom123-dev libgtest-dev qemu-user
 # Python packages for building and testing (the package's own dependencies come from pyproject).
 PYDEV := pip setuptools wheel "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja \
-         numpy scipy mpmath sympy pytest hypothesis tqdm matplotlib xarray pandas "dask[distributed]"
+         numpy scipy mpmath sympy pytest hypothesis tqdm matplotlib xarray pandas "dask[distributed]" \
+         mypy
 
 .PHONY: run test deps venv install ctest sanitize pytest bench clean
 

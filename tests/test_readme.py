@@ -56,3 +56,28 @@ def test_the_readme_examples_run_twice_in_order(tmp_path, monkeypatch):
             client.close()
             cluster.close()
     assert os.path.exists("crate.nc") and os.path.exists("accurate.nc")
+
+
+def test_the_readme_examples_type_check(tmp_path):
+    # mypy on the README's examples as written, against the package's annotations
+    # (simulate -> Result, the statistics, intervals, files): a call the annotations do not
+    # allow, or a method that does not exist, fails here.
+    pytest.importorskip("mypy")
+    import subprocess
+    import sys
+    text = (ROOT / "README.md").read_text()
+    use = text[text.index("## Use"):text.index("## Bias of the integrals")]
+    path = tmp_path / "readme_examples.py"
+    path.write_text("\n".join(re.findall(r"```python\n(.*?)```", use, re.S)))
+    env = dict(os.environ, MYPYPATH=str(ROOT / "python"))
+    done = subprocess.run([sys.executable, "-m", "mypy", "--follow-imports=silent",
+                           "--ignore-missing-imports", "--cache-dir", str(tmp_path / "cache"),
+                           str(path)], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr
+    # The check can fail: a misspelt method is an error.
+    path.write_text("import crandall\nr = crandall.simulate(crandall.Scene.scaled(tau0=1.0, "
+                    "times=[1.0]), paths=10)\nr.meen('distance')\n")
+    done = subprocess.run([sys.executable, "-m", "mypy", "--follow-imports=silent",
+                           "--ignore-missing-imports", "--cache-dir", str(tmp_path / "cache"),
+                           str(path)], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert done.returncode == 1 and "has no attribute \"meen\"" in done.stdout

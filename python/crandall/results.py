@@ -6,7 +6,7 @@ import math
 import numbers
 import statistics as _statistics
 import warnings
-from typing import Callable, Dict, List, NamedTuple, Optional, Tuple
+from typing import Any, Callable, Dict, List, NamedTuple, Optional, Tuple, Union
 
 import numpy as np
 
@@ -106,6 +106,10 @@ def _estimate_bias(result):
         raise RuntimeError("no bias estimator is installed: import crandall (which imports "
                            "crandall.bias)")
     return _bias_estimator(result)
+
+
+#: A statistic: an array over the output times, or a float for a quantity at the stop.
+Stat = Union[float, np.ndarray]
 
 
 def z_of(level: float) -> float:
@@ -299,24 +303,24 @@ class Result:
             self._warn_nan(name, "the variance", var, "a variance needs at least 2 paths", 3)
         return var, n
 
-    def mean(self, name: str):
+    def mean(self, name: str) -> Stat:
         """Sample mean of a quantity (array over times, or a float for stop quantities)."""
         return self._stats(name)[0]
 
-    def var(self, name: str):
+    def var(self, name: str) -> Stat:
         """Unbiased sample variance of a quantity (NaN, with a warning, for 1 path)."""
         return self._var(name)[0]
 
-    def std(self, name: str):
+    def std(self, name: str) -> Stat:
         """Sample standard deviation of a quantity."""
         return np.sqrt(self._var(name)[0])
 
-    def stderr(self, name: str):
+    def stderr(self, name: str) -> Stat:
         """Standard error of the mean of a quantity: sqrt(var / paths)."""
         var, n = self._var(name)
         return np.sqrt(var / n)
 
-    def var_stderr(self, name: str):
+    def var_stderr(self, name: str) -> Stat:
         """Standard error of the sample variance, sqrt((m4 - m2^2) / n) from central moments.
 
         Not available for the kinetic energy (it would need 8th moments of the velocity).
@@ -473,7 +477,7 @@ class Result:
                            "exceedances)", 3)
         return edges, cells, offset, shown
 
-    def histogram(self, name: str, time=None):
+    def histogram(self, name: str, time: Optional[float] = None) -> Any:
         """The run's histogram of a quantity as a ``boost_histogram.Histogram``.
 
         Needs the ``hist`` extra (``pip install 'crandall[hist]'``) and a scene that asked for
@@ -654,7 +658,7 @@ class Result:
             self._warn_nan(name, f"the bias of the {stat}", values, why, 3)
         return float(values[0]) if quantity(name).at_stop else values
 
-    def bias(self, name: str, stat: str = "mean"):
+    def bias(self, name: str, stat: str = "mean") -> Stat:
         """The estimated magnitude of the discretisation bias of a statistic (``stat``: "mean"
         or "var"), in the quantity's units (squared for "var").
 
@@ -688,12 +692,12 @@ class Result:
                                    "moments of order 8)", 4)
         return np.hypot(se, b)
 
-    def error(self, name: str, stat: str = "mean"):
+    def error(self, name: str, stat: str = "mean") -> Stat:
         """The total error of a statistic, sqrt(stderr^2 + bias^2), with ``stderr`` the
         standard error of the mean (:meth:`stderr`) or of the variance (:meth:`var_stderr`)."""
         return self._error(name, stat, True)
 
-    def interval(self, name: str, stat: str = "mean", level: float = 0.95):
+    def interval(self, name: str, stat: str = "mean", level: float = 0.95) -> Tuple[Stat, Stat]:
         """The interval estimate +- z :meth:`error` of a statistic, z the two-sided normal
         quantile of ``level`` (1.96 for 0.95): (low, high), arrays over the times or floats
         at the stop. Its coverage rests on the error estimate (the bias is an estimate, not a
@@ -763,7 +767,7 @@ class Result:
 
     # -- export -------------------------------------------------------------------------
 
-    def to_xarray(self):
+    def to_xarray(self) -> Any:
         """The statistics as an ``xarray.Dataset`` (needs ``crandall[io]``).
 
         Returns
@@ -783,7 +787,7 @@ class Result:
         """
         return _dataset.to_xarray(self)
 
-    def to_pandas(self):
+    def to_pandas(self) -> Any:
         """The statistics as a ``pandas.DataFrame``, one row per quantity and time.
 
         Returns
@@ -926,31 +930,31 @@ class AccuracyResult(Result):
 
     # -- statistics -----------------------------------------------------------------------
 
-    def mean(self, name: str):
+    def mean(self, name: str) -> Stat:
         """The estimated mean of a quantity."""
         return self._get(name, "mean", 0)
 
-    def var(self, name: str):
+    def var(self, name: str) -> Stat:
         """The estimated variance of a quantity."""
         return self._get(name, "var", 0)
 
-    def std(self, name: str):
+    def std(self, name: str) -> Stat:
         """The square root of the estimated variance (0 where the estimate is below 0)."""
         return np.sqrt(np.maximum(self.var(name), 0.0))
 
-    def stderr(self, name: str, stat: str = "mean"):
+    def stderr(self, name: str, stat: str = "mean") -> Stat:
         """The standard error of a statistic (statistical error only); of the mean unless
         ``stat="var"``."""
         return self._get(name, stat, 1)
 
-    def var_stderr(self, name: str):
+    def var_stderr(self, name: str) -> Stat:
         """The standard error of the variance."""
         return self._get(name, "var", 1)
 
     def _bias(self, name: str, stat: str, warn: bool):
         return self._get(name, stat, 2, missing_nan=not warn)
 
-    def bias(self, name: str, stat: str = "mean"):
+    def bias(self, name: str, stat: str = "mean") -> Stat:
         """The estimated magnitude of the discretisation bias of a statistic: 0 exactly for
         the statistics exact in law (see :meth:`exact`), otherwise Giles' estimate from the
         finest levels."""
@@ -971,7 +975,7 @@ class AccuracyResult(Result):
         self._get(name, stat, 0)
         return self._exact[(name, stat)]
 
-    def moment(self, j: int, k: int, l: int):  # noqa: E741 - the paper's index
+    def moment(self, j: int, k: int, l: int) -> np.ndarray:  # noqa: E741 - the paper's index
         raise ValueError("moment: a run to an accuracy estimates means and variances only; "
                          "run mixed moments with paths=")
 

@@ -294,11 +294,15 @@ def _run_local(run, bar):
             bar.update(run.plan.chunk_paths(chunk))
 
 
+#: What simulate takes as a seed: an int, a numpy SeedSequence or Generator, or None.
+Seed = Union[None, int, np.random.SeedSequence, np.random.Generator]
+
+
 def simulate(
     scene: Scene,
     *,
     paths: Optional[int] = None,
-    seed: Optional[int] = None,
+    seed: Seed = None,
     dt: Optional[float] = None,
     method: Optional[str] = None,
     threads: Optional[int] = None,
@@ -309,7 +313,7 @@ def simulate(
     rel_error: Optional[float] = None,
     statistics: Optional[Sequence] = None,
     max_seconds: Optional[float] = None,
-):
+) -> Result:
     """Simulate a scene and return its statistics: ``paths`` paths on a fixed grid, or as
     many as a requested accuracy needs (``error=`` or ``rel_error=``).
 
@@ -536,7 +540,7 @@ def simulate_many(
     scenes: Sequence[Scene],
     *,
     paths: int,
-    seed: Optional[int] = None,
+    seed: Seed = None,
     dt: Optional[float] = None,
     method: str = DEFAULT_METHOD,
     threads: Optional[int] = None,
@@ -544,7 +548,7 @@ def simulate_many(
     client: Any = None,
     progress: Optional[bool] = None,
     dataset: bool = False,
-):
+) -> Any:
     """Simulate several scenes (a parameter sweep); one :class:`Result` per scene, in order.
 
     Each result is bitwise ``simulate(scene, paths=paths, seed=seed, dt=dt, method=method)``.
