@@ -124,3 +124,16 @@ def test_the_check_resolves_the_imports_it_must_see():
                        ("from .analytic import laws", {"analytic.laws"}),
                        ("import numpy", set())):
         assert _imports(src, ast.parse(text).body[0]) == want, text
+
+
+def test_import_crandall_leaves_the_heavy_parts_for_later():
+    # scipy (through the analytic layer) is imported when a scene first needs it, not by
+    # `import crandall` (bins.analytic is a lazy stand-in, crandall._lazy).
+    import subprocess
+    import sys
+    code = ("import sys, crandall; heavy = [m for m in ('scipy', 'crandall.analytic', "
+            "'matplotlib', 'xarray', 'pandas', 'distributed') if m in sys.modules]; "
+            "print(','.join(heavy))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True)
+    assert done.stdout.strip() == "", done.stdout

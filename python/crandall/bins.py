@@ -25,10 +25,13 @@ from typing import Any, Dict, List, Mapping, NamedTuple, Optional, Tuple
 
 import numpy as np
 
-from . import analytic
+from ._lazy import lazy_module
 from .errors import ParameterError
 from .quantities import (DISPLACEMENT, DISTANCE, HISTOGRAM_VARIABLES, PEAK_DISPLACEMENT,
                          PEAK_SPEED, VELOCITY, find, names_for, quantity)
+
+# The analytic layer (scipy) gives the automatic scales: loaded when a scene first needs them.
+analytic = lazy_module("crandall.analytic")
 
 __all__ = ["DEFAULT_PER_OCTAVE", "MAX_PER_OCTAVE", "REACH", "BULK_BINS", "Axis", "axes",
            "axis_name", "check_distributions", "check_bins", "bins_to_plain",
