@@ -129,3 +129,17 @@ def test_a_piecewise_scene_with_a_start_saves_and_loads_bitwise(tmp_path):
                           error=0.05, seed=3)
     a.save(tmp_path / "a.nc")
     assert crandall.load(tmp_path / "a.nc").to_pandas().equals(a.to_pandas())
+
+
+def test_the_default_step_follows_the_strongest_piece():
+    # In scaled units the time scale of a piece r times the unit intensity is 1 / r^2 of the
+    # unit's: a piece of 3 gets a step 9 times finer; weaker pieces keep the unit's step, as
+    # does a physical scene (its scales are those of its largest h).
+    kw = dict(times=[1.0])
+    assert crandall.default_dt(crandall.Scene.scaled(tau0=[1.0, 2.0], h=[1.0, 3.0], **kw)) \
+        == pytest.approx(0.01 / 9, rel=1e-15)
+    assert crandall.default_dt(crandall.Scene.scaled(tau0=[1.0, 2.0], h=[0.5, 0.0], **kw)) \
+        == crandall.default_dt(crandall.Scene.scaled(tau0=2.0, **kw))
+    si = crandall.Scene(mu=0.3, h=[0.5, 2.0], t0=[1.0, 2.0], **kw)
+    assert crandall.default_dt(si) == crandall.default_dt(crandall.Scene(mu=0.3, h=2.0, t0=2.0,
+                                                                          **kw))

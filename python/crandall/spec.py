@@ -55,7 +55,8 @@ def as_seed(seed):
 def default_dt(scene: Scene) -> float:
     """The longest internal step that ``simulate(dt=None)`` uses for this scene, in its units.
 
-    Scaled scenes: ``DEFAULT_DT_TAU`` (0.01). Physical scenes with friction and excitation: the
+    Scaled scenes: ``DEFAULT_DT_TAU`` (0.01), divided by r^2 when a piecewise intensity has a
+    piece r > 1 times the scaled unit. Physical scenes with friction and excitation: the
     same step in scaled time, ``0.01 * 2 h^2 / (mu g)^2`` seconds. Without friction (mu = 0),
     or when that time scale is beyond doubles (``Scene.scaling`` is None): the horizon (the
     last output time or t0) over ``DEFAULT_STEPS_FREE``. Without excitation
@@ -66,7 +67,12 @@ def default_dt(scene: Scene) -> float:
     than this step are still resolved.
     """
     if scene.units == "scaled":
-        return DEFAULT_DT_TAU
+        # A piecewise scene's relative intensities r: the time scale shrinks as 1 / r^2, so a
+        # piece stronger than the unit gets a step that much finer (the same resolution as a
+        # physical scene's default, whose scale is that of its largest intensity).
+        strongest = (max(n for _, n in scene.pieces) / math.sqrt(2.0)
+                     if scene.pieces is not None else 1.0)
+        return DEFAULT_DT_TAU / strongest ** 2 if strongest > 1.0 else DEFAULT_DT_TAU
     if scene.scaling is not None:
         return scene.scaling.to_t(DEFAULT_DT_TAU)
     horizon = max([t for t in (scene.times[-1] if scene.times.size else 0.0, scene.t0)
