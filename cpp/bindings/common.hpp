@@ -28,6 +28,7 @@ void register_histogram(py::module_& m);    // BinEdges
 void register_run(py::module_& m);          // run_chunk, ChunkResult, cancelling a run
 void register_diagnostics(py::module_& m);  // exact_steps, random_floor, build_info, ...
 void register_levels(py::module_& m);       // run_samples, sum_products (adaptive runs)
+void register_branch(py::module_& m);       // extend_paths (rare-event estimators)
 
 namespace bindings {
 

@@ -18,4 +18,5 @@ PYBIND11_MODULE(_core, m) {
   register_run(m);
   register_diagnostics(m);
   register_levels(m);
+  register_branch(m);
 }

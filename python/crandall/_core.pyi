@@ -139,6 +139,20 @@ def exact_steps(
 ) -> npt.NDArray[np.float64]:
     """One exact velocity step of length h from each start value (path i uses stream i)."""
 
+def extend_paths(
+    states: npt.NDArray[np.float64],
+    rows: Union[Sequence[int], npt.NDArray[np.int64]],
+    starts: Union[Sequence[int], npt.NDArray[np.int64]],
+    streams: Union[Sequence[int], npt.NDArray[np.uint64]],
+    lengths: npt.NDArray[np.float64],
+    noises: npt.NDArray[np.float64],
+    drifts: npt.NDArray[np.float64],
+    key: int,
+    threads: int = 0,
+) -> None:
+    """Continue rows of states (rows x (steps + 1) x 3) from grid point starts[i] with the
+    noise of stream streams[i] of key; in place (the rare-event estimators' paths)."""
+
 def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
     """Generate the kernel's noise for paths x steps with no physics (a throughput floor)."""
 

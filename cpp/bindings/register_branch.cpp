@@ -1,0 +1,46 @@
+#include <cstdint>
+#include <string>
+
+#include "common.hpp"
+#include "crandall/branch.hpp"
+
+void register_branch(py::module_& m) {
+  m.def(
+      "extend_paths",
+      [](py::array states, py::array_t<std::int64_t, py::array::c_style | py::array::forcecast> rows,
+         py::array_t<std::int64_t, py::array::c_style | py::array::forcecast> starts,
+         py::array_t<std::uint64_t, py::array::c_style | py::array::forcecast> streams,
+         py::array_t<double, py::array::c_style | py::array::forcecast> lengths,
+         py::array_t<double, py::array::c_style | py::array::forcecast> noises,
+         py::array_t<double, py::array::c_style | py::array::forcecast> drifts,
+         std::uint64_t key, int threads) {
+        if (!states.dtype().is(py::dtype::of<double>()) || states.ndim() != 3 ||
+            states.shape(2) != 3 || !(states.flags() & py::array::c_style) || !states.writeable())
+          throw std::invalid_argument("states must be a writable C-contiguous float64 array of "
+                                      "shape (rows, steps + 1, 3)");
+        const auto steps = static_cast<std::size_t>(lengths.size());
+        if (noises.size() != lengths.size() || drifts.size() != lengths.size())
+          throw std::invalid_argument("lengths, noises and drifts must have one value per step");
+        if (states.shape(1) != static_cast<py::ssize_t>(steps + 1))
+          throw std::invalid_argument("states must have steps + 1 = " + std::to_string(steps + 1) +
+                                      " grid points per row");
+        if (starts.size() != rows.size() || streams.size() != rows.size())
+          throw std::invalid_argument("rows, starts and streams must have the same length");
+        const crandall::BranchGrid grid{lengths.data(), noises.data(), drifts.data(), steps};
+        double* data = static_cast<double*>(states.mutable_data());
+        const auto rows_total = static_cast<std::size_t>(states.shape(0));
+        const auto count = static_cast<std::size_t>(rows.size());
+        bindings::without_gil([&] {
+          crandall::extend_paths(data, rows_total, grid, rows.data(), starts.data(), streams.data(),
+                                 count, key, threads);
+          return 0;
+        });
+      },
+      py::arg("states"), py::arg("rows"), py::arg("starts"), py::arg("streams"),
+      py::arg("lengths"), py::arg("noises"), py::arg("drifts"), py::arg("key"),
+      py::arg("threads") = 0,
+      "Continues rows `rows` of `states` (rows x (steps + 1) x 3: velocity, displacement, "
+      "distance at every grid point) from grid point starts[i] to the end of the grid with the "
+      "noise of stream streams[i] of `key`; step k has length lengths[k], noise noises[k] and "
+      "drift drifts[k]. In place; the GIL is released.");
+}

@@ -1,0 +1,41 @@
+// Paths continued from stored states: the building block of the rare-event estimators
+// (crandall.tail, docs/methods/tails.md). Splitting restarts a path from a state of another
+// path with fresh noise; importance sampling simulates under a changed friction and weighs each
+// path by the ratio of the two exact step laws. Both need paths stepped on a fixed grid from
+// any stored state, each with its own random stream, the whole trajectory kept.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace crandall {
+
+// The grid of a branching run: step k (0 <= k < steps) has length lengths[k], noise intensity
+// noises[k] (sigma of the velocity's dX = -c sign(X) dt + sigma dW) and drift drifts[k] (c; may
+// be negative: an importance-sampling proposal that pushes the body outward).
+struct BranchGrid {
+  const double* lengths;
+  const double* noises;
+  const double* drifts;
+  std::size_t steps;
+};
+
+// Checks a grid: lengths finite and > 0, noises finite and >= 0, drifts finite, every step in
+// the exact step's range. Throws std::invalid_argument naming the array.
+void validate_branch_grid(const BranchGrid& grid);
+
+// states: rows x (grid.steps + 1) x 3 doubles, (velocity, displacement, distance) at every
+// grid point of every row. For each i < count, row rows[i] is continued from its state at grid
+// point starts[i] to the end of the grid, overwriting the points after it; its noise is the
+// stream streams[i] of key `key` (docs/random-numbers.md: step k draws the half k % 2 of the
+// Philox block (key, stream, pair k / 2)), so a row's continuation is a pure function of
+// (key, stream, start state, start point) whatever the threads. Displacement and distance are
+// integrated by the trapezoid rule on the grid (the exact method's integrals); a step without
+// noise and with a drift >= 0 is the closed-form coast (exact integrals, and the stop inside
+// the step). Rows listed twice are refused.
+void extend_paths(double* states, std::size_t rows_total, const BranchGrid& grid,
+                  const std::int64_t* rows, const std::int64_t* starts,
+                  const std::uint64_t* streams, std::size_t count, std::uint64_t key,
+                  int threads);
+
+}  // namespace crandall

@@ -1,0 +1,89 @@
+#include "crandall/branch.hpp"
+
+#include <omp.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "crandall/coast.hpp"
+#include "crandall/exact_step.hpp"
+#include "crandall/kernel.hpp"
+#include "crandall/rng.hpp"
+#include "crandall/run.hpp"
+
+namespace crandall {
+
+void validate_branch_grid(const BranchGrid& g) {
+  for (std::size_t k = 0; k < g.steps; ++k) {
+    if (!(std::isfinite(g.lengths[k]) && g.lengths[k] > 0.0))
+      throw std::invalid_argument("lengths must be finite and > 0 (step " + std::to_string(k) + ")");
+    if (!(std::isfinite(g.noises[k]) && g.noises[k] >= 0.0))
+      throw std::invalid_argument("noises must be finite and >= 0 (step " + std::to_string(k) + ")");
+    if (!std::isfinite(g.drifts[k]))
+      throw std::invalid_argument("drifts must be finite (step " + std::to_string(k) + ")");
+    if (!step_in_range(g.lengths[k], std::abs(g.drifts[k]), g.noises[k]))
+      throw std::invalid_argument("lengths: step " + std::to_string(k) +
+                                  " is too long for its drift and noise");
+  }
+}
+
+namespace {
+
+void extend_one(double* row, const BranchGrid& g, std::size_t start, std::uint64_t stream,
+                std::uint64_t key) {
+  double x = row[3 * start], u = row[3 * start + 1], s = row[3 * start + 2];
+  StepNoise z[2];
+  for (std::size_t k = start; k < g.steps; ++k) {
+    if (k == start || k % 2 == 0) draw_pair(key, stream, k / 2, z);
+    const StepNoise& n = z[k % 2];
+    const double len = g.lengths[k], c = g.drifts[k], sigma = g.noises[k];
+    if (sigma == 0.0 && c >= 0.0) {
+      const State next = coast({x, u, s}, c, len);
+      x = next.velocity;
+      u = next.displacement;
+      s = next.distance;
+    } else {
+      const double x1 = exact_step(x, len, c, sigma, n.normal, n.exponential, n.coin).velocity;
+      u += trapezoid(len, x, x1);
+      s += trapezoid(len, std::abs(x), std::abs(x1));
+      x = x1;
+    }
+    double* p = row + 3 * (k + 1);
+    p[0] = x;
+    p[1] = u;
+    p[2] = s;
+  }
+}
+
+}  // namespace
+
+void extend_paths(double* states, std::size_t rows_total, const BranchGrid& grid,
+                  const std::int64_t* rows, const std::int64_t* starts,
+                  const std::uint64_t* streams, std::size_t count, std::uint64_t key,
+                  int threads) {
+  validate_branch_grid(grid);
+  const std::size_t points = grid.steps + 1;
+  std::vector<char> seen(rows_total, 0);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (rows[i] < 0 || static_cast<std::size_t>(rows[i]) >= rows_total)
+      throw std::invalid_argument("rows: " + std::to_string(rows[i]) + " is not a row of states");
+    if (seen[static_cast<std::size_t>(rows[i])]++)
+      throw std::invalid_argument("rows: row " + std::to_string(rows[i]) + " is listed twice");
+    if (starts[i] < 0 || static_cast<std::size_t>(starts[i]) >= points)
+      throw std::invalid_argument("starts: " + std::to_string(starts[i]) + " is not a grid point");
+    const double* p = states + (static_cast<std::size_t>(rows[i]) * points + static_cast<std::size_t>(starts[i])) * 3;
+    if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])))
+      throw std::invalid_argument("states: the start state of row " + std::to_string(rows[i]) +
+                                  " is not finite");
+  }
+  const int team = thread_count(threads);
+  const long n = static_cast<long>(count);
+#pragma omp parallel for schedule(dynamic, 16) num_threads(team)
+  for (long i = 0; i < n; ++i)
+    extend_one(states + static_cast<std::size_t>(rows[i]) * points * 3, grid,
+               static_cast<std::size_t>(starts[i]), streams[i], key);
+}
+
+}  // namespace crandall
