@@ -16,7 +16,8 @@ from .io import load
 from .results import Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene
 from .simulate import METHODS, default_dt, simulate, simulate_many
+from .tail import TailResult, tail
 from .units import Scaling
 
 __all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS",
-           "StatisticsWarning"]
+           "StatisticsWarning", "tail", "TailResult"]

@@ -1,0 +1,823 @@
+"""Rare outcomes: tail probabilities P(Q > level) down to 1e-12 with an honest relative error.
+
+Plain Monte Carlo needs about 100 / p paths for a 10 % relative error at probability p. Two
+estimators reach small p at a cost that grows like log(1/p) instead (docs/methods/tails.md):
+
+- **splitting** (adaptive multilevel splitting, Cérou & Guyader 2007, in the generalised form
+  of Bréhier, Gazeau, Goudenège, Lelièvre & Rousset 2016, unbiased for any number of
+  particles): particles are paths on a fixed grid, each with a score; at each iteration the
+  particles whose path maximum of the score is lowest are killed and replaced by copies of
+  survivors, continued with fresh noise from the first grid point where the survivor's score
+  passed the killed level. The paths are the exact skeleton of the velocity (the core's exact
+  step), so splitting adds no step bias of its own.
+- **importance sampling**: paths simulated under a changed friction over a final window,
+  weighted by the exact likelihood ratio of the two laws of the velocity's grid values (the
+  closed-form transition density of the sign-drift diffusion, any step length).
+
+Every quantity is a function of the grid values of the velocity (displacement and distance are
+the trapezoid rule on the grid, the exact method's integrals): the probabilities are those of
+a fixed-step exact run at the same ``dt``; velocity and stop time have no step bias at all.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time as _time
+import warnings
+from dataclasses import dataclass, field
+from typing import Any, Dict, List, Optional, Sequence, Union
+
+import numpy as np
+
+from . import _core
+from . import streams as _streams
+from ._resources import progress_bar
+from .errors import ParameterError
+from .results import StatisticsWarning
+from .scene import Scene
+from .spec import as_seed, check_int, default_dt
+
+__all__ = ["tail", "TailResult", "TAIL_QUANTITIES", "TAIL_METHODS"]
+
+#: The stream of the rare-event estimators' paths (streams.key(seed, TAIL_STREAM)); beyond the
+#: levels of a run to an accuracy and the bias estimate's stream.
+TAIL_STREAM = (1 << 20) + 1
+TAIL_METHODS = ("splitting", "importance")
+#: Checkpoint format of a tail run.
+TAIL_CHECKPOINT_FORMAT = 1
+#: A replica's path streams: replica r uses streams r * 2^40 + 0, 1, ...
+_REPLICA_STREAMS = 1 << 40
+#: Thresholds of an importance-sampling run's degeneracy (docs/methods/tails.md): fewer
+#: effective samples among the paths past a level, or a single path carrying more of its weight.
+MIN_EFFECTIVE_SAMPLES = 30.0
+MAX_WEIGHT_SHARE = 0.1
+#: The fewest grid steps with noise that splitting runs on (see tail()).
+MIN_SPLITTING_STEPS = 50
+#: How many more samples than the pilot's variance asks for the run takes.
+SAFETY = 1.3
+#: Largest Pareto shape of the weights' tail (:func:`pareto_shape`) for a reliable estimate.
+MAX_PARETO_SHAPE = 0.7
+
+
+@dataclass(frozen=True)
+class _Quantity:
+    name: str
+    unit: str  # SI unit ("" in scaled scenes)
+    at_stop: bool  # needs the stop: the horizon is the end of the excitation
+    velocity_only: bool  # a function of the velocity alone (no step bias)
+    peak: bool  # the quantity is the path maximum of its score
+    text: str
+
+
+#: The quantities a tail run estimates, with their units in an SI scene.
+TAIL_QUANTITIES: Dict[str, _Quantity] = {q.name: q for q in (
+    _Quantity("stop_time", "s", True, True, False, "stop time t_s"),
+    _Quantity("velocity", "m/s", False, True, False, "velocity V(t) (signed)"),
+    _Quantity("speed", "m/s", False, True, False, "speed |V(t)|"),
+    _Quantity("distance_at_stop", "m", True, False, False, "distance travelled S(t_s)"),
+    _Quantity("dissipated_energy_at_stop", "J", True, False, False,
+              "energy dissipated by friction, m mu g S(t_s)"),
+    _Quantity("displacement_at_stop", "m", True, False, False, "displacement U(t_s) (signed)"),
+    _Quantity("residual_displacement", "m", True, False, False,
+              "residual displacement |U(t_s)| (magnitude)"),
+    _Quantity("peak_displacement_at_stop", "m", True, False, True,
+              "peak displacement max |U| over the grid and the coast"),
+    _Quantity("peak_speed_at_stop", "m/s", True, True, True, "peak speed max |V| over the grid"),
+)}
+
+
+class _Problem:
+    """A scene, a quantity and the grid its paths are simulated on, with the quantity's score."""
+
+    def __init__(self, scene: Scene, quantity: str, time: Optional[float], dt: Optional[float],
+                 breaks: Sequence[float] = (), coarse: bool = False):
+        if not isinstance(scene, Scene):
+            raise ParameterError("scene", f"scene must be a crandall.Scene, got {type(scene).__name__}")
+        if quantity not in TAIL_QUANTITIES:
+            raise ParameterError("quantity", f"quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
+        self.scene, self.q = scene, TAIL_QUANTITIES[quantity]
+        c = scene.drift
+        pieces = list(scene.pieces) if scene.pieces is not None else [(scene.t0, scene.noise)]
+        end = pieces[-1][0]
+        if self.q.at_stop:
+            if time is not None:
+                raise ParameterError("time", f"time: {quantity} is a quantity at the stop; it takes no output time")
+            if not (math.isfinite(end) and c > 0):
+                raise ParameterError("quantity", f"quantity: {quantity} needs the stop, which needs mu > 0 and a finite t0")
+            horizon = end
+        else:
+            if time is None:
+                raise ParameterError("time", f"time: {quantity} is a quantity at an output time; give time=")
+            time = float(time)
+            if not (math.isfinite(time) and time >= 0):
+                raise ParameterError("time", f"time must be finite and >= 0, got {time}")
+            horizon = min(time, end)
+        self.time = time
+        self.horizon = horizon
+        self.coast = (time - horizon) if time is not None else 0.0  # noiseless time after the grid
+        if dt is None:
+            dt = default_dt(scene)
+        dt = float(dt)
+        if not (math.isfinite(dt) and dt > 0):
+            raise ParameterError("dt", f"dt must be finite and > 0, got {dt}")
+        self.dt = dt
+        self.args = (scene, quantity, time, dt)
+        # The intervals between the pieces' ends and the extra breaks; coarse: one exact step
+        # each (the velocity's law does not depend on the grid).
+        cuts = sorted({0.0, horizon} | {e for e, _ in pieces if 0 < e < horizon}
+                      | {x for x in breaks if 0 < x < horizon})
+        intervals = []
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            sigma = next(n for e, n in pieces if e >= b)
+            intervals.append((a, b, sigma))
+        lengths, noises, starts = [], [], []
+        for a, b, sigma in intervals:
+            if b > a:
+                n = 1 if (sigma == 0 or coarse) else max(1, math.ceil((b - a) / dt - 1e-9))
+                if n > 10_000_000:
+                    raise ParameterError("dt", f"dt: {n} steps over one piece of the excitation; the paths would not fit")
+                edges = a + (b - a) * np.arange(n + 1) / n
+                lengths.extend(np.diff(edges))
+                noises.extend([sigma] * n)
+                starts.extend(edges[:-1])
+        self.lengths = np.asarray(lengths, dtype=np.float64)
+        self.noises = np.asarray(noises, dtype=np.float64)
+        self.drifts = np.full(len(lengths), c, dtype=np.float64)
+        self.step_starts = np.asarray(starts, dtype=np.float64)
+        # The expected drift of the distance still to come: S + V^2/(2c) grows at the constant
+        # rate sigma^2/(2c) while the noise acts (docs/methods/tails.md), so adding what is still
+        # to come makes the distance's score its conditional mean.
+        if c > 0:
+            per_step = self.noises ** 2 * self.lengths / (2 * c)
+            self.remaining = np.concatenate([np.cumsum(per_step[::-1])[::-1], [0.0]])
+        else:
+            self.remaining = np.zeros(len(lengths) + 1)
+
+    @property
+    def noisy_steps(self) -> int:
+        return int(np.count_nonzero(self.noises > 0))
+
+    @property
+    def noisy_time(self) -> float:
+        return float(np.sum(self.lengths[self.noises > 0]))
+
+    @property
+    def steps(self) -> int:
+        return len(self.lengths)
+
+    def start_states(self, n: int) -> np.ndarray:
+        states = np.empty((n, self.steps + 1, 3))
+        states[:, 0] = (self.scene.v0, self.scene.u0, 0.0)
+        return states
+
+    def _coasted(self, v):
+        """The velocity at the output time from the velocity at the end of the grid."""
+        if self.coast == 0.0:
+            return v
+        c = self.scene.drift
+        return np.sign(v) * np.maximum(np.abs(v) - c * self.coast, 0.0)
+
+    def score(self, states: np.ndarray) -> np.ndarray:
+        """The score at every grid point, shape states.shape[:2]; its last point (or, for the
+        peaks, its maximum over the path) is the quantity."""
+        v, u, s = states[..., 0], states[..., 1], states[..., 2]
+        c = self.scene.drift
+        name = self.q.name
+        if name == "stop_time":
+            return self.horizon + np.abs(v) / c
+        if name == "velocity":
+            return self._coasted(v)
+        if name == "speed":
+            return np.abs(self._coasted(v))
+        if name in ("distance_at_stop", "dissipated_energy_at_stop"):
+            out = s + v * v / (2 * c) + self.remaining
+            return out * (self.scene.mass * c) if name == "dissipated_energy_at_stop" else out
+        ahead = u + v * np.abs(v) / (2 * c)  # the displacement where the body would stop now
+        if name == "displacement_at_stop":
+            return ahead
+        if name == "residual_displacement":
+            return np.abs(ahead)
+        if name == "peak_displacement_at_stop":
+            out = np.abs(u)
+            out[..., -1] = np.maximum(out[..., -1], np.abs(ahead[..., -1]))
+            return out
+        return np.abs(v)  # peak_speed_at_stop: the speed only falls after the last piece
+
+    def value(self, score: np.ndarray) -> np.ndarray:
+        return score.max(axis=-1) if self.q.peak else score[..., -1]
+
+    def coarse_for(self, window: float) -> "_Problem":
+        """The same problem on the coarsest grid with a break at horizon - window: one exact
+        step per piece and part (velocity quantities only, which are exact on any grid)."""
+        return _Problem(*self.args, breaks=(self.horizon - window,), coarse=True)
+
+    def describe(self) -> Dict[str, Any]:
+        return {"quantity": self.q.name, "time": self.time, "dt": self.dt, "steps": self.steps}
+
+
+def _extend(problem: _Problem, states, rows, starts, streams, key, threads, drifts=None):
+    _core.extend_paths(states, np.asarray(rows, dtype=np.int64), np.asarray(starts, dtype=np.int64),
+                       np.asarray(streams, dtype=np.uint64), problem.lengths, problem.noises,
+                       problem.drifts if drifts is None else drifts, key, threads)
+
+
+# -- splitting ------------------------------------------------------------------------------
+
+
+def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, kill: int,
+                       key: int, replica: int, threads: int, max_iterations: int):
+    """One run of adaptive multilevel splitting: an unbiased estimate of P(Q > L) for each L.
+
+    The estimate for L is taken at the first iteration whose kill level z (the kill-th smallest
+    path maximum of the score) reaches L: prod(1 - K_j / n) times the fraction of the particles
+    with Q > L, K_j the number killed at iteration j (every particle at or below z, so ties are
+    killed together: Bréhier et al. 2016). If every particle sits at z the estimate is 0.
+    """
+    n = particles
+    rng = np.random.default_rng([key, replica, 1])
+    base = replica * _REPLICA_STREAMS
+    states = problem.start_states(n)
+    _extend(problem, states, np.arange(n), np.zeros(n), base + np.arange(n), key, threads)
+    branches = n
+    steps = n * problem.steps
+    score = problem.score(states)
+    level = score.max(axis=1)
+    value = problem.value(score)
+    order = np.argsort(levels, kind="stable")
+    estimates = np.full(len(levels), np.nan)
+    log_weight = 0.0
+    done = 0
+    iterations = 0
+    while True:
+        z = np.partition(level, kill - 1)[kill - 1]
+        while done < len(order) and levels[order[done]] <= z:
+            estimates[order[done]] = math.exp(log_weight) * np.mean(value > levels[order[done]])
+            done += 1
+        if done == len(order):
+            break
+        killed = np.flatnonzero(level <= z)
+        if len(killed) == n:
+            estimates[order[done:]] = 0.0  # extinction: every particle at the same level
+            break
+        if iterations >= max_iterations:
+            raise RuntimeError(f"splitting did not reach the level after {iterations} iterations")
+        log_weight += math.log1p(-len(killed) / n)
+        survivors = np.flatnonzero(level > z)
+        parents = survivors[rng.integers(len(survivors), size=len(killed))]
+        branch = np.argmax(score[parents] > z, axis=1)
+        states[killed] = states[parents]
+        _extend(problem, states, killed, branch, base + branches + np.arange(len(killed)), key,
+                threads)
+        branches += len(killed)
+        steps += int(np.sum(problem.steps - branch))
+        score[killed] = problem.score(states[killed])
+        level[killed] = score[killed].max(axis=1)
+        value[killed] = problem.value(score[killed])
+        iterations += 1
+    return estimates, {"iterations": iterations, "steps": steps, "log_weight": log_weight}
+
+
+# -- importance sampling --------------------------------------------------------------------
+
+
+def log_transition_density(x, x0, t, c, sigma):
+    """log p(x, t | x0) of dX = -c sign(X) dt + sigma dW (any real c, sigma > 0, t > 0):
+
+        p = exp(-(x - x0)^2 / (2 s2 t) - c (|x| - |x0|) / s2 - c^2 t / (2 s2)) / sqrt(2 pi s2 t)
+            + c / (2 s2) exp(-2 c |x| / s2) erfc((|x| + |x0| - c t) / sqrt(2 s2 t)),  s2 = sigma^2
+
+    (the sign-drift diffusion's propagator; for c < 0 the second term is negative and below
+    the first: its ratio to it is below |c| t / (|x| + |x0| + |c| t) < 1). Evaluated in logs
+    (log_ndtr for the erfc), so that steps of any length and far tails keep their digits.
+    """
+    from scipy.special import log_ndtr
+
+    x, x0 = np.asarray(x, dtype=float), np.asarray(x0, dtype=float)
+    s2 = sigma * sigma
+    ax, a0 = np.abs(x), np.abs(x0)
+    first = (-0.5 * np.log(2 * np.pi * s2 * t) - (x - x0) ** 2 / (2 * s2 * t)
+             - c * (ax - a0) / s2 - c * c * t / (2 * s2))
+    if c == 0:
+        return first
+    z = (ax + a0 - c * t) / np.sqrt(2 * s2 * t)
+    second = math.log(abs(c) / (2 * s2)) - 2 * c * ax / s2 + math.log(2.0) + log_ndtr(-z * math.sqrt(2.0))
+    if c > 0:
+        return np.logaddexp(first, second)
+    return first + np.log1p(-np.exp(second - first))
+
+
+def _log_weights(problem: _Problem, states: np.ndarray, drifts: np.ndarray) -> np.ndarray:
+    """log of dP/dQ for each path: the sum over the steps where the proposal's drift differs
+    of log p_c - log p_c' of the step's velocities (exact: the grid values are a Markov chain
+    under either law, and every quantity is a function of them)."""
+    out = np.zeros(states.shape[0])
+    changed = np.flatnonzero(drifts != problem.drifts)
+    c = problem.scene.drift
+    for k in changed:
+        x0, x1 = states[:, k, 0], states[:, k + 1, 0]
+        t, sigma = problem.lengths[k], problem.noises[k]
+        out += (log_transition_density(x1, x0, t, c, sigma)
+                - log_transition_density(x1, x0, t, drifts[k], sigma))
+    return out
+
+
+def _proposal(problem: _Problem, window: float, drift: float) -> np.ndarray:
+    """The proposal's drifts: ``drift`` on the noisy steps that start in the last ``window`` of
+    the horizon, the scene's friction elsewhere."""
+    d = problem.drifts.copy()
+    inside = (problem.step_starts >= problem.horizon - window - 1e-12 * problem.horizon) & (problem.noises > 0)
+    d[inside] = drift
+    return d
+
+
+def _importance_batch(problem, drifts, levels, paths, key, first, threads):
+    states = problem.start_states(paths)
+    _extend(problem, states, np.arange(paths), np.zeros(paths), first + np.arange(paths), key,
+            threads, drifts=drifts)
+    value = problem.value(problem.score(states))
+    logw = _log_weights(problem, states, drifts)
+    hits = value[:, None] > levels[None, :]
+    return np.where(hits, np.exp(logw)[:, None], 0.0)
+
+
+def _grid_for(problem: _Problem, window: float) -> _Problem:
+    """The grid importance sampling runs on: the coarsest one for the velocity quantities (the
+    likelihood ratio of fewer grid values has a lighter tail: it no longer sees the time the
+    path spends near 0), the problem's own otherwise."""
+    if problem.q.velocity_only and not problem.q.peak:
+        return problem.coarse_for(window)
+    return problem
+
+
+def _ld_windows(problem: _Problem, top: float) -> List[float]:
+    """Windows from the large-deviation path of the velocity quantities: |V| climbs to a level
+    a at the rate c of the reversed friction over its last a / c (the time reversal of the
+    relaxation), so the proposal reverses the friction over that window."""
+    c, name = problem.scene.drift, problem.q.name
+    if name == "stop_time":
+        a = (top - problem.horizon) * c
+    elif name in ("speed", "velocity", "peak_speed_at_stop"):
+        a = abs(top) + c * problem.coast
+    else:
+        return []
+    if not (c > 0 and a > 0):
+        return []
+    return [min(problem.horizon, a / c)]
+
+
+def _choose_proposal(problem, levels, key, threads, pilot):
+    """The proposal (window, drift) with the smallest estimated relative variance per path at
+    the rarest level, over a grid of windows and drifts (and the large-deviation window of the
+    velocity quantities), from pilot paths of their own stream (left out of the estimate, so
+    the choice does not bias it)."""
+    c = problem.scene.drift
+    top = float(np.max(levels))
+    windows = sorted({problem.horizon * f for f in (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0)}
+                     | set(_ld_windows(problem, top)))
+    drifts = [c * f for f in (1.0, 0.5, 0.0, -0.5, -1.0, -1.5, -2.0)]
+    best, tried = None, []
+    stream = 1 << 62
+    for w in windows:
+        grid = _grid_for(problem, w)
+        for d in drifts:
+            prop = _proposal(grid, w, d)
+            contrib = _importance_batch(grid, prop, np.array([top]), pilot, key, stream, threads)[:, 0]
+            stream += pilot
+            hits = int(np.count_nonzero(contrib))
+            mean = contrib.mean()
+            rel = contrib.var() / mean ** 2 if mean > 0 else math.inf
+            tried.append({"window": w, "drift": d, "hits": hits, "relative_variance": rel})
+            if hits >= 20 and (best is None or rel < best[2]):
+                best = (w, d, rel)
+    return best, tried
+
+
+#: Weights kept per level and batch for the Pareto diagnostic (the largest).
+_TOP_WEIGHTS = 512
+
+
+def pareto_shape(largest: np.ndarray) -> float:
+    """The shape k of a generalised Pareto law fitted to the excesses of the largest weights
+    over the next one (the tail of the weights' law), by the empirical-Bayes estimate of Zhang
+    & Stephens (2009) with the weakly informative prior of Pareto-smoothed importance sampling
+    (Vehtari, Simpson, Gelman, Yao & Gabry). k > 0.7: the weights' variance is infinite or the
+    estimate is pre-asymptotic, so the reported standard error is not to be trusted; k < 0.5:
+    finite variance. ``largest``: the M + 1 largest weights (any order), M >= 5."""
+    w = np.sort(np.asarray(largest, dtype=float))
+    x = w[1:] - w[0]
+    n = len(x)
+    if n < 5 or x[-1] <= 0:
+        return math.nan
+    grid = 30 + int(math.sqrt(n))
+    # Candidate values of theta = -k / sigma, spread by the quartile and the maximum.
+    theta = 1.0 / x[-1] + (1.0 - np.sqrt(grid / (np.arange(1, grid + 1) - 0.5))) / (3.0 * x[max(int(n / 4 + 0.5) - 1, 0)])
+    k = np.mean(np.log1p(-theta[:, None] * x[None, :]), axis=1)
+    loglik = n * (np.log(-theta / k) - k - 1.0)
+    with np.errstate(over="ignore"):
+        weight = 1.0 / np.exp(loglik[None, :] - loglik[:, None]).sum(axis=1)
+    keep = weight >= 10 * np.finfo(float).eps
+    theta_hat = np.sum(theta[keep] * weight[keep]) / np.sum(weight[keep])
+    k_hat = np.mean(np.log1p(-theta_hat * x))
+    # The prior: shrink towards 0.5 as if 10 observations sat there.
+    return float((n * k_hat + 10 * 0.5) / (n + 10))
+
+
+# -- the result -----------------------------------------------------------------------------
+
+
+@dataclass
+class TailResult:
+    """Tail probabilities P(Q > level) of one quantity, with their errors and diagnostics.
+
+    Attributes
+    ----------
+    quantity, levels, units
+        The quantity, its levels (ascending, in the scene's units) and the unit.
+    probability, stderr, rel_error : ndarray
+        The estimate at each level, its standard error and stderr / probability.
+    method : str
+        "splitting" or "importance".
+    samples : int
+        Independent replicas (splitting) or paths (importance sampling) in the estimate.
+    seconds, steps : float, int
+        Wall time and exact steps simulated (the cost).
+    diagnostics : dict
+        Splitting: iterations per replica and particles. Importance sampling: the proposal, and
+        per level the effective sample size of the paths past it and the largest weight share.
+    reliable : ndarray of bool
+        False where the diagnostics show a degenerate estimate (importance sampling with too few
+        effective samples or one dominant weight; a level no replica reached): its number is not
+        a clean estimate.
+    spec : dict
+        What was run (scene, quantity, time, dt, method, seed, ...).
+    """
+
+    quantity: str
+    levels: np.ndarray
+    units: str
+    probability: np.ndarray
+    stderr: np.ndarray
+    rel_error: np.ndarray
+    method: str
+    samples: int
+    seconds: float
+    steps: int
+    diagnostics: Dict[str, Any]
+    reliable: np.ndarray
+    spec: Dict[str, Any] = field(default_factory=dict)
+
+    def interval(self, level: float = 0.95):
+        """The two-sided confidence interval (lower, upper) of each probability at ``level``,
+        normal on the mean of the independent samples, clipped at 0."""
+        from scipy.stats import norm, t as student
+
+        if not (0 < level < 1):
+            raise ParameterError("level", f"level must be in (0, 1), got {level}")
+        q = (student.ppf(0.5 + level / 2, self.samples - 1) if self.samples < 200
+             else norm.ppf(0.5 + level / 2))
+        return (np.maximum(self.probability - q * self.stderr, 0.0),
+                self.probability + q * self.stderr)
+
+    def to_pandas(self):
+        """One row per level: probability, stderr, rel_error, the 95 % interval, reliable."""
+        import pandas as pd
+
+        lo, hi = self.interval()
+        return pd.DataFrame({"level": self.levels, "units": self.units,
+                             "probability": self.probability, "stderr": self.stderr,
+                             "rel_error": self.rel_error, "lower_95": lo, "upper_95": hi,
+                             "reliable": self.reliable})
+
+    def __str__(self) -> str:
+        lo, hi = self.interval()
+        unit = f" [{self.units}]" if self.units else ""
+        lines = [f"P({self.quantity} > level), {self.method}, {self.samples} "
+                 f"{'replicas' if self.method == 'splitting' else 'paths'}, "
+                 f"{self.seconds:.1f} s, {self.steps:.3g} steps",
+                 f"{'level' + unit:>16} {'probability':>12} {'stderr':>10} {'rel.err':>8} "
+                 f"{'95% interval':>25}"]
+        for i, lv in enumerate(self.levels):
+            flag = "" if self.reliable[i] else "  UNRELIABLE (see diagnostics)"
+            lines.append(f"{lv:16.6g} {self.probability[i]:12.4g} {self.stderr[i]:10.3g} "
+                         f"{self.rel_error[i]:8.3f} [{lo[i]:.3g}, {hi[i]:.3g}]{flag}")
+        return "\n".join(lines)
+
+    def plot(self, ax=None, reference=None, label=None):
+        """The exceedance curve with its 95 % band (log probability). ``reference``: a
+        fixed-step :class:`crandall.Result` with the quantity's distribution, whose plain Monte
+        Carlo exceedance is drawn where it is informative (p above 100 / paths)."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 4))
+        lo, hi = self.interval()
+        ok = self.probability > 0
+        ax.fill_between(self.levels[ok], np.maximum(lo[ok], 1e-300), hi[ok], alpha=0.3,
+                        label="95 % interval")
+        ax.plot(self.levels[ok], self.probability[ok], "o-", ms=3, label=label or self.method)
+        if reference is not None:
+            name = "stop_time" if self.quantity == "stop_time" else self.quantity
+            grid = np.linspace(self.levels[0], self.levels[-1], 200)
+            p = np.asarray(reference.exceedance(name, grid), dtype=float)
+            floor = 100.0 / reference.paths
+            keep = p >= floor
+            ax.plot(grid[keep], p[keep], "k--", label=f"plain Monte Carlo ({reference.paths:.0e} paths)")
+        ax.set_yscale("log")
+        unit = f" [{self.units}]" if self.units else ""
+        ax.set_xlabel(f"level{unit}")
+        ax.set_ylabel(f"P({self.quantity} > level)")
+        ax.legend()
+        return ax
+
+
+# -- checkpoints ----------------------------------------------------------------------------
+
+
+def _checkpoint_load(path, spec):
+    if path is None or not os.path.exists(path):
+        return []
+    try:
+        with open(path) as f:
+            data = json.load(f)
+    except (OSError, ValueError) as e:
+        raise ValueError(f"checkpoint {path}: not a tail checkpoint ({e})") from None
+    if data.get("format") != TAIL_CHECKPOINT_FORMAT or not isinstance(data.get("samples"), list):
+        raise ValueError(f"checkpoint {path}: not a tail checkpoint of format {TAIL_CHECKPOINT_FORMAT}")
+    stored = data.get("spec", {})
+    for k in sorted(set(stored) | set(spec)):
+        if stored.get(k) != spec.get(k):
+            raise ValueError(f"checkpoint {path} is of another run: its {k} is {stored.get(k)!r}, "
+                             f"this run's is {spec.get(k)!r}")
+    return data["samples"]
+
+
+def _checkpoint_save(path, spec, samples):
+    if path is None:
+        return
+    tmp = f"{path}.tmp{os.getpid()}"
+    with open(tmp, "w") as f:
+        json.dump({"format": TAIL_CHECKPOINT_FORMAT, "spec": spec, "samples": samples}, f)
+    os.replace(tmp, path)
+
+
+def _levels(levels) -> np.ndarray:
+    try:
+        arr = np.atleast_1d(np.asarray(levels, dtype=float))
+    except (TypeError, ValueError):
+        raise ParameterError("levels", "levels must be a number or a sequence of numbers") from None
+    if arr.ndim != 1 or arr.size == 0:
+        raise ParameterError("levels", "levels must be a number or a non-empty sequence of numbers")
+    if not np.all(np.isfinite(arr)):
+        raise ParameterError("levels", f"levels must be finite, got {arr.tolist()}")
+    if np.any(np.diff(arr) <= 0):
+        raise ParameterError("levels", f"levels must be strictly increasing, got {arr.tolist()}")
+    return arr
+
+
+def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
+         time: Optional[float] = None, rel_error: float = 0.1, method: str = "splitting",
+         seed=None, dt: Optional[float] = None, particles: int = 200,
+         min_samples: Optional[int] = None, max_samples: Optional[int] = None,
+         max_seconds: float = 3600.0, threads: Optional[int] = None,
+         progress: Optional[bool] = None, checkpoint: Optional[str] = None) -> TailResult:
+    """Tail probabilities P(Q > level) of a quantity, to a relative error, down to about 1e-12.
+
+    Parameters
+    ----------
+    scene : Scene
+        Any scene: constant or piecewise intensity, any start (``v0``, ``u0``).
+    quantity : str
+        One of ``TAIL_QUANTITIES``: "stop_time", "velocity" and "speed" (signed and magnitude,
+        at ``time``), "distance_at_stop", "dissipated_energy_at_stop", "displacement_at_stop"
+        (signed), "residual_displacement" (|U(t_s)|), "peak_displacement_at_stop",
+        "peak_speed_at_stop" (maxima over the grid points: below the continuous path's maxima
+        by a discretisation error that falls like sqrt(dt)).
+    levels : float or sequence of float
+        Strictly increasing levels in the scene's units; one run estimates all of them (an
+        exceedance curve).
+    time : float, optional
+        The output time of "velocity" and "speed" (the scene's time units).
+    rel_error : float, default 0.1
+        Target relative error (stderr / probability) at every level; samples are added until it
+        is met, ``max_samples`` or ``max_seconds`` is reached (a StatisticsWarning then says
+        what was reached).
+    method : {"splitting", "importance"}
+        Adaptive multilevel splitting (any quantity; the default) or importance sampling with
+        an exact likelihood ratio (a lower or reversed friction over a final window, chosen
+        from pilot paths).
+    seed : int, numpy SeedSequence or Generator, optional
+        The run's seed; the result is bitwise the same for any ``threads``.
+    dt : float, optional
+        Grid step (scene units). Default: the scene's default step (``crandall.default_dt``).
+        Velocity and stop time are exact on any grid (dt only changes the cost); displacement
+        and distance are the trapezoid rule on it, as a fixed-step run with method "exact".
+    particles : int, default 200
+        Splitting: particles per replica (a tenth are killed per iteration). Importance
+        sampling: paths per batch.
+    min_samples, max_samples : int, optional
+        The pilot's size, which sets how many samples the target needs (left out of the
+        estimate), and the most samples the estimate may take: replicas (splitting; default 20
+        and 100000) or paths (importance sampling; default 1000 and 10^8).
+    max_seconds : float, default 3600
+        Stop adding samples after this long.
+    threads : int, optional
+        Threads of the core (default: all cores).
+    progress : bool, optional
+        A progress bar (default: where a person watches).
+    checkpoint : str or path, optional
+        A JSON file of the finished samples: a run with the same arguments resumes from it, and
+        an interrupted run (Ctrl-C) loses only the replica or batch in progress. A file of
+        another run is refused, naming the argument that differs.
+
+    Returns
+    -------
+    TailResult
+    """
+    problem = _Problem(scene, quantity, time, dt)
+    lv = _levels(levels)
+    if method == "splitting" and 0 < problem.noisy_steps < MIN_SPLITTING_STEPS:
+        # Few grid points, few branch points: the replicas' estimates get a heavy tail (at
+        # 5 steps over the paper's tau0 = 5 the relative spread of one replica at 1e-4 is 5,
+        # against 1.0 at 50 steps), and their mean's interval stops covering. The velocity
+        # quantities are exact on any grid, so theirs is refined; the others' dt defines
+        # their trapezoid rule, and a coarser one is refused.
+        if TAIL_QUANTITIES[quantity].velocity_only:
+            problem = _Problem(scene, quantity, time, problem.noisy_time / MIN_SPLITTING_STEPS)
+        else:
+            raise ParameterError("dt", f"dt: splitting needs at least {MIN_SPLITTING_STEPS} "
+                                 f"steps while the noise acts; dt = {problem.dt:g} gives "
+                                 f"{problem.noisy_steps}")
+    if method not in TAIL_METHODS:
+        raise ParameterError("method", f"method must be one of {', '.join(TAIL_METHODS)}; got {method!r}")
+    if not (isinstance(rel_error, (int, float)) and math.isfinite(rel_error) and 0 < rel_error < 1):
+        raise ParameterError("rel_error", f"rel_error must be in (0, 1), got {rel_error!r}")
+    if not (isinstance(max_seconds, (int, float)) and max_seconds > 0):
+        raise ParameterError("max_seconds", f"max_seconds must be > 0, got {max_seconds!r}")
+    check_int("particles", particles, 10, 10_000_000)
+    threads = check_int("threads", threads, 1, 1024) if threads is not None else 0
+    seed = as_seed(seed)
+    if seed is None:
+        seed = int(np.random.SeedSequence().entropy % (1 << 64))
+    check_int("seed", seed, 0, (1 << 64) - 1)
+    splitting = method == "splitting"
+    min_samples = check_int("min_samples", min_samples if min_samples is not None else (20 if splitting else 1000), 2, 10 ** 12)
+    max_samples = check_int("max_samples", max_samples if max_samples is not None else (100_000 if splitting else 10 ** 8), min_samples, 10 ** 12)
+    key = _streams.key(seed, TAIL_STREAM)
+    unit = "" if scene.units == "scaled" else TAIL_QUANTITIES[quantity].unit
+    spec = {"scene": scene.to_dict(), **problem.describe(), "levels": lv.tolist(),
+            "method": method, "seed": seed, "particles": particles}
+    spec = json.loads(json.dumps(spec))  # the checkpoint's view of it (tuples become lists)
+    if problem.noisy_steps == 0:
+        # No noise before the horizon: the quantity is deterministic.
+        states = problem.start_states(1)
+        _extend(problem, states, [0], [0], [0], key, 1)
+        value = float(problem.value(problem.score(states))[0])
+        p = (value > lv).astype(float)
+        z = np.zeros_like(p)
+        return TailResult(quantity, lv, unit, p, z, z.copy(), method, 1, 0.0, 0,
+                          {"deterministic": True}, np.ones(len(lv), bool), spec)
+    start = _time.perf_counter()
+    samples = _checkpoint_load(checkpoint, spec)
+    diagnostics: Dict[str, Any] = {}
+    if splitting:
+        kill = max(1, particles // 10)
+        diagnostics.update(particles=particles, killed_per_iteration=kill)
+        max_iterations = 200 * particles * 60  # log(1/p) < 700 with kill/particles >= 1/n
+    else:
+        best, tried = _choose_proposal(problem, lv, key, threads, pilot=max(256, particles))
+        diagnostics["proposals_tried"] = tried
+        if best is None:
+            raise StatisticsFailure(
+                f"importance sampling: no proposal reached level {lv[-1]:g} in its pilot paths; "
+                f"use method='splitting'")
+        window, drift, _ = best
+        diagnostics["proposal"] = {"window": window, "drift": drift}
+        is_problem = _grid_for(problem, window)
+        drifts = _proposal(is_problem, window, drift)
+
+    def one(index: int) -> Dict[str, Any]:
+        """Sample `index`: a splitting replica, or a batch of `particles` weighted paths; each a
+        pure function of (seed, index)."""
+        if splitting:
+            est, info = _splitting_replica(problem, lv, particles, kill, key, index, threads,
+                                           max_iterations)
+            return {"estimates": est.tolist(), "iterations": info["iterations"],
+                    "steps": info["steps"]}
+        contrib = _importance_batch(is_problem, drifts, lv, particles, key,
+                                    index * _REPLICA_STREAMS, threads)
+        return {"paths": particles, "steps": particles * is_problem.steps,
+                "sum": contrib.sum(axis=0).tolist(),
+                "sum2": (contrib ** 2).sum(axis=0).tolist(),
+                "hits": np.count_nonzero(contrib, axis=0).tolist(),
+                "top": [np.sort(col[col > 0])[-_TOP_WEIGHTS:].tolist() for col in contrib.T]}
+
+    def stats(chosen):
+        """(samples, mean, stderr, per-sample variance) of the estimate from `chosen`."""
+        if splitting:
+            arr = np.array([c["estimates"] for c in chosen])
+            n = len(arr)
+            var = arr.var(axis=0, ddof=1) if n > 1 else np.full(len(lv), np.inf)
+            return n, arr.mean(axis=0), np.sqrt(var / n), var
+        n = sum(c["paths"] for c in chosen)
+        s1 = np.sum([c["sum"] for c in chosen], axis=0)
+        s2 = np.sum([c["sum2"] for c in chosen], axis=0)
+        mean = s1 / n
+        var = np.maximum(s2 / n - mean ** 2, 0.0) * n / max(n - 1, 1)
+        return n, mean, np.sqrt(var / n), var
+
+    # Two stages, so that when to stop never depends on the estimate itself (stopping when the
+    # running error first looks small enough would favour runs whose rare large contributions
+    # have not come yet, a bias towards small probabilities): a pilot of `min_samples` samples,
+    # left out of the estimate, gives the variance per sample, hence the number of samples the
+    # target needs; then exactly that many (or fewer when max_samples or max_seconds ends the run:
+    # a cut that does not depend on their values either).
+    per_sample = 1 if splitting else particles
+    pilot_n = -(-min_samples // per_sample)
+    bar = progress_bar(progress, total=None)
+    stopped_early = False
+    try:
+        while len(samples) < pilot_n:
+            samples.append(one(len(samples)))
+            _checkpoint_save(checkpoint, spec, samples)
+            if bar is not None:
+                bar.set_postfix_str("pilot")
+                bar.update(1)
+        _, pmean, _, pvar = stats(samples[:pilot_n])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            need = np.where(pmean > 0, pvar / (rel_error * pmean) ** 2, np.nan)
+        if np.all(np.isnan(need)):
+            raise StatisticsFailure(
+                f"{method}: no pilot sample reached level {lv[0]:g}; "
+                + ("use more particles" if splitting else "use method='splitting'"))
+        # The pilot's variance is itself noisy (and low more often than high for skewed
+        # samples): SAFETY more, and never fewer than the pilot.
+        wanted = int(min(max_samples, max(min_samples, math.ceil(SAFETY * np.nanmax(need)))))
+        target_n = pilot_n + max(2, -(-wanted // per_sample))
+        diagnostics["pilot_samples"] = pilot_n * per_sample
+        if bar is not None:
+            bar.reset(total=target_n)
+            bar.update(len(samples))
+        while len(samples) < target_n:
+            if _time.perf_counter() - start > max_seconds:
+                stopped_early = True
+                break
+            samples.append(one(len(samples)))
+            _checkpoint_save(checkpoint, spec, samples)
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    used = samples[pilot_n:]
+    if len(used) < 2:
+        raise StatisticsFailure(f"{method}: stopped by max_seconds before the estimate's samples ran")
+    n, mean, se, _ = stats(used)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = np.where(mean > 0, se / mean, np.inf)
+    reliable = mean > 0
+    if splitting:
+        arr = np.array([c["estimates"] for c in used])
+        diagnostics.update(replicas=n, iterations_mean=float(np.mean([c["iterations"] for c in used])),
+                           zero_replicas=np.sum(arr == 0, axis=0).tolist())
+    else:
+        s1 = np.sum([c["sum"] for c in used], axis=0)
+        s2 = np.sum([c["sum2"] for c in used], axis=0)
+        hits = np.sum([c["hits"] for c in used], axis=0)
+        shapes, shares = [], []
+        for j in range(len(lv)):
+            top = np.sort(np.concatenate([c["top"][j] for c in used]))
+            shares.append(float(top[-1] / s1[j]) if s1[j] > 0 else 1.0)
+            m = int(min(0.2 * hits[j], 3 * math.sqrt(hits[j]), _TOP_WEIGHTS - 1))
+            shapes.append(pareto_shape(top[-(m + 1):]) if m >= 5 else math.nan)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ess = np.where(s2 > 0, s1 ** 2 / s2, 0.0)
+        diagnostics.update(effective_samples=ess.tolist(), largest_weight_share=shares,
+                           pareto_shape=shapes, hits=hits.tolist())
+        reliable &= ((ess >= MIN_EFFECTIVE_SAMPLES) & (np.array(shares) <= MAX_WEIGHT_SHARE)
+                     & (np.nan_to_num(np.array(shapes), nan=np.inf) < MAX_PARETO_SHAPE))
+    total_steps = int(sum(c["steps"] for c in samples))
+    result = TailResult(quantity, lv, unit, mean, se, rel, method, n,
+                        _time.perf_counter() - start, total_steps, diagnostics, reliable, spec)
+    if not np.all(reliable):
+        bad = ", ".join(f"{x:g}" for x in lv[~reliable])
+        warnings.warn(f"tail: the estimates at levels {bad} are not reliable (importance "
+                      f"sampling degenerate, or no sample reached the level): see "
+                      f"TailResult.diagnostics", StatisticsWarning, stacklevel=2)
+    elif np.any(rel > rel_error):
+        why = (f"max_seconds ({max_seconds:g} s)" if stopped_early else
+               "max_samples" if wanted >= max_samples else "the pilot's variance estimate")
+        warnings.warn(f"tail: relative error {float(np.max(rel)):.3g} above the target "
+                      f"{rel_error:g}: the number of samples was limited by {why}",
+                      StatisticsWarning, stacklevel=2)
+    return result
+
+
+def _count(samples, splitting) -> int:
+    return len(samples) if splitting else sum(s["paths"] for s in samples)
+
+
+class StatisticsFailure(RuntimeError):
+    """An estimator found no usable answer (e.g. no importance-sampling proposal reached the
+    level); the message says what to do instead."""
