@@ -50,7 +50,7 @@ def test_console_script_is_declared():
     assert any(ep.name == "crandall" and ep.value == "crandall.cli:main" for ep in eps)
 
 
-@pytest.mark.parametrize("args", [["--help"], ["run", "--help"], ["analytic", "--help"]])
+@pytest.mark.parametrize("args", [["--help"], ["run", "--help"], ["analytic", "--help"], ["tail", "--help"]])
 def test_help_everywhere(args):
     proc = crandall_cmd(*args)
     assert proc.returncode == 0, proc.stderr
@@ -394,3 +394,30 @@ def test_figures_in_another_format_resolution_and_units(tmp_path, capsys):
     assert not list(out.glob("*.svg")) and (out / "fig2_distance_mean.png").exists()
     assert cli.main(["run", str(scene), "--paths", "500", "--no-files", "--dpi", "5"]) == 2
     assert "--dpi must be between 50 and 1200" in capsys.readouterr().err
+
+
+def test_tail_command_prints_writes_and_draws_the_curve(tmp_path, capsys):
+    out = tmp_path / "tail"
+    args = ["tail", str(SCENES / "crate.toml"), "--quantity", "residual_displacement",
+            "--levels", "0.3", "0.6", "--seed", "3", "--rel-error", "0.3", "--mc-paths", "5000",
+            "--out", str(out), "--no-progress"]
+    assert cli.main(args) == 0
+    text = capsys.readouterr().out
+    assert "P(residual_displacement > level): splitting" in text and "level [m]" in text
+    rows = (out / "tail.csv").read_text().splitlines()
+    assert rows[0] == "level,units,probability,stderr,rel_error,lower_95,upper_95,reliable"
+    # The curve starts at plain Monte Carlo's median and holds the asked levels.
+    levels = [float(r.split(",")[0]) for r in rows[1:]]
+    assert 0.3 in levels and 0.6 in levels and len(levels) > 10
+    assert (out / "tail.png").stat().st_size > 0
+    # A second run into the same folder: refused, then replaced with --overwrite.
+    assert cli.main(args) == 2
+    assert "--overwrite" in capsys.readouterr().err
+    assert cli.main(args + ["--overwrite"]) == 0
+
+
+def test_tail_command_refuses_bad_options(capsys):
+    assert cli.main(["tail", "--quantity", "height", "--levels", "1", "--no-files"]) == 2
+    assert "quantity" in capsys.readouterr().err
+    assert cli.main(["tail", "--quantity", "speed", "--levels", "1", "--no-files"]) == 2
+    assert "time" in capsys.readouterr().err

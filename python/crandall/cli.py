@@ -43,7 +43,8 @@ _OUTPUT_NAMES = (("result.nc", "result.csv", MANIFEST)
                          for stem in ([c.figure for c in paper.CURVES]
                                       + ["velocity_density", "stop_time_density"]
                                       + [f"{n}_distribution"
-                                         for n in plots.STOP_DISTRIBUTIONS[1:]])))
+                                         for n in plots.STOP_DISTRIBUTIONS[1:]]
+                                      + ["tail"])) + ("tail.csv",))
 #: The probabilities whose quantiles ``crandall run`` prints for the stop quantities.
 QUANTILES = (0.5, 0.9, 0.99, 0.999)
 
@@ -135,6 +136,50 @@ def _parser() -> argparse.ArgumentParser:
     bar.add_argument("--no-progress", dest="progress", action="store_const", const=False,
                      help="never show a progress bar (default: on a terminal, for runs "
                           "longer than two seconds)")
+
+    tl = sub.add_parser(
+        "tail", help="estimate small tail probabilities P(Q > level) down to 1e-12",
+        description="Estimate P(Q > level) of one quantity of a scene at each level, to a "
+                    "relative error, by adaptive multilevel splitting on exact paths (or "
+                    "importance sampling); print the table and write tail.csv and the "
+                    "exceedance curve tail.png: from 1 down to the largest level, with its 95 %% "
+                    "band, joined to plain Monte Carlo where that is informative.")
+    tl.add_argument("scene", nargs="?", metavar="SCENE",
+                    help="scene file (TOML, see scenes/); default: the paper's scene")
+    tl.add_argument("--quantity", required=True, metavar="Q",
+                    help="stop_time, velocity, speed (with --time), distance_at_stop, "
+                         "dissipated_energy_at_stop, displacement_at_stop, residual_displacement, "
+                         "peak_displacement_at_stop, peak_speed_at_stop")
+    tl.add_argument("--levels", type=_float, nargs="+", required=True, metavar="L",
+                    help="levels in the scene's units, increasing")
+    tl.add_argument("--time", type=_float, metavar="T", help="output time of velocity and speed")
+    tl.add_argument("--method", choices=("splitting", "importance"), default="splitting",
+                    help="splitting (default) or importance sampling")
+    tl.add_argument("--rel-error", type=_float, default=0.1, metavar="R",
+                    help="target relative error at every level (default 0.1)")
+    tl.add_argument("--seed", type=_positive_int, metavar="S", help="seed (default: drawn and printed)")
+    tl.add_argument("--dt", type=_float, metavar="DT", help="grid step (default: crandall.default_dt)")
+    tl.add_argument("--threads", type=_positive_int, metavar="T", help="threads (default: all cores)")
+    tl.add_argument("--max-seconds", type=_float, default=3600.0, metavar="S",
+                    help="stop adding samples after S seconds (default 3600)")
+    tl.add_argument("--checkpoint", metavar="PATH",
+                    help="keep finished samples in PATH; rerunning the same command resumes")
+    tl.add_argument("--mc-paths", type=_positive_int, default=20_000, metavar="N",
+                    help="paths of the plain Monte Carlo part of the curve (default 20000)")
+    tl.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
+                    help=f"output folder (default: ./{DEFAULT_OUT})")
+    tl.add_argument("--overwrite", "--force", dest="overwrite", action="store_true",
+                    help="replace the files an earlier run wrote in --out")
+    tl.add_argument("--no-files", action="store_true", help="print only")
+    tl.add_argument("--format", dest="figure_format", choices=plots.FORMATS, default="png",
+                    help="the figure's file format (default: png)")
+    tl.add_argument("--dpi", type=_positive_int, default=150, metavar="N",
+                    help="the resolution of a png figure (default: 150)")
+    tbar = tl.add_mutually_exclusive_group()
+    tbar.add_argument("--progress", dest="progress", action="store_const", const=True,
+                      help="always show a progress bar")
+    tbar.add_argument("--no-progress", dest="progress", action="store_const", const=False,
+                      help="never show a progress bar")
 
     an = sub.add_parser(
         "analytic", help="print the analytic curves",
@@ -464,6 +509,99 @@ def analytic_command(scene_path=None, *, tau0=None, times=None) -> int:
     return 0
 
 
+#: The quantities of ``crandall tail`` whose plain Monte Carlo part a fixed-step run gives
+#: (a distribution at the stop), with the observables that run needs.
+_TAIL_REFERENCE = {
+    "stop_time": ["stop"], "distance_at_stop": ["distance", "stop"],
+    "dissipated_energy_at_stop": ["dissipated_energy", "stop"],
+    "displacement_at_stop": ["displacement", "stop"],
+    "residual_displacement": ["displacement", "stop", "residual"],
+}
+
+
+def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, time=None,
+                 method: str = "splitting", rel_error: float = 0.1, seed=None, dt=None,
+                 threads=None, max_seconds: float = 3600.0, checkpoint=None,
+                 mc_paths: int = 20_000, out: str = DEFAULT_OUT, overwrite: bool = False,
+                 files: bool = True, progress=None, figure_format: str = "png",
+                 dpi: int = 150) -> int:
+    """``crandall tail``: the table at the given levels, tail.csv, and the curve (tail.png)."""
+    from .tail import TAIL_QUANTITIES, tail
+
+    scene, settings, _ = _load_scene(scene_path)
+    if quantity not in TAIL_QUANTITIES:
+        raise ValueError(f"--quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
+    earlier = _check_out(out, overwrite) if files else []
+    if seed is None:
+        seed = int(np.random.SeedSequence().entropy % (1 << 63))
+        print(f"seed: {seed}")
+    levels = [float(x) for x in levels]
+    curve_levels = list(levels)
+    reference = None
+    if files and quantity in _TAIL_REFERENCE:
+        # Plain Monte Carlo on the same grid (method exact): the curve's upper part and where
+        # the rare part starts (its median).
+        ref_scene = Scene.from_dict({**scene.to_dict(), "observe": _TAIL_REFERENCE[quantity],
+                                     "distributions": [quantity], "bins": None})
+        reference = simulate(ref_scene, paths=mc_paths, seed=seed, dt=dt, method="exact",
+                             threads=threads, progress=False)
+        low = reference.quantile(quantity, 0.5).value
+        if math.isfinite(low) and low < levels[-1]:
+            curve_levels = sorted(set(levels) | set(np.linspace(low, levels[-1], 24).tolist()))
+    result = tail(scene, quantity, curve_levels, time=time, method=method, rel_error=rel_error,
+                  seed=seed, dt=dt, threads=threads, max_seconds=max_seconds,
+                  checkpoint=checkpoint, progress=progress)
+    pick = [curve_levels.index(x) for x in levels]
+    lo, hi = result.interval()
+    unit = f" [{result.units}]" if result.units else ""
+    print(f"P({quantity} > level): {method}, {result.samples} "
+          f"{'replicas' if method == 'splitting' else 'paths'}, {result.seconds:.1f} s")
+    print(f"{'level' + unit:>16} {'probability':>12} {'stderr':>10} {'rel.err':>8}  95% interval")
+    for i in pick:
+        flag = "" if result.reliable[i] else "  UNRELIABLE (see the diagnostics)"
+        print(f"{result.levels[i]:16.6g} {result.probability[i]:12.4g} {result.stderr[i]:10.3g} "
+              f"{result.rel_error[i]:8.3f}  [{lo[i]:.3g}, {hi[i]:.3g}]{flag}")
+    if not files:
+        return 0
+    check_folder_writable(out, "--out", create=True)
+    for name in earlier:
+        try:
+            os.unlink(os.path.join(out, name))
+        except FileNotFoundError:
+            pass
+    written = []
+    try:
+        rows = ["level,units,probability,stderr,rel_error,lower_95,upper_95,reliable\n"]
+        rows += [",".join([repr(float(result.levels[i])), result.units,
+                           *(repr(float(a[i])) for a in (result.probability, result.stderr,
+                                                         result.rel_error, lo, hi)),
+                           str(bool(result.reliable[i]))]) + "\n"
+                 for i in range(len(result.levels))]
+        path = os.path.join(out, "tail.csv")
+        write_atomic(path, lambda f: f.write("".join(rows).encode()))
+        written.append(path)
+        try:
+            import matplotlib
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+        except ImportError as exc:
+            print(f"crandall: note: figure not drawn ({exc})", file=sys.stderr)
+        else:
+            fig, ax = plt.subplots(figsize=(6.4, 4.4))
+            result.plot(ax=ax, reference=reference)
+            path = os.path.join(out, f"tail.{figure_format}")
+            fig.tight_layout()
+            fig.savefig(path, dpi=dpi)
+            plt.close(fig)
+            written.append(path)
+    finally:
+        names = json.dumps([os.path.basename(p) for p in written], indent=1).encode()
+        write_atomic(os.path.join(out, MANIFEST), lambda f: f.write(names))
+    for p in written:
+        print(f"wrote {p}")
+    return 0
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``crandall`` console script; returns the exit status."""
     args = _parser().parse_args(argv)
@@ -479,6 +617,16 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                        max_seconds=args.max_seconds,
                        figure_options={"format": args.figure_format, "dpi": args.dpi,
                                        "units": args.figure_units})
+        if args.command == "tail":
+            if not 50 <= args.dpi <= 1200:
+                raise ValueError(f"--dpi must be between 50 and 1200, got {args.dpi}")
+            return tail_command(args.scene, quantity=args.quantity, levels=args.levels,
+                                time=args.time, method=args.method, rel_error=args.rel_error,
+                                seed=args.seed, dt=args.dt, threads=args.threads,
+                                max_seconds=args.max_seconds, checkpoint=args.checkpoint,
+                                mc_paths=args.mc_paths, out=args.out, overwrite=args.overwrite,
+                                files=not args.no_files, progress=args.progress,
+                                figure_format=args.figure_format, dpi=args.dpi)
         return analytic_command(args.scene, tau0=args.tau0, times=args.times)
     except ValueError as exc:
         print(f"crandall: error: {exc}", file=sys.stderr)

@@ -520,7 +520,7 @@ class TailResult:
         if reference is not None:
             name = "stop_time" if self.quantity == "stop_time" else self.quantity
             grid = np.linspace(self.levels[0], self.levels[-1], 200)
-            p = np.asarray(reference.exceedance(name, grid), dtype=float)
+            p = np.array([reference.exceedance(name, float(x)).value for x in grid])
             floor = 100.0 / reference.paths
             keep = p >= floor
             ax.plot(grid[keep], p[keep], "k--", label=f"plain Monte Carlo ({reference.paths:.0e} paths)")
