@@ -9,7 +9,7 @@ and the mean reported relative error.
 Writes bench/out/tails_coverage.json and .png; --publish copies both to bench/results/.
 
     .venv/bin/python bench/tails_coverage.py [--seeds 1000] [--method splitting]
-        [--particles 200] [--dt 0.05] [--publish]
+        [--particles 200] [--dt DT] [--publish]
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=1000)
     ap.add_argument("--method", default="splitting")
     ap.add_argument("--particles", type=int, default=200)
-    ap.add_argument("--dt", type=float, default=0.05)
+    ap.add_argument("--dt", type=float, default=None, help="grid step (default: the scene's)")
     ap.add_argument("--rel-error", type=float, default=0.1)
     ap.add_argument("--publish", action="store_true")
     args = ap.parse_args()

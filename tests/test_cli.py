@@ -406,7 +406,7 @@ def test_tail_command_prints_writes_and_draws_the_curve(tmp_path, capsys):
     assert "P(residual_displacement > level): splitting" in text and "level [m]" in text
     rows = (out / "tail.csv").read_text().splitlines()
     assert rows[0] == "level,units,probability,stderr,rel_error,lower_95,upper_95,reliable"
-    # The curve starts at plain Monte Carlo's median and holds the asked levels.
+    # The curve starts at plain Monte Carlo's 10 % quantile and holds the asked levels.
     levels = [float(r.split(",")[0]) for r in rows[1:]]
     assert 0.3 in levels and 0.6 in levels and len(levels) > 10
     assert (out / "tail.png").stat().st_size > 0

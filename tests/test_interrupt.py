@@ -126,3 +126,32 @@ def test_ctrl_c_stops_a_run_to_an_accuracy_with_long_paths(threads):
     assert returncode == 3, err
     assert "interrupted" in out
     assert elapsed < 1.0, f"took {elapsed:.2f} s to stop"
+
+
+TAIL_SCRIPT = textwrap.dedent(
+    """
+    import json, sys, crandall
+    scene = crandall.Scene.scaled(tau0=5.0, times=[5.0])
+    print("started", flush=True)
+    try:
+        crandall.tail(scene, "distance_at_stop", [60.0], seed=1, rel_error=0.01, threads=2,
+                      checkpoint=sys.argv[1] if len(sys.argv) > 1 else None)
+    except KeyboardInterrupt:
+        print("interrupted", flush=True)
+        sys.exit(3)
+    """
+)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGINT"), reason="needs POSIX signals")
+def test_ctrl_c_stops_a_tail_run_within_a_second(tmp_path):
+    # A splitting run to 1 % at about 1e-11 (minutes): Ctrl-C ends it between two short core
+    # calls, and the checkpoint holds the replicas that finished.
+    path = tmp_path / "tail.json"
+    script = TAIL_SCRIPT.replace("sys.argv[1] if len(sys.argv) > 1 else None", repr(str(path)))
+    returncode, out, err, elapsed = _ctrl_c(script, timeout=10)
+    assert returncode == 3, err
+    assert "interrupted" in out
+    assert elapsed < 1.0, f"took {elapsed:.2f} s to stop"
+    import json
+    assert json.loads(path.read_text())["samples"], "no finished replica was kept"

@@ -142,7 +142,7 @@ def _parser() -> argparse.ArgumentParser:
         description="Estimate P(Q > level) of one quantity of a scene at each level, to a "
                     "relative error, by adaptive multilevel splitting on exact paths (or "
                     "importance sampling); print the table and write tail.csv and the "
-                    "exceedance curve tail.png: from 1 down to the largest level, with its 95 %% "
+                    "exceedance curve tail.png: from P = 0.9 down to the largest level, with its 95 %% "
                     "band, joined to plain Monte Carlo where that is informative.")
     tl.add_argument("scene", nargs="?", metavar="SCENE",
                     help="scene file (TOML, see scenes/); default: the paper's scene")
@@ -540,12 +540,12 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
     reference = None
     if files and quantity in _TAIL_REFERENCE:
         # Plain Monte Carlo on the same grid (method exact): the curve's upper part and where
-        # the rare part starts (its median).
+        # the curve starts (its 10 % quantile: P about 0.9).
         ref_scene = Scene.from_dict({**scene.to_dict(), "observe": _TAIL_REFERENCE[quantity],
                                      "distributions": [quantity], "bins": None})
         reference = simulate(ref_scene, paths=mc_paths, seed=seed, dt=dt, method="exact",
                              threads=threads, progress=False)
-        low = reference.quantile(quantity, 0.5).value
+        low = reference.quantile(quantity, 0.1).value
         if math.isfinite(low) and low < levels[-1]:
             curve_levels = sorted(set(levels) | set(np.linspace(low, levels[-1], 24).tolist()))
     result = tail(scene, quantity, curve_levels, time=time, method=method, rel_error=rel_error,
