@@ -283,29 +283,11 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
 
 
 def log_transition_density(x, x0, t, c, sigma):
-    """log p(x, t | x0) of dX = -c sign(X) dt + sigma dW (any real c, sigma > 0, t > 0):
+    """The sign-drift diffusion's log transition density (crandall.analytic.schedule), imported
+    when first used: ``import crandall`` stays free of scipy."""
+    from .analytic.schedule import log_transition_density as f
 
-        p = exp(-(x - x0)^2 / (2 s2 t) - c (|x| - |x0|) / s2 - c^2 t / (2 s2)) / sqrt(2 pi s2 t)
-            + c / (2 s2) exp(-2 c |x| / s2) erfc((|x| + |x0| - c t) / sqrt(2 s2 t)),  s2 = sigma^2
-
-    (the sign-drift diffusion's propagator; for c < 0 the second term is negative and below
-    the first: its ratio to it is below |c| t / (|x| + |x0| + |c| t) < 1). Evaluated in logs
-    (log_ndtr for the erfc), so that steps of any length and far tails keep their digits.
-    """
-    from scipy.special import log_ndtr
-
-    x, x0 = np.asarray(x, dtype=float), np.asarray(x0, dtype=float)
-    s2 = sigma * sigma
-    ax, a0 = np.abs(x), np.abs(x0)
-    first = (-0.5 * np.log(2 * np.pi * s2 * t) - (x - x0) ** 2 / (2 * s2 * t)
-             - c * (ax - a0) / s2 - c * c * t / (2 * s2))
-    if c == 0:
-        return first
-    z = (ax + a0 - c * t) / np.sqrt(2 * s2 * t)
-    second = math.log(abs(c) / (2 * s2)) - 2 * c * ax / s2 + math.log(2.0) + log_ndtr(-z * math.sqrt(2.0))
-    if c > 0:
-        return np.logaddexp(first, second)
-    return first + np.log1p(-np.exp(second - first))
+    return f(x, x0, t, c, sigma)
 
 
 def _log_weights(problem: _Problem, states: np.ndarray, drifts: np.ndarray) -> np.ndarray:

@@ -38,6 +38,7 @@ from .laws import (
     velocity_sf,
 )
 from .physical import physical
+from . import schedule
 from .start import (
     coast_distance,
     coast_stop_time,
@@ -54,6 +55,7 @@ from .switch_off import (
 )
 
 __all__ = [
+    "schedule",
     "coast_distance",
     "coast_stop_time",
     "distance_at_stop_mean_from",
