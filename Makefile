@@ -10,9 +10,9 @@ VENV   := .venv
 VPY    := $(VENV)/bin/python
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 
-# Debian packages: the compiler, Random123, GoogleTest (OpenMP comes with g++), and qemu-user
+# Debian packages: the compiler, GoogleTest (OpenMP comes with g++), and qemu-user
 # (tests/test_isa.py runs the wheel on an emulated CPU without AVX).
-DEBS := g++ make librandom123-dev libgtest-dev qemu-user
+DEBS := g++ make libgtest-dev qemu-user
 # Python packages for building and testing (the package's own dependencies come from pyproject).
 PYDEV := pip setuptools wheel "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja \
          numpy scipy mpmath sympy pytest hypothesis tqdm matplotlib xarray pandas "dask[distributed]" \
