@@ -244,3 +244,19 @@ def test_pareto_shape_recovers_known_tails():
         k = pareto_shape(np.sort(w)[-(m + 1):])
         # The estimate's standard deviation is about (1 + xi) / sqrt(m) = 0.03 (1 + xi).
         assert abs(k - xi) <= 4 * (1 + xi) / math.sqrt(m), (xi, k)
+
+
+def test_a_dask_cluster_gives_the_local_bits():
+    distributed = pytest.importorskip("distributed")
+    args = dict(seed=8, dt=0.25, rel_error=0.3, threads=1)
+    local = tail(PAPER, "stop_time", [12.0], **args)
+    local_is = tail(PAPER, "stop_time", [12.0], method="importance", **args)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  dashboard_address=":0") as cluster, distributed.Client(cluster) as client:
+        remote = tail(PAPER, "stop_time", [12.0], client=client, **args)
+        remote_is = tail(PAPER, "stop_time", [12.0], method="importance", client=client, **args)
+    assert remote.probability.tobytes() == local.probability.tobytes()
+    assert remote.stderr.tobytes() == local.stderr.tobytes()
+    assert remote_is.probability.tobytes() == local_is.probability.tobytes()
+    with pytest.raises(ValueError, match="client"):
+        tail(PAPER, "stop_time", [12.0], client=object(), **args)

@@ -406,6 +406,32 @@ def pareto_shape(largest: np.ndarray) -> float:
     return float((n * k_hat + 10 * 0.5) / (n + 10))
 
 
+def sample(job: Dict[str, Any], index: int, threads: int = 0) -> Dict[str, Any]:
+    """Sample ``index`` of a tail run described by ``job`` (plain data: the scene's dict, the
+    quantity, time, grid step, levels, particles, key and, for importance sampling, the
+    proposal): a splitting replica, or a batch of ``particles`` weighted paths. A pure function
+    of (job, index): the Dask task of a tail run."""
+    problem = _Problem(Scene.from_dict(job["scene"]), job["quantity"], job["time"], job["dt"])
+    lv = np.asarray(job["levels"], dtype=float)
+    n, key = job["particles"], job["key"]
+    if job["proposal"] is None:
+        # At most 200 n log(1/p) / n iterations for log(1/p) up to about 12000: never reached
+        # by a run that progresses; a guard against one that does not.
+        est, info = _splitting_replica(problem, lv, n, max(1, n // 10), key, index, threads,
+                                       200 * n * 60)
+        return {"estimates": est.tolist(), "iterations": info["iterations"],
+                "steps": info["steps"]}
+    window, drift = job["proposal"]
+    grid = _grid_for(problem, window)
+    contrib = _importance_batch(grid, _proposal(grid, window, drift), lv, n, key,
+                                index * _REPLICA_STREAMS, threads)
+    return {"paths": n, "steps": n * grid.steps,
+            "sum": contrib.sum(axis=0).tolist(),
+            "sum2": (contrib ** 2).sum(axis=0).tolist(),
+            "hits": np.count_nonzero(contrib, axis=0).tolist(),
+            "top": [np.sort(col[col > 0])[-_TOP_WEIGHTS:].tolist() for col in contrib.T]}
+
+
 # -- the result -----------------------------------------------------------------------------
 
 
@@ -563,7 +589,8 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
          seed=None, dt: Optional[float] = None, particles: int = 200,
          min_samples: Optional[int] = None, max_samples: Optional[int] = None,
          max_seconds: float = 3600.0, threads: Optional[int] = None,
-         progress: Optional[bool] = None, checkpoint: Optional[str] = None) -> TailResult:
+         progress: Optional[bool] = None, checkpoint: Optional[str] = None,
+         client=None) -> TailResult:
     """Tail probabilities P(Q > level) of a quantity, to a relative error, down to about 1e-12.
 
     Parameters
@@ -608,6 +635,9 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
         Threads of the core (default: all cores).
     progress : bool, optional
         A progress bar (default: where a person watches).
+    client : distributed.Client, optional
+        Run the samples as Dask tasks on this cluster (one thread each; bitwise the same result
+        as a local run).
     checkpoint : str or path, optional
         A JSON file of the finished samples: a run with the same arguments resumes from it, and
         an interrupted run (Ctrl-C) loses only the replica or batch in progress. A file of
@@ -644,6 +674,8 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
         seed = int(np.random.SeedSequence().entropy % (1 << 64))
     check_int("seed", seed, 0, (1 << 64) - 1)
     splitting = method == "splitting"
+    if client is not None and not all(callable(getattr(client, a, None)) for a in ("map", "gather", "nthreads")):
+        raise ParameterError("client", f"client must be a distributed.Client (or None), got {client!r}")
     min_samples = check_int("min_samples", min_samples if min_samples is not None else (20 if splitting else 1000), 2, 10 ** 12)
     max_samples = check_int("max_samples", max_samples if max_samples is not None else (100_000 if splitting else 10 ** 8), min_samples, 10 ** 12)
     key = _streams.key(seed, TAIL_STREAM)
@@ -663,10 +695,9 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     start = _time.perf_counter()
     samples = _checkpoint_load(checkpoint, spec)
     diagnostics: Dict[str, Any] = {}
+    window = drift = 0.0
     if splitting:
-        kill = max(1, particles // 10)
-        diagnostics.update(particles=particles, killed_per_iteration=kill)
-        max_iterations = 200 * particles * 60  # log(1/p) < 700 with kill/particles >= 1/n
+        diagnostics.update(particles=particles, killed_per_iteration=max(1, particles // 10))
     else:
         best, tried = _choose_proposal(problem, lv, key, threads, pilot=max(256, particles))
         diagnostics["proposals_tried"] = tried
@@ -676,24 +707,22 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
                 f"use method='splitting'")
         window, drift, _ = best
         diagnostics["proposal"] = {"window": window, "drift": drift}
-        is_problem = _grid_for(problem, window)
-        drifts = _proposal(is_problem, window, drift)
+
+    # What a sample needs, as plain data: the sample is a pure function of it and its index,
+    # run here or as a Dask task (bitwise the same).
+    job = {"scene": scene.to_dict(), "quantity": quantity, "time": time, "dt": problem.dt,
+           "levels": lv.tolist(), "particles": particles, "key": key,
+           "proposal": None if splitting else (window, drift)}
 
     def one(index: int) -> Dict[str, Any]:
-        """Sample `index`: a splitting replica, or a batch of `particles` weighted paths; each a
-        pure function of (seed, index)."""
-        if splitting:
-            est, info = _splitting_replica(problem, lv, particles, kill, key, index, threads,
-                                           max_iterations)
-            return {"estimates": est.tolist(), "iterations": info["iterations"],
-                    "steps": info["steps"]}
-        contrib = _importance_batch(is_problem, drifts, lv, particles, key,
-                                    index * _REPLICA_STREAMS, threads)
-        return {"paths": particles, "steps": particles * is_problem.steps,
-                "sum": contrib.sum(axis=0).tolist(),
-                "sum2": (contrib ** 2).sum(axis=0).tolist(),
-                "hits": np.count_nonzero(contrib, axis=0).tolist(),
-                "top": [np.sort(col[col > 0])[-_TOP_WEIGHTS:].tolist() for col in contrib.T]}
+        return sample(job, index, threads)
+
+    def many(indices) -> List[Dict[str, Any]]:
+        if client is None:
+            return [one(i) for i in indices]
+        futures = client.map(sample, [job] * len(indices), list(indices),
+                             [1] * len(indices), pure=False)
+        return client.gather(futures)
 
     def stats(chosen):
         """(samples, mean, stderr, per-sample variance) of the estimate from `chosen`."""
@@ -721,11 +750,12 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     stopped_early = False
     try:
         while len(samples) < pilot_n:
-            samples.append(one(len(samples)))
+            batch = many(range(len(samples), pilot_n if client is not None else len(samples) + 1))
+            samples.extend(batch)
             _checkpoint_save(checkpoint, spec, samples)
             if bar is not None:
                 bar.set_postfix_str("pilot")
-                bar.update(1)
+                bar.update(len(batch))
         _, pmean, _, pvar = stats(samples[:pilot_n])
         with np.errstate(divide="ignore", invalid="ignore"):
             need = np.where(pmean > 0, pvar / (rel_error * pmean) ** 2, np.nan)
@@ -745,10 +775,13 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
             if _time.perf_counter() - start > max_seconds:
                 stopped_early = True
                 break
-            samples.append(one(len(samples)))
+            # On a cluster, a batch of as many samples as it has threads (at least 8).
+            width = 1 if client is None else max(8, sum(client.nthreads().values()))
+            batch = many(range(len(samples), min(target_n, len(samples) + width)))
+            samples.extend(batch)
             _checkpoint_save(checkpoint, spec, samples)
             if bar is not None:
-                bar.update(1)
+                bar.update(len(batch))
     finally:
         if bar is not None:
             bar.close()
