@@ -24,6 +24,7 @@ from .quantities import quantity
 from .model import ANALYTIC, holds
 from .scene import Scene
 from .simulate import simulate
+from .tail import TAIL_QUANTITIES, tail
 
 __all__ = ["main", "run", "PAPER_SEED", "DEFAULT_OUT"]
 
@@ -526,8 +527,6 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
                  files: bool = True, progress=None, figure_format: str = "png",
                  dpi: int = 150) -> int:
     """``crandall tail``: the table at the given levels, tail.csv, and the curve (tail.png)."""
-    from .tail import TAIL_QUANTITIES, tail
-
     scene, settings, _ = _load_scene(scene_path)
     if quantity not in TAIL_QUANTITIES:
         raise ValueError(f"--quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")

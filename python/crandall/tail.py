@@ -33,6 +33,7 @@ import numpy as np
 
 from . import _core
 from . import streams as _streams
+from ._lazy import lazy_module
 from ._resources import progress_bar
 from .errors import ParameterError
 from .results import StatisticsWarning
@@ -40,6 +41,8 @@ from .scene import Scene
 from .spec import as_seed, check_int, default_dt
 
 __all__ = ["tail", "TailResult", "TAIL_QUANTITIES", "TAIL_METHODS"]
+
+_schedule = lazy_module("crandall.analytic.schedule")
 
 #: The stream of the rare-event estimators' paths (streams.key(seed, TAIL_STREAM)); beyond the
 #: levels of a run to an accuracy and the bias estimate's stream.
@@ -283,11 +286,9 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
 
 
 def log_transition_density(x, x0, t, c, sigma):
-    """The sign-drift diffusion's log transition density (crandall.analytic.schedule), imported
-    when first used: ``import crandall`` stays free of scipy."""
-    from .analytic.schedule import log_transition_density as f
-
-    return f(x, x0, t, c, sigma)
+    """The sign-drift diffusion's log transition density (crandall.analytic.schedule, loaded on
+    first use: ``import crandall`` stays free of scipy)."""
+    return _schedule.log_transition_density(x, x0, t, c, sigma)
 
 
 def _log_weights(problem: _Problem, states: np.ndarray, drifts: np.ndarray) -> np.ndarray:
