@@ -69,6 +69,15 @@ def _float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
 
 
+def _progress_options(parser: argparse.ArgumentParser) -> None:
+    bar = parser.add_mutually_exclusive_group()
+    bar.add_argument("--progress", dest="progress", action="store_const", const=True,
+                     help="always show a progress bar")
+    bar.add_argument("--no-progress", dest="progress", action="store_const", const=False,
+                     help="never show a progress bar (default: on a terminal, for runs "
+                          "longer than two seconds)")
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="crandall",
@@ -131,12 +140,7 @@ def _parser() -> argparse.ArgumentParser:
                           "scaled units")
     run.add_argument("--no-files", action="store_true",
                      help="print only: write no results or figures")
-    bar = run.add_mutually_exclusive_group()
-    bar.add_argument("--progress", dest="progress", action="store_const", const=True,
-                     help="always show a progress bar")
-    bar.add_argument("--no-progress", dest="progress", action="store_const", const=False,
-                     help="never show a progress bar (default: on a terminal, for runs "
-                          "longer than two seconds)")
+    _progress_options(run)
 
     tl = sub.add_parser(
         "tail", help="estimate small tail probabilities P(Q > level) down to 1e-12",
@@ -176,11 +180,7 @@ def _parser() -> argparse.ArgumentParser:
                     help="the figure's file format (default: png)")
     tl.add_argument("--dpi", type=_positive_int, default=150, metavar="N",
                     help="the resolution of a png figure (default: 150)")
-    tbar = tl.add_mutually_exclusive_group()
-    tbar.add_argument("--progress", dest="progress", action="store_const", const=True,
-                      help="always show a progress bar")
-    tbar.add_argument("--no-progress", dest="progress", action="store_const", const=False,
-                      help="never show a progress bar")
+    _progress_options(tl)
 
     an = sub.add_parser(
         "analytic", help="print the analytic curves",
