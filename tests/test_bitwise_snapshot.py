@@ -47,6 +47,17 @@ def _runs():
                 crandall.Scene(mu=0.3, h=1.0, t0=2.0, mass=100.0, times=[0.5, 2.0, 3.0],
                                observe=ALL),
                 dict(paths=400, seed=16)))
+    # Pauses: before the shaking (the body at rest), between two shocks (where bodies come to
+    # rest and stay there) and with a start in motion; peaks on.
+    pauses = crandall.Scene(mu=0.3, h=[0.0, 1.0, 0.0, 0.7], t0=[0.5, 1.5, 3.0, 3.5],
+                            times=[0.25, 1.0, 2.0, 2.8, 4.0], observe=ALL + ["peaks"])
+    for method in ("richardson", "exact", "euler", "refine"):
+        out.append((f"si-pauses-{method}", pauses, dict(paths=700, seed=17, dt=0.01,
+                                                       method=method)))
+    out.append(("si-pauses-moving-start",
+                crandall.Scene(mu=0.3, h=[0.0, 1.0, 0.0], t0=[0.5, 1.5, 3.0], v0=0.6,
+                               times=[0.1, 1.0, 2.0], observe=["velocity", "stop"]),
+                dict(paths=400, seed=18)))
     return out
 
 

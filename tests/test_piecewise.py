@@ -14,6 +14,7 @@ import pytest
 
 import crandall
 from crandall import analytic, model
+from crandall.analytic import schedule
 
 
 def test_one_piece_given_as_a_sequence_is_the_scalar_scene_bit_for_bit():
@@ -39,6 +40,52 @@ def test_a_pause_before_the_shaking_delays_the_paper_scene():
     # The stop: the paper's scene with tau0 = 2, shifted by 1.
     assert abs(r.mean("stop_time") - (1.0 + analytic.stop_time_mean(2.0))) <= 4 * r.error(
         "stop_time")
+
+
+def test_a_stop_inside_a_final_pause_is_located_there():
+    # Pauses after the last shaken piece are the coast after the switch-off: the body that
+    # stops in them stops when its speed runs out, not at the pause's end. h = [1, 0] until
+    # [5, 10] is the paper's scene with tau0 = 5 (one piece at the unit intensity), bit for
+    # bit, so its stop time is the paper's (mean 5.25, eq14) and its closed forms apply.
+    kw = dict(times=[1.0, 7.0], observe=["velocity", "distance", "stop"])
+    paused = crandall.Scene.scaled(tau0=[5.0, 8.0, 10.0], h=[1.0, 0.0, 0.0], **kw)
+    plain = crandall.Scene.scaled(tau0=5.0, **kw)
+    assert paused.t0 == 5.0 and paused.pieces is None and paused.effects == frozenset()
+    assert paused.to_dict()["tau0"] == [5.0, 8.0, 10.0]  # the schedule as given is kept
+    a = crandall.simulate(paused, paths=20_000, seed=3)
+    b = crandall.simulate(plain, paths=20_000, seed=3)
+    for name in b.names:
+        assert np.asarray(a.mean(name)).tobytes() == np.asarray(b.mean(name)).tobytes(), name
+    assert abs(a.mean("stop_time") - analytic.stop_time_mean(5.0)) <= 4 * a.error("stop_time")
+    # Two shaken pieces, then a pause: the noise ends at 2 s, where the coast starts; the
+    # mean stop time is 2 s + E|V(2)| / (mu g), E|V(2)| from the velocity's law across the
+    # pieces (crandall.analytic.schedule, quadrature, relative error about 3e-5: 1e-4 of
+    # the mean is allowed for it), not from the simulation.
+    sc = crandall.Scene(mu=0.3, h=[1.0, 0.5, 0.0], t0=[1.0, 2.0, 30.0], times=[1.0],
+                        observe=["velocity", "stop"])
+    assert sc.t0 == 2.0 and sc.pieces == ((1.0, 1.0), (2.0, 0.5))
+    r = crandall.simulate(sc, paths=40_000, seed=5)
+    c = 0.3 * 9.81
+    law = schedule.velocity_law([(1.0, 1.0), (2.0, 0.5)], c, 2.0)
+    want = 2.0 + float(np.sum(law.weights * np.abs(law.grid))) / c
+    assert r.mean("stop_time") < 3.0
+    assert abs(r.mean("stop_time") - want) <= 4 * r.error("stop_time") + 1e-4 * want
+
+
+def test_a_schedule_without_noise_is_the_deterministic_coast():
+    # No piece shakes: the body coasts from v0 and stops at |v0| / (mu g) after covering
+    # v0^2 / (2 mu g), on every path (a body at rest stays at rest and stops at 0).
+    c = 0.3 * 9.81
+    sc = crandall.Scene(mu=0.3, h=[0.0, 0.0], t0=[1.0, 4.0], v0=-0.9, times=[0.1],
+                        observe=["velocity", "distance", "stop"])
+    assert sc.t0 == 0.0 and sc.pieces is None
+    r = crandall.simulate(sc, paths=300, seed=1)
+    assert r.mean("stop_time") == pytest.approx(0.9 / c, rel=1e-14) and r.var("stop_time") == 0
+    assert r.mean("distance_at_stop") == pytest.approx(0.81 / (2 * c), rel=1e-14)
+    assert r.mean("velocity")[0] == pytest.approx(-0.9 + 0.1 * c, rel=1e-14)
+    rest = crandall.Scene(mu=0.3, h=[0.0], t0=[2.0], times=[1.0], observe=["velocity", "stop"])
+    r = crandall.simulate(rest, paths=300, seed=1)
+    assert r.mean("stop_time") == 0.0 and r.mean("velocity")[0] == 0.0
 
 
 def test_the_energy_law_holds_for_any_schedule():

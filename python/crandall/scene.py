@@ -65,6 +65,22 @@ def _schedule(h, t0, h_name: str, t0_name: str):
     return tuple(hs), tuple(ts), True
 
 
+def _noise_pieces(pieces, noise: float):
+    """The pieces the noise acts on, and the time it ends (the scene's ``t0``): pauses after
+    the last piece of nonzero intensity are the coast after the switch-off, so they are
+    dropped and the noise ends with that piece (a body that stops in a final pause is then
+    located exactly there, not at the pause's end); with no noise at all it ends at 0. What
+    is left of one piece at the reference intensity ``noise`` is the one-intensity scene
+    (pieces None), with its bits and its closed forms. The scene's plain data keep the
+    schedule as given."""
+    last = max((i for i, (_, n) in enumerate(pieces) if n > 0), default=-1)
+    kept = tuple(pieces[:last + 1])
+    end = kept[-1][0] if kept else 0.0
+    if not kept or (len(kept) == 1 and kept[0][1] == noise):
+        return None, end
+    return kept, end
+
+
 def _check_real(items) -> None:
     for i, v in enumerate(items):
         if isinstance(v, (list, tuple, np.ndarray)):
@@ -175,7 +191,10 @@ class Scene:
         largest ``h[i]``.
     t0 : float or sequence of float
         Time the excitation is switched off, s, >= 0; ``math.inf`` for never. A sequence: the
-        pieces' ends, > 0 and strictly increasing (finite).
+        pieces' ends, > 0 and strictly increasing (finite). Pauses after the last shaken piece
+        are the coast after the switch-off: the scene's ``t0`` attribute is the end of the last
+        piece with ``h[i] > 0`` (0 if none), and a body that stops in a final pause is located
+        there.
     g : float, default 9.81
         Acceleration of gravity, m s^-2, > 0.
     mass : float, default 1.0
@@ -342,9 +361,10 @@ class Scene:
         #: A piecewise intensity: ((end, noise), ...) in the scene's units (noise in the core's
         #: sense: h, or sqrt(2) times the relative intensity in scaled units); None: ``noise``
         #: until ``t0``.
-        self.pieces = pieces
         if pieces is not None:
             noise = max(n for _, n in pieces) if units == "SI" else noise
+            pieces, t0 = _noise_pieces(pieces, noise)
+        self.pieces = pieces
         # Without friction a body that moves never stops; one at rest with no noise has
         # stopped.
         silent = noise == 0 and (pieces is None or all(n == 0 for _, n in pieces))
