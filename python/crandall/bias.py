@@ -28,22 +28,32 @@ than the run's is ever measured in its place:
 Where the difference is not resolved (below 2 standard errors) the estimate is its bound,
 |difference| + 2 standard errors. The separate run draws its own paths (a stream of its own,
 derived from the seed), so the estimate is reproducible and independent of the run's paths.
+
+A scene given as a smooth envelope (``Scene(envelope=...)``) adds the error of its pieces to
+every statistic's bias, the ones exact in law for the pieces too: the same coupled run (the
+same paths, paired by index) on the envelope with twice the pieces, compared on the finest
+coupled grid (the two schedules' grid biases nearly cancel there). The piece error is first
+order in the piece length (on Amin & Ang's envelope the differences between n and 2n pieces
+fall by 2.2 to 2.9 per halving), so the error of n pieces is estimated as twice the
+difference (twice its bound where it is not resolved); grid and piece errors add.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from typing import Dict, Tuple
+from typing import Dict, Optional, Tuple
 
 import numpy as np
 
 from . import _core
 from . import engine, results
-from .model import exact_in_law
+from .model import ENVELOPE, exact_in_law
 from .quantities import quantity
+from .spec import RunSpec
 from .streams import bias_key
 
-__all__ = ["estimate", "BIAS_PATHS"]
+__all__ = ["estimate", "piece_errors", "BIAS_PATHS", "PIECE_ORDER_FACTOR"]
 
 #: Paths of the coupled run: the run's own number, at most this (so that the estimate never
 #: costs more than about 1/16 of a run of a million paths, nor more than the run itself).
@@ -56,21 +66,25 @@ BIAS_BYTES = 256 << 20
 REFINEMENT = {"exact": 2, "richardson2": 1, "richardson": 0}
 
 
+#: The error of n pieces over the difference between n and 2n pieces (first order).
+PIECE_ORDER_FACTOR = 2.0
+
+
 def _sum(values: np.ndarray, threads: int) -> float:
     return float(_core.sum_products(values[:, None], [1], threads)[0])
 
 
-def _samples(result, threads: int) -> np.ndarray:
+def _samples(spec, paths: int, threads: int) -> np.ndarray:
     # The run's own options (every field of its spec), on coupled grids that include the
     # run's grid, with a stream of its own.
-    scene = result.scene
-    o = engine.plan_options(result.spec, histograms=False)
+    scene = spec.scene
+    o = engine.plan_options(spec, histograms=False)
     o.method = "richardson"
-    o.refinement = REFINEMENT[result.method]
-    o.seed = bias_key(result.seed)
+    o.refinement = REFINEMENT[spec.method]
+    o.seed = bias_key(spec.seed)
     # At most BIAS_BYTES of per-path values (3 grids x 3 variables per output slot).
     per_path = 8 * 9 * (len(scene.times) + (1 if "stop" in scene.observe else 0))
-    n = int(min(result.paths, BIAS_PATHS, max(2, BIAS_BYTES // per_path)))
+    n = int(min(paths, BIAS_PATHS, max(2, BIAS_BYTES // per_path)))
     o.paths = n
     return _core.run_samples(_core.Plan(o), 0, n, threads)
 
@@ -81,9 +95,13 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
     method = result.method
     out: Dict[Tuple[str, str], Tuple[np.ndarray, bool]] = {}
     names = result.names
-    needs_run = result.paths >= 2 and method in ("exact", "richardson", "richardson2") and any(
-        not exact_in_law(n, result.scene) and not quantity(n).peak for n in names)
-    samples = _samples(result, threads) if needs_run else None
+    envelope = ENVELOPE in result.scene.effects
+    coupled = result.paths >= 2 and method in ("exact", "richardson", "richardson2")
+    needs_run = coupled and (envelope or any(
+        not exact_in_law(n, result.scene) and not quantity(n).peak for n in names))
+    samples = _samples(result.spec, result.paths, threads) if needs_run else None
+    pieces = (_piece_errors(result.spec, result.names, samples, threads)
+              if needs_run and envelope else {})
     w3 = np.array(_core.richardson_weights("richardson"))
     w2 = np.array(list(_core.richardson_weights("richardson2")))
     # a: the run's estimator on the coupled grids (finest first); b: a better one.
@@ -99,8 +117,10 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
         slots = [n_times] if q.at_stop else list(range(n_times))
         f = q.factor(result.scene)
         for stat in ("mean", "var"):
+            scale = abs(f) if stat == "mean" else f * f
             if exact_in_law(name, result.scene):
-                out[(name, stat)] = (np.zeros(len(slots)), False)
+                out[(name, stat)] = _plus(np.zeros(len(slots)), False, pieces.get((name, stat)),
+                                          scale)
                 continue
             if samples is None or q.peak:
                 # The peaks' shortfall is measured by bench/peaks.py (docs/distributions.md),
@@ -117,6 +137,73 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
                 mag = abs(d) if resolved else abs(d) + 2 * se
                 factor = f if stat == "mean" else f * f
                 values.append(mag * abs(factor))
+                bounds.append(not resolved)
+            out[(name, stat)] = _plus(np.array(values), any(bounds), pieces.get((name, stat)),
+                                      scale)
+    return out
+
+
+def _plus(values: np.ndarray, bound: bool, piece: Optional[Tuple[np.ndarray, bool]],
+          factor: float):
+    """The grid's bias estimate plus the envelope's piece error (if any; in the core's
+    units, times ``factor`` in the quantity's)."""
+    if piece is None:
+        return values, bound
+    return values + piece[0] * factor, bound or piece[1]
+
+
+def _refined(scene):
+    """The scene on its envelope with twice the pieces (everything else the same)."""
+    p = scene.params
+    return type(scene)(mu=p["mu"], envelope=scene.envelope.refined(2), g=p["g"],
+                       mass=p["mass"], v0=scene.v0, u0=scene.u0, times=scene.times,
+                       observe=scene.observe)
+
+
+def piece_errors(scene, names, *, seed: int, paths: int = BIAS_PATHS,
+                 threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray, bool]]:
+    """Per (name, stat) of ``names``: the estimated error of simulating the envelope of
+    ``scene`` by its pieces, in the core's units (multiply by the quantity's factor, squared
+    for "var"; an array over the output times, or one value at the stop) and
+    whether it is a bound; NaN for the peaks; {} for a scene without an envelope. The coupled
+    run on the default grid (its finest grid: the default step), on both schedules (see the
+    module's docstring), with at most ``paths`` paths; for runs to an accuracy, whose own
+    bias is the grid's."""
+    if ENVELOPE not in scene.effects or paths < 2:
+        return {}
+    spec = RunSpec.create(scene, paths=min(paths, BIAS_PATHS), seed=seed, method="richardson")
+    return _piece_errors(spec, names, _samples(spec, spec.paths, threads), threads)
+
+
+def _piece_errors(spec, names, samples: np.ndarray, threads: int):
+    scene = spec.scene
+    fine = _samples(dataclasses.replace(spec, scene=_refined(scene)), len(samples), threads)
+    n = len(samples)
+    n_times = len(scene.times)
+    out: Dict[Tuple[str, str], Tuple[np.ndarray, bool]] = {}
+    for name in names:
+        q = quantity(name)
+        slots = [n_times] if q.at_stop else list(range(n_times))
+        for stat in ("mean", "var"):
+            if q.peak:
+                out[(name, stat)] = (np.full(len(slots), math.nan), False)
+                continue
+            values, bounds = [], []
+            for slot in slots:
+                a, b = samples[:, slot, 0, q.variable], fine[:, slot, 0, q.variable]
+                a = np.abs(a) if q.magnitude else a ** q.power
+                b = np.abs(b) if q.magnitude else b ** q.power
+                if stat == "mean":
+                    phi = a - b
+                else:
+                    ca = a - _sum(a, threads) / n
+                    cb = b - _sum(b, threads) / n
+                    phi = ca * ca - cb * cb
+                d = _sum(phi, threads) / n
+                se = math.sqrt(_sum((phi - d) ** 2, threads) / max(n - 1, 1) / n)
+                resolved = abs(d) > 2 * se
+                mag = PIECE_ORDER_FACTOR * (abs(d) if resolved else abs(d) + 2 * se)
+                values.append(mag)
                 bounds.append(not resolved)
             out[(name, stat)] = (np.array(values), any(bounds))
     return out

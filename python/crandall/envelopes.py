@@ -8,7 +8,10 @@ piece. Within a piece the intensity is constant where the envelope is not: that 
 not the simulation, is what is approximate; halve the pieces (``pieces=2 n``) to see how much
 an answer moves.
 
-Each function returns ``(h, t0)``, the lists to give ``crandall.Scene(h=h, t0=t0, ...)``.
+Each function returns an :class:`Envelope`: give it to ``crandall.Scene(envelope=..., ...)``,
+which then also reports the error of the pieces (``Result.bias``: the difference from a run
+with twice the pieces), or unpack it, ``h, t0 = envelopes.amin_ang(...)``, for the lists of a
+piecewise scene ``crandall.Scene(h=h, t0=t0, ...)`` (the pieces alone: no piece error).
 
 The envelopes (t in s, h the intensity of the strong phase in m s^-3/2):
 
@@ -27,12 +30,13 @@ of the ground acceleration.
 from __future__ import annotations
 
 import math
-from typing import Callable, List, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 from scipy import integrate
 
-__all__ = ["from_function", "amin_ang", "jennings", "shinozuka_sato", "intensity_from_psd"]
+__all__ = ["Envelope", "from_function", "amin_ang", "jennings", "shinozuka_sato",
+           "intensity_from_psd", "KINDS"]
 
 Schedule = Tuple[List[float], List[float]]
 
@@ -58,8 +62,8 @@ def _ends(end: float, pieces: int, breaks: Sequence[float] = ()) -> List[float]:
     return sorted(grid)
 
 
-def from_function(h: Callable[[float], float], end: float, pieces: int = 32,
-                  breaks: Sequence[float] = ()) -> Schedule:
+def _function_schedule(h: Callable[[float], float], end: float, pieces: int = 32,
+                       breaks: Sequence[float] = ()) -> Schedule:
     """The schedule of an intensity function h(t) >= 0 on [0, end]: ``pieces`` equal pieces
     (and a piece end at each of ``breaks``, where h changes form), each with the root mean
     square of h over it. Raises ValueError for a bad argument or an h that is negative or not
@@ -83,7 +87,7 @@ def from_function(h: Callable[[float], float], end: float, pieces: int = 32,
     return out, ends
 
 
-def _three_phase(name: str, h, t1, t2, c, end, pieces, amplitude: bool) -> Schedule:
+def _three_phase(name: str, h, t1, t2, c, end, pieces, amplitude: bool) -> "Envelope":
     h = _positive("h", h, zero=True)
     t1, t2 = _positive("t1", t1), _positive("t2", t2)
     c = _positive("c", c)
@@ -100,13 +104,14 @@ def _three_phase(name: str, h, t1, t2, c, end, pieces, amplitude: bool) -> Sched
             return 1.0
         return math.exp(-c * (t - t2))
 
+    params = {"h": h, "t1": t1, "t2": t2, "c": c, "end": end}
     if amplitude:
-        return from_function(lambda t: h * shape(t), end, pieces, (t1, t2))
-    return from_function(lambda t: h * math.sqrt(shape(t)), end, pieces, (t1, t2))
+        return Envelope(name, params, pieces, lambda t: h * shape(t), (t1, t2))
+    return Envelope(name, params, pieces, lambda t: h * math.sqrt(shape(t)), (t1, t2))
 
 
 def amin_ang(h: float, t1: float, t2: float, c: float, end: Optional[float] = None,
-             pieces: int = 32) -> Schedule:
+             pieces: int = 32) -> "Envelope":
     """Amin & Ang's variance envelope: h(t)^2 = h^2 (t / t1)^2 on [0, t1), h^2 on [t1, t2),
     h^2 exp(-c (t - t2)) after, cut at ``end`` (default: where the variance is 1e-4 of the
     strong phase's, t2 + ln(1e4) / c)."""
@@ -114,7 +119,7 @@ def amin_ang(h: float, t1: float, t2: float, c: float, end: Optional[float] = No
 
 
 def jennings(h: float, t1: float, t2: float, c: float, end: Optional[float] = None,
-             pieces: int = 32) -> Schedule:
+             pieces: int = 32) -> "Envelope":
     """Jennings, Housner & Tsai's amplitude envelope: h(t) = h (t / t1)^2 on [0, t1), h on
     [t1, t2), h exp(-c (t - t2)) after, cut at ``end`` (default t2 + ln(1e4) / c, where the
     amplitude is 1e-4 of the strong phase's)."""
@@ -122,7 +127,7 @@ def jennings(h: float, t1: float, t2: float, c: float, end: Optional[float] = No
 
 
 def shinozuka_sato(h: float, a: float, b: float, end: Optional[float] = None,
-                   pieces: int = 32) -> Schedule:
+                   pieces: int = 32) -> "Envelope":
     """Shinozuka & Sato's amplitude envelope: h(t) = h (exp(-a t) - exp(-b t)) / peak, b > a > 0,
     1 at its peak t* = ln(b / a) / (b - a); cut at ``end`` (default: where it has fallen to 1e-4
     of its peak, about t* + ln(1e4) / a)."""
@@ -133,8 +138,107 @@ def shinozuka_sato(h: float, a: float, b: float, end: Optional[float] = None,
     peak_t = math.log(b / a) / (b - a)
     peak = math.exp(-a * peak_t) - math.exp(-b * peak_t)
     end = _positive("end", end) if end is not None else peak_t + math.log(1e4) / a
-    return from_function(lambda t: h * (math.exp(-a * t) - math.exp(-b * t)) / peak, end,
-                         pieces, (peak_t,))
+    return Envelope("shinozuka_sato", {"h": h, "a": a, "b": b, "end": end}, pieces,
+                    lambda t: h * (math.exp(-a * t) - math.exp(-b * t)) / peak, (peak_t,))
+
+
+def from_function(h: Callable[[float], float], end: float, pieces: int = 32,
+                  breaks: Sequence[float] = ()) -> "Envelope":
+    """The envelope of an intensity function h(t) >= 0 on [0, end]: ``pieces`` equal pieces
+    (and a piece end at each of ``breaks``, where h changes form), each with the root mean
+    square of h over it. A function is not plain data: a scene saved with it keeps its pieces
+    only. Raises ValueError for a bad argument or an h that is negative or not finite
+    somewhere."""
+    if not callable(h):
+        raise ValueError(f"h must be a function of t, got {h!r}")
+    return Envelope("function", {"end": end}, pieces, h, tuple(breaks))
+
+
+class Envelope:
+    """A smooth intensity envelope and the pieces it is simulated with.
+
+    ``kind``: one of :data:`KINDS` ("amin_ang", "jennings", "shinozuka_sato") or "function";
+    ``params``: its arguments (``h``, ``t1``, ``t2``, ``c``, ``end``; or ``h``, ``a``, ``b``,
+    ``end``); ``pieces``: the number of equal pieces (the envelope's corners are piece ends
+    too). ``h`` and ``t0``: the schedule (lists), computed once. Unpacks as ``h, t0``.
+    :meth:`refined` gives the same envelope with more pieces (the piece error's estimate
+    runs twice the pieces); :meth:`to_dict` its plain data (not for a function)."""
+
+    def __init__(self, kind: str, params: Mapping[str, Any], pieces: int,
+                 function: Callable[[float], float], breaks: Sequence[float] = ()) -> None:
+        self.kind = kind
+        self.params = dict(params)
+        self.function = function
+        self.breaks = tuple(float(b) for b in breaks)
+        # Checks end, pieces and the function's values.
+        self.h, self.t0 = _function_schedule(function, self.params["end"], pieces, self.breaks)
+        self.pieces = int(pieces)
+        self.params["end"] = float(self.t0[-1])
+
+    def __iter__(self):
+        return iter((self.h, self.t0))
+
+    def refined(self, factor: int = 2) -> "Envelope":
+        """The same envelope with ``factor`` times the pieces."""
+        if isinstance(factor, bool) or not isinstance(factor, (int, np.integer)) or factor < 1:
+            raise ValueError(f"factor must be an integer >= 1, got {factor!r}")
+        return Envelope(self.kind, self.params, self.pieces * int(factor), self.function,
+                        self.breaks)
+
+    @property
+    def serializable(self) -> bool:
+        """Whether :meth:`to_dict` can describe it (a named envelope, not a function)."""
+        return self.kind in KINDS
+
+    def to_dict(self) -> Dict[str, Any]:
+        """The envelope as plain data: ``kind``, its parameters and ``pieces``."""
+        if not self.serializable:
+            raise ValueError("envelope: a function envelope has no plain data (its function "
+                             "is code); save its pieces, Scene(h=..., t0=...)")
+        return {"kind": self.kind, **self.params, "pieces": self.pieces}
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> "Envelope":
+        """Rebuild a named envelope from :meth:`to_dict`'s output (errors name the key)."""
+        if not isinstance(data, Mapping):
+            raise ValueError(f"envelope must be a table (kind, its parameters, pieces), got "
+                             f"{data!r}")
+        data = dict(data)
+        kind = data.pop("kind", None)
+        if kind not in KINDS:
+            raise ValueError(f"envelope.kind must be one of {', '.join(KINDS)}, got {kind!r}")
+        build, keys = KINDS[kind]
+        unknown = sorted(set(data) - set(keys) - {"pieces"})
+        if unknown:
+            raise ValueError(f"envelope.{unknown[0]}: unknown key for kind {kind!r}; allowed: "
+                             f"{', '.join(keys + ('pieces',))}")
+        missing = [k for k in keys if k not in data and k != "end"]
+        if missing:
+            raise ValueError(f"envelope.{missing[0]}: missing (kind {kind!r} needs "
+                             f"{', '.join(k for k in keys if k != 'end')})")
+        return build(**data)
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Envelope):
+            return NotImplemented
+        if self.serializable and other.serializable:
+            return self.to_dict() == other.to_dict()
+        return self is other
+
+    def __hash__(self) -> int:
+        return hash((self.kind, tuple(sorted(self.params.items())), self.pieces))
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self.params.items())
+        return f"Envelope({self.kind!r}, {args}, pieces={self.pieces})"
+
+
+#: The named envelopes: kind -> (function, its parameters).
+KINDS: Dict[str, Tuple[Callable[..., Envelope], Tuple[str, ...]]] = {
+    "amin_ang": (amin_ang, ("h", "t1", "t2", "c", "end")),
+    "jennings": (jennings, ("h", "t1", "t2", "c", "end")),
+    "shinozuka_sato": (shinozuka_sato, ("h", "a", "b", "end")),
+}
 
 
 def intensity_from_psd(psd: float, sided: str = "two") -> float:

@@ -24,7 +24,7 @@ from typing import FrozenSet
 
 from .quantities import VELOCITY, quantity
 
-__all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
+__all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
            "holds", "check_simulated", "exact_in_law"]
 
 
@@ -33,6 +33,9 @@ INITIAL_STATE = "initial_state"
 #: The intensity is piecewise constant (Scene(h=[...], t0=[...])): pauses, envelopes,
 #: aftershocks.
 PIECEWISE_INTENSITY = "piecewise_intensity"
+#: The pieces stand for a smooth envelope (Scene(envelope=...)): the scene's intensity is the
+#: envelope, which the pieces only approximate.
+ENVELOPE = "envelope"
 
 
 @dataclass(frozen=True)
@@ -51,7 +54,8 @@ class Identity:
 #: bias.
 EXACT_STEP = Identity(
     "exact_step", "statistics of the velocity, the kinetic energy and the stop time are exact "
-    "in law at any step (no step bias)", frozenset({INITIAL_STATE, PIECEWISE_INTENSITY}))
+    "in law at any step (no step bias)",
+    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
 #: The mean distance from the velocity's second moment (Ito's formula for V^2 with the energy
 #: balance, from any start, under any intensity schedule): E S(t) = (v0^2 + int_0^t sigma^2
 #: - E V(t)^2) / (2 c), and at the stop (V = 0) the constant (v0^2 + int sigma^2) / (2 c).
@@ -59,17 +63,24 @@ EXACT_STEP = Identity(
 ITO_DISTANCE = Identity(
     "ito_distance", "E S(t) = (v0^2 + int_0^t sigma(s)^2 ds - E V(t)^2) / (2 c), and "
     "(v0^2 + int sigma^2) / (2 c) at the stop",
-    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY}))
+    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
 #: Without friction the dissipated energy is 0 on every path.
 ZERO_FRICTION = Identity(
     "zero_friction", "without friction (mu = 0) the dissipated energy is 0 on every path",
-    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY}))
+    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
+#: The simulated schedule is the scene's intensity. Not for an envelope: its pieces keep the
+#: envelope's mean h^2 on each piece but not its law, so a statistic of the pieces (even one
+#: exact in law for them) differs from the envelope's by the piece error, which
+#: crandall.bias estimates by halving the pieces and reports in the bias.
+SCHEDULE = Identity(
+    "schedule", "the simulated pieces are the scene's intensity (not an envelope's "
+    "approximation)", frozenset({INITIAL_STATE, PIECEWISE_INTENSITY}))
 #: The analytic layer's closed forms (crandall.analytic): the paper's scene only.
 ANALYTIC = Identity("analytic", "the closed forms of crandall.analytic (the paper's scene)")
 
 #: The effects the core simulates: a start from any state, and a piecewise intensity (no step
-#: straddles a piece's end).
-SIMULATED: FrozenSet[str] = frozenset({INITIAL_STATE, PIECEWISE_INTENSITY})
+#: straddles a piece's end), also as an envelope's pieces.
+SIMULATED: FrozenSet[str] = frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE})
 
 
 def holds(scene, identity: Identity) -> bool:
@@ -92,6 +103,13 @@ def exact_in_law(name: str, scene) -> bool:
     grid), where :data:`EXACT_STEP` holds."""
     q = quantity(name)
     return q.variable == VELOCITY and not q.peak and holds(scene, EXACT_STEP)
+
+
+def exact(name: str, scene) -> bool:
+    """Whether every statistic of the quantity is exact for the scene as stated: exact in law
+    at any step (:func:`exact_in_law`) and simulated on the scene's own intensity
+    (:data:`SCHEDULE`; an envelope's pieces are an approximation)."""
+    return exact_in_law(name, scene) and holds(scene, SCHEDULE)
 
 
 def ito_constant(scene, elapsed: float) -> float:

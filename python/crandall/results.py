@@ -12,7 +12,7 @@ import numpy as np
 
 from . import _core, _dataset, _render, distributions
 from .bins import Histograms
-from .model import exact_in_law
+from .model import exact as model_exact
 from .quantities import core_flags, find, names_for, quantity
 from .scene import Scene
 from .spec import RunSpec
@@ -635,9 +635,10 @@ class Result:
     def exact(self, name: str, stat: str = "mean") -> bool:
         """Whether the statistic is exact in law at any step (its bias is 0, not estimated):
         every statistic of the velocity, the kinetic energy and the stop time (of a scene for
-        which the exact step's identity holds: crandall.model)."""
+        which the exact step's identity holds: crandall.model), unless the scene is an
+        envelope's pieces (their piece error is in :meth:`bias`)."""
         self._check_stat(name, stat)
-        return exact_in_law(name, self.scene)
+        return model_exact(name, self.scene)
 
     def _check_stat(self, name: str, stat: str) -> None:
         if stat not in ("mean", "var"):
@@ -662,7 +663,9 @@ class Result:
         """The estimated magnitude of the discretisation bias of a statistic (``stat``: "mean"
         or "var"), in the quantity's units (squared for "var").
 
-        0 for the statistics exact in law (:meth:`exact`). Otherwise estimated on coupled
+        0 for the statistics exact in law (:meth:`exact`). For a scene given as an envelope
+        (``Scene(envelope=...)``) it also holds the error of the pieces, estimated by a run
+        with twice the pieces (:mod:`crandall.bias`), for every statistic. Otherwise estimated on coupled
         grids by a separate run of the same scene and grid (as many paths as the run, at most
         65 536, of a stream of its own; run on the first call, then kept): see :mod:`crandall.bias` and
         docs/methods/adaptive.md. Where the grids' difference is not resolved the value is its

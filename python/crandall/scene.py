@@ -11,6 +11,7 @@ from typing import Any, Dict, Iterable, Mapping, Optional, Sequence, Union
 import numpy as np
 
 from . import scene_file
+from ._lazy import lazy_module
 from .bins import bins_to_plain, check_bins, check_distributions
 from .errors import ParameterError
 from .quantities import DEFAULT_OBSERVE, OBSERVABLES, STOP_QUANTITIES, quantity
@@ -19,6 +20,9 @@ from .scene_file import SCALED_KEYS as _SCALED_KEYS
 from .scene_file import SI_KEYS as _SI_KEYS
 from .scene_file import COMMON_KEYS as _COMMON_KEYS
 from .units import Scaling
+
+#: Smooth envelopes (scipy's quadrature): loaded when a scene is given one.
+envelopes = lazy_module("crandall.envelopes")
 
 __all__ = ["Scene", "OBSERVABLES", "STOP_QUANTITIES", "RUN_SETTINGS", "MAX_RANGE_TIMES",
            "ParameterError"]
@@ -63,6 +67,25 @@ def _schedule(h, t0, h_name: str, t0_name: str):
             raise ParameterError(t0_name, f"{t0_name}: the pieces' ends must be > 0 and strictly "
                                           f"increasing, got {t0_name}[{i}] = {t!r}")
     return tuple(hs), tuple(ts), True
+
+
+def _envelope(envelope, h, t0):
+    """The scene's envelope (an Envelope, or its plain data), None without one; refuses one
+    given together with h or t0."""
+    if envelope is None:
+        return None
+    if h is not None or t0 is not None:
+        raise ParameterError("envelope", "envelope: give either h and t0 or envelope, not both "
+                                         "(the envelope gives the pieces)")
+    if isinstance(envelope, envelopes.Envelope):
+        return envelope
+    if isinstance(envelope, Mapping):
+        try:
+            return envelopes.Envelope.from_dict(envelope)
+        except ValueError as exc:
+            raise ParameterError("envelope", str(exc)) from None
+    raise ParameterError("envelope", f"envelope must be a crandall.envelopes.Envelope or its "
+                                     f"plain data, got {envelope!r}")
 
 
 def _noise_pieces(pieces, noise: float):
@@ -195,6 +218,12 @@ class Scene:
         are the coast after the switch-off: the scene's ``t0`` attribute is the end of the last
         piece with ``h[i] > 0`` (0 if none), and a body that stops in a final pause is located
         there.
+    envelope : crandall.envelopes.Envelope or dict, optional
+        In place of ``h`` and ``t0``: a smooth intensity envelope (``envelopes.amin_ang``,
+        ``jennings``, ``shinozuka_sato``, ``from_function``, or a named one's plain data
+        ``{"kind": ..., its parameters, "pieces": n}``). The scene is simulated exactly on its
+        pieces, and the error of the pieces against the envelope (estimated with twice the
+        pieces) is in ``Result.bias`` for every statistic (docs/scenes.md).
     g : float, default 9.81
         Acceleration of gravity, m s^-2, > 0.
     mass : float, default 1.0
@@ -249,8 +278,9 @@ class Scene:
         self,
         *,
         mu: float,
-        h: float,
-        t0: float,
+        h: Any = None,
+        t0: Any = None,
+        envelope: Any = None,
         g: float = 9.81,
         mass: float = 1.0,
         v0: float = 0.0,
@@ -261,6 +291,13 @@ class Scene:
         bins: Any = None,
     ) -> None:
         mu = _number("mu", mu)
+        envelope = _envelope(envelope, h, t0)
+        if envelope is not None:
+            h, t0 = envelope.h, envelope.t0
+        elif h is None or t0 is None:
+            raise ParameterError("h" if h is None else "t0",
+                                 f"{'h' if h is None else 't0'}: missing (give h and t0, or "
+                                 "envelope=)")
         hs, ends, piecewise = _schedule(h, t0, "h", "t0")
         # The reference intensity of a piecewise scene (its scaled units, its default step):
         # the largest of its pieces.
@@ -278,14 +315,17 @@ class Scene:
             times=times,
             observe=observe,
             mass=mass,
-            params={"mu": mu, "h": list(hs) if piecewise else h,
-                    "t0": list(ends) if piecewise else t0, "g": g, "mass": mass},
+            params=({"mu": mu, "envelope": envelope.to_dict(), "g": g, "mass": mass}
+                    if envelope is not None and envelope.serializable else
+                    {"mu": mu, "h": list(hs) if piecewise else h,
+                     "t0": list(ends) if piecewise else t0, "g": g, "mass": mass}),
             scaling=_scaling(mu, h, g),
             pieces=tuple(zip(ends, hs)) if piecewise else None,
             distributions=distributions,
             bins=bins,
             v0=v0,
             u0=u0,
+            envelope=envelope,
         )
 
     @classmethod
@@ -348,7 +388,7 @@ class Scene:
         return self
 
     def _setup(self, *, units, drift, noise, t0, times, observe, mass, params, scaling,
-               distributions=None, bins=None, v0=0.0, u0=0.0, pieces=None):
+               distributions=None, bins=None, v0=0.0, u0=0.0, pieces=None, envelope=None):
         v0 = _number("v0", v0, signed=True)
         u0 = _number("u0", u0, signed=True)
         # Only a scene that starts away from rest at the origin lists its start (the plain
@@ -365,6 +405,9 @@ class Scene:
             noise = max(n for _, n in pieces) if units == "SI" else noise
             pieces, t0 = _noise_pieces(pieces, noise)
         self.pieces = pieces
+        #: The smooth envelope (crandall.envelopes.Envelope) the pieces stand for, or None:
+        #: its piece error is estimated by halving the pieces (Result.bias).
+        self.envelope = envelope if pieces is not None else None
         # Without friction a body that moves never stops; one at rest with no noise has
         # stopped.
         silent = noise == 0 and (pieces is None or all(n == 0 for _, n in pieces))
@@ -432,6 +475,8 @@ class Scene:
             out.add("initial_state")
         if self.pieces is not None:
             out.add("piecewise_intensity")
+        if self.envelope is not None:
+            out.add("envelope")
         return frozenset(out)
 
     @property
@@ -455,7 +500,8 @@ class Scene:
         data = dict(data)
         units = data.pop("units", None)
         if units == "SI":
-            keys, required = _SI_KEYS + _COMMON_KEYS, ("mu", "h", "t0", "times")
+            keys, required = _SI_KEYS + _COMMON_KEYS, (
+                ("mu", "envelope", "times") if "envelope" in data else ("mu", "h", "t0", "times"))
         elif units == "scaled":
             keys, required = _SCALED_KEYS + _COMMON_KEYS, ("tau0", "times")
         else:
