@@ -174,17 +174,8 @@ def to_xarray(result):
     }
     if result.cost["wall_time"] is not None:
         attrs["wall_time"] = float(result.cost["wall_time"])
-    for k, v in sc.params.items():
-        if isinstance(v, dict):
-            # An envelope: its kind and parameters, and the pieces it is simulated with.
-            for kk, vv in v.items():
-                attrs[f"scene_{k}_{kk}"] = vv if isinstance(vv, str) else float(vv)
-            attrs["scene_h"] = np.asarray(sc.envelope.h, dtype=float)
-            attrs["scene_t0"] = np.asarray(sc.envelope.t0, dtype=float)
-            continue
-        # A piecewise schedule's h and t0 are lists: a 1-D attribute.
-        attrs["scene_" + k] = (np.asarray(v, dtype=float) if isinstance(v, (list, tuple))
-                               else float(v))
+    # The scene's parameters, one attribute each, for netCDF tools.
+    attrs.update({k: v for k, v in _scene_attrs(sc).items() if k.startswith("scene_")})
     if sc.distributions:
         # For netCDF tools (the scene's JSON above is what load reads).
         attrs["scene_distributions"] = " ".join(sc.distributions)
