@@ -107,7 +107,7 @@ def test_bias_run_is_never_larger_than_the_run():
     # a long-horizon scene of 10 paths must not start a run of thousands.
     from crandall import bias
     r = crandall.simulate(SCENE, paths=10, seed=5, method="exact", dt=0.1)
-    assert bias._samples(r, 1).shape[0] == 10
+    assert bias._samples(r.spec, r.paths, 1).shape[0] == 10
     assert np.all(np.isfinite(r.bias("distance", "var")))
     one = crandall.simulate(SCENE, paths=1, seed=5, method="exact", dt=0.1)
     with pytest.warns(StatisticsWarning, match="needs at least 2 paths"):
