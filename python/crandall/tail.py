@@ -597,7 +597,9 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     Parameters
     ----------
     scene : Scene
-        Any scene: constant or piecewise intensity, any start (``v0``, ``u0``).
+        Any scene: constant or piecewise intensity, any start (``v0``, ``u0``). A scene given
+        as an envelope is run on its pieces: the probabilities are the pieces' (the piece
+        error is not estimated for tails).
     quantity : str
         One of ``TAIL_QUANTITIES``: "stop_time", "velocity" and "speed" (signed and magnitude,
         at ``time``), "distance_at_stop", "dissipated_energy_at_stop", "displacement_at_stop"
