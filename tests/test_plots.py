@@ -108,6 +108,21 @@ def test_scenes_without_closed_forms_are_drawn_without_them(tmp_path):
         plots.write_figures(r, tmp_path / "x", dpi=5)
 
 
+def test_an_envelope_scene_draws_the_envelope_over_its_pieces():
+    from crandall import envelopes
+    env = envelopes.amin_ang(0.6, t1=2.0, t2=8.0, c=0.4, end=14.0, pieces=8)
+    sc = crandall.Scene(mu=0.35, envelope=env, times=[1.0, 5.0, 10.0],
+                        observe=["velocity", "distance", "stop"])
+    r = crandall.simulate(sc, paths=500, seed=1)
+    strip, _ = plots.distance_mean(r).axes
+    pieces, smooth = strip.get_lines()
+    assert smooth.get_label() == "envelope (amin_ang, 8 pieces)"
+    xs, ys = smooth.get_data()
+    # The envelope itself: the build-up (t / t1) h at t = 1 s is 0.3, the strong phase 0.6.
+    assert np.interp(1.0, xs, ys) == pytest.approx(0.3, rel=1e-2) and max(ys) == pytest.approx(0.6)
+    assert max(pieces.get_data()[1]) == pytest.approx(0.6)
+
+
 def test_velocity_density_matches_the_analytic_density():
     fig = plots.velocity_density([0.5, 3.0], paths=100_000, seed=4)
     assert len(fig.axes) == 2

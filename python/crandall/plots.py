@@ -131,7 +131,14 @@ def _schedule_strip(ax, result: Result, right: float, to_x) -> None:
         xs += [start, right]
         ys += [0.0, 0.0]
     ax.fill_between(xs, ys, step=None, color="0.75", lw=0)
-    ax.plot(xs, ys, color="0.35", lw=1)
+    ax.plot(xs, ys, color="0.35", lw=1, label="pieces")
+    env = getattr(sc, "envelope", None)
+    if env is not None:
+        # The smooth envelope the pieces stand for (an SI scene's times).
+        t = np.linspace(0.0, env.t0[-1], 400)
+        ax.plot([to_x(x) for x in t], [float(env.function(float(x))) for x in t], color="C0",
+                lw=1.2, label=f"envelope ({env.kind}, {env.pieces} pieces)")
+        ax.legend(fontsize=7, loc="upper right", frameon=False)
     ax.set_ylabel("noise" if sc.units == "scaled" else "h", fontsize=8)
     ax.set_ylim(bottom=0)
     ax.tick_params(labelsize=7, labelbottom=False)
