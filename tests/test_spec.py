@@ -2,6 +2,9 @@
 
 import dataclasses
 import json
+import pathlib
+import subprocess
+import sys
 
 import pytest
 
@@ -138,3 +141,44 @@ def test_a_file_whose_spec_disagrees_with_its_attributes_is_refused(tmp_path):
     ds.to_netcdf(tmp_path / "bad.nc", engine="scipy", format="NETCDF3_64BIT")
     with pytest.raises(ValueError, match="run_spec has seed=5, the attribute seed 4"):
         crandall.load(tmp_path / "bad.nc")
+
+
+def test_a_new_core_method_reaches_python_with_no_python_change(tmp_path):
+    # docs/architecture.md, "... a method": the core's list (_core.METHOD_GRIDS) is the only
+    # one; simulate, the scene file, the CLI's --method and the memory estimate follow it.
+    # Followed here by giving the core a method it does not step ("midpoint", one grid)
+    # before crandall is imported, in a fresh interpreter: every Python layer accepts it by
+    # name, and the core's plan, which has no such step, refuses it naming the method.
+    core = next(pathlib.Path(crandall.__file__).parent.glob("_core*.so"))
+    script = f"""
+import importlib.util, sys
+spec = importlib.util.spec_from_file_location("crandall._core", {str(core)!r})
+core = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(core)
+core.METHOD_GRIDS = dict(core.METHOD_GRIDS, midpoint=1)
+sys.modules["crandall._core"] = core
+import crandall
+from crandall import cli, methods, spec
+run_module = sys.modules["crandall.simulate"]  # crandall.simulate is the function
+assert "midpoint" in crandall.METHODS and methods.GRIDS["midpoint"] == 1
+assert spec.check_method("midpoint") == "midpoint"
+assert run_module._memory_need(crandall.Scene.scaled(tau0=1.0, times=[1.0]), 1, "midpoint") > 0
+path = {str(tmp_path / "s.toml")!r}
+open(path, "w").write('[scene]\\nunits = "scaled"\\ntau0 = 1.0\\ntimes = [1.0]\\n'
+                      '[run]\\nmethod = "midpoint"\\n')
+assert crandall.Scene.from_toml(path).run_settings["method"] == "midpoint"
+args = cli._parser().parse_args(["run", path, "--method", "midpoint"])
+assert args.method == "midpoint"
+try:
+    crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[1.0]), paths=10, seed=1,
+                      method="midpoint")
+except ValueError as exc:
+    assert "method" in str(exc), exc
+    print("refused:", exc)
+else:
+    raise AssertionError("the core stepped a method it does not have")
+"""
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "refused:" in out.stdout
