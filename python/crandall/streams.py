@@ -9,7 +9,11 @@ only, so chunks, threads, Dask tasks and resumed checkpoints give the same paths
 - level l of a run to an accuracy: :func:`level_key` (seed, l); the pilot that fits the
   control coefficients is the first paths of level 0, which the estimate then leaves out;
 - the coupled run of a fixed-step run's bias estimate: :func:`bias_key` (seed), the stream
-  2^20, beyond any level.
+  2^20, beyond any level; for a scene given as an envelope, its run on twice the pieces uses
+  the same key (the same paths, paired by index, so the piece error's difference has a small
+  variance);
+- a tail run (crandall.tail): :func:`tail_key` (seed), the stream 2^20 + 1; within it the
+  core's path index numbers the replicas' and the pilots' paths (tail.py).
 
 Derived keys are splitmix64 of (seed, stream), in the manner of numpy's SeedSequence.spawn:
 each is a pure function of the seed and the stream's number, and distinct streams are
@@ -18,11 +22,13 @@ decorrelated. A new estimator takes a stream number of its own here.
 
 from __future__ import annotations
 
-__all__ = ["key", "level_key", "bias_key", "BIAS_STREAM"]
+__all__ = ["key", "level_key", "bias_key", "tail_key", "BIAS_STREAM", "TAIL_STREAM"]
 
 _MASK = (1 << 64) - 1
 #: The stream of a fixed-step run's bias estimate (beyond the levels of a run to an accuracy).
 BIAS_STREAM = 1 << 20
+#: The stream of the rare-event estimators' paths.
+TAIL_STREAM = BIAS_STREAM + 1
 
 
 def key(seed: int, stream: int) -> int:
@@ -42,3 +48,8 @@ def level_key(seed: int, level: int) -> int:
 def bias_key(seed: int) -> int:
     """The key of the coupled run that estimates a fixed-step run's bias."""
     return key(seed, BIAS_STREAM)
+
+
+def tail_key(seed: int) -> int:
+    """The key of a tail run's paths (every replica and pilot path, by path index)."""
+    return key(seed, TAIL_STREAM)

@@ -44,9 +44,6 @@ __all__ = ["tail", "TailResult", "TAIL_QUANTITIES", "TAIL_METHODS"]
 
 _schedule = lazy_module("crandall.analytic.schedule")
 
-#: The stream of the rare-event estimators' paths (streams.key(seed, TAIL_STREAM)); beyond the
-#: levels of a run to an accuracy and the bias estimate's stream.
-TAIL_STREAM = (1 << 20) + 1
 TAIL_METHODS = ("splitting", "importance")
 #: Checkpoint format of a tail run.
 TAIL_CHECKPOINT_FORMAT = 1
@@ -681,7 +678,7 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
         raise ParameterError("client", f"client must be a distributed.Client (or None), got {client!r}")
     min_samples = check_int("min_samples", min_samples if min_samples is not None else (20 if splitting else 1000), 2, 10 ** 12)
     max_samples = check_int("max_samples", max_samples if max_samples is not None else (100_000 if splitting else 10 ** 8), min_samples, 10 ** 12)
-    key = _streams.key(seed, TAIL_STREAM)
+    key = _streams.tail_key(seed)
     unit = "" if scene.units == "scaled" else TAIL_QUANTITIES[quantity].unit
     spec = {"scene": scene.to_dict(), **problem.describe(), "levels": lv.tolist(),
             "method": method, "seed": seed, "particles": particles}
