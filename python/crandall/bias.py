@@ -135,8 +135,7 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
                 d, se = _difference(v, a, b, stat, threads)
                 resolved = abs(d) > 2 * se
                 mag = abs(d) if resolved else abs(d) + 2 * se
-                factor = f if stat == "mean" else f * f
-                values.append(mag * abs(factor))
+                values.append(mag * scale)
                 bounds.append(not resolved)
             out[(name, stat)] = _plus(np.array(values), any(bounds), pieces.get((name, stat)),
                                       scale)
