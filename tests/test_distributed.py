@@ -121,3 +121,21 @@ def test_scenes_beyond_the_paper_on_the_cluster_are_bitwise_local(client):
     a_local = crandall.simulate(sc, error=5e-2, seed=4, threads=2)
     a_remote = crandall.simulate(sc, error=5e-2, seed=4, client=client)
     assert a_remote.to_pandas().equals(a_local.to_pandas())
+
+
+def test_an_envelope_scene_on_the_cluster_is_bitwise_local(client):
+    # The envelope travels as plain data and is rebuilt on the workers (its pieces, the
+    # same bits); the piece error is estimated on the client, the same as locally.
+    from crandall import envelopes
+    sc = crandall.Scene(mu=0.35, envelope=envelopes.amin_ang(0.6, t1=1.0, t2=2.0, c=1.0,
+                                                              end=4.0, pieces=6),
+                        times=[1.0, 3.0], observe=["velocity", "distance", "stop"])
+    local = crandall.simulate(sc, paths=3000, seed=4, threads=2)
+    remote = crandall.simulate(sc, paths=3000, seed=4, client=client)
+    assert remote.scene == sc and remote.scene.envelope == sc.envelope
+    for name in local.names:
+        for stat in ("mean", "var"):
+            assert np.asarray(getattr(remote, stat)(name)).tobytes() == \
+                np.asarray(getattr(local, stat)(name)).tobytes()
+            assert np.asarray(remote.bias(name, stat)).tobytes() == \
+                np.asarray(local.bias(name, stat)).tobytes()
