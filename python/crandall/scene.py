@@ -539,6 +539,9 @@ class Scene:
             method = "exact"
             dt = 0.001
 
+        An SI scene may give ``h`` and ``t0`` as lists (a piecewise intensity), or instead an
+        envelope table, ``envelope = { kind = "amin_ang", h = 0.6, t1 = 2.0, t2 = 8.0,
+        c = 0.4, pieces = 16 }`` (kinds and parameters: ``crandall.envelopes.KINDS``).
         A scaled scene has ``tau0`` instead of ``mu, h, t0, g, mass``. A range includes its
         ``stop``: ``{start = 0.5, stop = 2.0, num = 4}`` is 0.5, 1.0, 1.5, 2.0, as is
         ``{start = 0.5, stop = 2.0, step = 0.5}``.
