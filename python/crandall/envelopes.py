@@ -5,8 +5,8 @@ smooth envelope h(t) is replaced by pieces whose intensity keeps the mean of h^2
 piece, h_i^2 = (1 / (t_i - t_{i-1})) int h(t)^2 dt, so the energy the noise feeds in
 (int h^2 dt / 2 per unit mass, the mean friction loss at the stop) is the envelope's on every
 piece. Within a piece the intensity is constant where the envelope is not: that replacement,
-not the simulation, is what is approximate; halve the pieces (``pieces=2 n``) to see how much
-an answer moves.
+not the simulation, is what is approximate, and a scene given the envelope
+(``Scene(envelope=...)``) estimates its error with twice the pieces (``Result.bias``).
 
 Each function returns an :class:`Envelope`: give it to ``crandall.Scene(envelope=..., ...)``,
 which then also reports the error of the pieces (``Result.bias``: the difference from a run
