@@ -118,3 +118,10 @@ def test_a_function_envelope_keeps_its_pieces_in_plain_data():
     assert d["h"] == env.h and d["t0"] == env.t0 and "envelope" not in d
     r = crandall.simulate(sc, paths=4000, seed=3)
     assert r.bias("stop_time") > 0 and not r.exact("stop_time")
+
+
+def test_an_envelope_with_the_most_pieces_can_still_be_refined():
+    env = envelopes.from_function(lambda t: 1.0, 1.0, pieces=envelopes.MAX_PIECES)
+    assert len(env.refined(2).h) == 2 * envelopes.MAX_PIECES
+    with pytest.raises(ValueError, match="pieces must be <= 100000"):
+        envelopes.from_function(lambda t: 1.0, 1.0, pieces=envelopes.MAX_PIECES + 1)

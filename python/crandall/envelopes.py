@@ -50,11 +50,16 @@ def _positive(name: str, value, *, zero: bool = False) -> float:
     return value
 
 
-def _ends(end: float, pieces: int, breaks: Sequence[float] = ()) -> List[float]:
+#: Most pieces an envelope may be given (its piece-error estimate runs twice as many).
+MAX_PIECES = 100_000
+
+
+def _ends(end: float, pieces: int, breaks: Sequence[float] = (),
+          limit: int = MAX_PIECES) -> List[float]:
     if isinstance(pieces, bool) or not isinstance(pieces, (int, np.integer)) or pieces < 1:
         raise ValueError(f"pieces must be an integer >= 1, got {pieces!r}")
-    if pieces > 100_000:
-        raise ValueError(f"pieces must be <= 100000, got {pieces!r}")
+    if pieces > limit:
+        raise ValueError(f"pieces must be <= {limit}, got {pieces!r}")
     grid = set(np.linspace(0.0, end, int(pieces) + 1)[1:].tolist())
     # The envelope's own corners are piece ends too (no piece straddles a change of form).
     grid.update(b for b in breaks if 0.0 < b < end)
@@ -63,7 +68,7 @@ def _ends(end: float, pieces: int, breaks: Sequence[float] = ()) -> List[float]:
 
 
 def _function_schedule(h: Callable[[float], float], end: float, pieces: int = 32,
-                       breaks: Sequence[float] = ()) -> Schedule:
+                       breaks: Sequence[float] = (), limit: int = MAX_PIECES) -> Schedule:
     """The schedule of an intensity function h(t) >= 0 on [0, end]: ``pieces`` equal pieces
     (and a piece end at each of ``breaks``, where h changes form), each with the root mean
     square of h over it. Raises ValueError for a bad argument or an h that is negative or not
@@ -71,7 +76,7 @@ def _function_schedule(h: Callable[[float], float], end: float, pieces: int = 32
     end = _positive("end", end)
     if not callable(h):
         raise ValueError(f"h must be a function of t, got {h!r}")
-    ends = _ends(end, pieces, breaks)
+    ends = _ends(end, pieces, breaks, limit)
     out, start = [], 0.0
     for e in ends:
         value, _ = integrate.quad(lambda t: float(h(t)) ** 2, start, e, limit=200)
@@ -165,13 +170,15 @@ class Envelope:
     runs twice the pieces); :meth:`to_dict` its plain data (not for a function)."""
 
     def __init__(self, kind: str, params: Mapping[str, Any], pieces: int,
-                 function: Callable[[float], float], breaks: Sequence[float] = ()) -> None:
+                 function: Callable[[float], float], breaks: Sequence[float] = (),
+                 _limit: int = MAX_PIECES) -> None:
         self.kind = kind
         self.params = dict(params)
         self.function = function
         self.breaks = tuple(float(b) for b in breaks)
         # Checks end, pieces and the function's values.
-        self.h, self.t0 = _function_schedule(function, self.params["end"], pieces, self.breaks)
+        self.h, self.t0 = _function_schedule(function, self.params["end"], pieces, self.breaks,
+                                             _limit)
         self.pieces = int(pieces)
         self.params["end"] = float(self.t0[-1])
 
@@ -182,8 +189,10 @@ class Envelope:
         """The same envelope with ``factor`` times the pieces."""
         if isinstance(factor, bool) or not isinstance(factor, (int, np.integer)) or factor < 1:
             raise ValueError(f"factor must be an integer >= 1, got {factor!r}")
-        return Envelope(self.kind, self.params, self.pieces * int(factor), self.function,
-                        self.breaks)
+        # Beyond MAX_PIECES only by refining (the piece error of an envelope given the most).
+        pieces = self.pieces * int(factor)
+        return Envelope(self.kind, self.params, pieces, self.function, self.breaks,
+                        max(MAX_PIECES, pieces))
 
     @property
     def serializable(self) -> bool:
