@@ -35,7 +35,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 from scipy import integrate
 
-__all__ = ["Envelope", "from_function", "amin_ang", "jennings", "shinozuka_sato",
+__all__ = ["Envelope", "MAX_PIECES", "from_function", "amin_ang", "jennings", "shinozuka_sato",
            "intensity_from_psd", "KINDS"]
 
 Schedule = Tuple[List[float], List[float]]
