@@ -88,17 +88,11 @@ PEER_BATCH = 16384
 SEED = 7
 
 
-def amin_ang_squared(t: float) -> float:
-    if t < T1:
-        return (t / T1) ** 2
-    if t < T2:
-        return 1.0
-    return math.exp(-DECAY * (t - T2))
-
-
 def envelope(pieces: int):
-    return envelopes.from_function(lambda t: H_STRONG * math.sqrt(amin_ang_squared(t)),
-                                   HORIZON, pieces)
+    """Amin & Ang's envelope in exactly ``pieces`` equal pieces (envelopes.amin_ang would add
+    its corners as piece ends): its function, cut by from_function."""
+    shape = envelopes.amin_ang(H_STRONG, T1, T2, DECAY, end=HORIZON, pieces=1).function
+    return envelopes.from_function(shape, HORIZON, pieces)
 
 
 def energy_law(h, ends, v0=0.0) -> float:
