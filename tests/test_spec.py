@@ -9,7 +9,7 @@ import sys
 import pytest
 
 import crandall
-from crandall import _core, checkpoint, engine
+from crandall import _core, checkpoint, driver, engine
 from crandall.methods import DEFAULT_MIN_STEPS
 from crandall.spec import RunSpec
 from conftest import same_result
@@ -49,8 +49,9 @@ def test_checkpoint_identity_is_what_it_was():
     # The keys and values checkpoints have always stored, so that existing ones still resume.
     spec = RunSpec(SCENE, 10, 7, 0.1, "exact", 4)
     ident = checkpoint.identity(spec)
-    assert ident == {"format": "crandall-checkpoint", "format_version": 3,
+    assert ident == {"format": "crandall-checkpoint", "format_version": 4,
                      "crandall": crandall.__version__, "random_stream": _core.RANDOM_STREAM,
+                     "estimator": "paths",
                      "scene": SCENE.to_dict(), "paths": 10, "seed": 7, "dt": 0.1,
                      "method": "exact", "min_steps": 4}
     assert ident == checkpoint.identity(SCENE, paths=10, seed=7, dt=0.1, method="exact",
@@ -105,11 +106,14 @@ def test_every_field_of_the_spec_travels(tmp_path, monkeypatch):
     want = spec.to_dict()
     # The plan and the checkpoint's identity.
     ckpt = tmp_path / "run.ckpt"
-    run = simulate._Run(spec, threads=1, checkpoint=ckpt)
-    assert {k: run.ident[k] for k in want} == want
-    simulate._run_local(run, None)
+    run = simulate.FixedStep(spec, threads=1)
+    assert run.identity() == want
+    r = driver.drive(run, checkpoints=ckpt, progress=False)[0]
     assert ckpt.exists()
-    r = run.result()
+    import numpy as np
+    with np.load(ckpt) as data:
+        stored = json.loads(str(data["identity"]))
+    assert {k: stored[k] for k in want} == want
     # The bias estimate's coupled run starts from the run's own options (asked here first:
     # saving the result estimates it too).
     seen = []

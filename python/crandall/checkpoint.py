@@ -1,6 +1,12 @@
-"""Checkpoints of a long run: the merged accumulators of the finished chunks, kept on disk.
+"""Checkpoints of a long run: one file format for every estimator (:mod:`crandall.driver`).
 
-A run's result is the in-order merge of its chunks 0..n-1, and each chunk is bitwise the same
+A checkpoint is a NumPy ``.npz`` archive (no pickles) holding the run's identity (JSON text:
+the format, crandall version, random stream, the estimator's name and the run's spec) and the
+estimator's state as named arrays (a JSON text ``state`` among them where the state is not
+arrays). :func:`run_identity`, :func:`read` and :func:`write` are all an estimator uses: a file
+of another estimator or another run is refused naming the field that differs.
+
+A fixed-step run's state is the merge of its finished chunks. A run's result is the in-order merge of its chunks 0..n-1, and each chunk is bitwise the same
 on any machine and thread count. So the merge of chunks 0..k-1, stored with the run's identity
 (scene, paths, seed, dt, method, crandall version), is all a rerun needs to carry on at chunk
 k and end with a result bitwise identical to an uninterrupted run.
@@ -30,12 +36,21 @@ from .spec import RunSpec
 from ._files import (check_file_writable, check_folder_writable, check_moments,
                      refuse_other_run, refuse_other_version, write_atomic)
 
-__all__ = ["identity", "load", "save", "stored_seed", "check_writable", "make_folder"]
+__all__ = ["identity", "run_identity", "read", "write", "read_state", "write_state", "load",
+           "restore", "save", "state", "stored_seed",
+           "check_writable", "make_folder"]
 
 FORMAT = "crandall-checkpoint"
 # 2: the stop slot holds the time after the switch-off; the identity has the random stream.
 # 3: the peaks' moments and the histograms' edges and counts, when the scene asks for them.
-FORMAT_VERSION = 3
+# 4: one format for every estimator (runs to an accuracy and tails too); the identity names
+#    the estimator.
+FORMAT_VERSION = 4
+#: The estimator of a fixed-step run (the identity's ``estimator`` field).
+PATHS = "paths"
+#: What each estimator's checkpoints are called in messages.
+ESTIMATORS = {PATHS: "a fixed-step run (paths=)", "accuracy": "a run to an accuracy (error=)",
+              "tail": "a tail run (crandall.tail)"}
 
 _ARRAYS = ("identity", "next_chunk", "times_counts", "times_means", "times_central",
            "stop_counts", "stop_means", "stop_central")
@@ -59,15 +74,23 @@ def identity(spec, **fields) -> Dict[str, Any]:
     Returns
     -------
     dict
-        The checkpoint format, crandall version and random stream, and ``spec.to_dict()``.
+        :func:`run_identity` of the fixed-step estimator and ``spec.to_dict()``.
     """
     if not isinstance(spec, RunSpec):
         spec = RunSpec(spec, **fields)
     elif fields:
         raise ValueError(f"{sorted(fields)[0]}: give a RunSpec or a scene with its fields, "
                          "not both")
+    return run_identity(PATHS, spec.to_dict())
+
+
+def run_identity(estimator: str, spec: Dict[str, Any]) -> Dict[str, Any]:
+    """The identity of any estimator's run: the checkpoint format, crandall version, random
+    stream and estimator, then the run's spec (plain data, compared field by field)."""
+    if estimator not in ESTIMATORS:
+        raise ValueError(f"estimator: one of {', '.join(ESTIMATORS)}, got {estimator!r}")
     return {"format": FORMAT, "format_version": FORMAT_VERSION, "crandall": __version__,
-            "random_stream": int(_core.RANDOM_STREAM), **spec.to_dict()}
+            "random_stream": int(_core.RANDOM_STREAM), "estimator": estimator, **spec}
 
 
 def check_writable(path) -> str:
@@ -127,10 +150,12 @@ def _check_identity(path, ident) -> None:
         raise _refuse(path, f"identity.format is {ident.get('format')!r}, not {FORMAT!r}")
     kinds = {"format_version": _is_int, "crandall": lambda v: isinstance(v, str),
              "scene": lambda v: isinstance(v, dict),
-             "paths": lambda v: _is_int(v) and v >= 1,
-             "seed": lambda v: _is_int(v) and 0 <= v < 1 << 64,
-             "dt": lambda v: isinstance(v, float) and math.isfinite(v) and v > 0,
-             "method": lambda v: isinstance(v, str)}
+             "seed": lambda v: _is_int(v) and 0 <= v < 1 << 64}
+    # Before format 4 every checkpoint was a fixed-step run's.
+    if ident.get("estimator", PATHS) == PATHS:
+        kinds.update({"paths": lambda v: _is_int(v) and v >= 1,
+                      "dt": lambda v: isinstance(v, float) and math.isfinite(v) and v > 0,
+                      "method": lambda v: isinstance(v, str)})
     for key, ok in kinds.items():
         if key not in ident:
             raise _refuse(path, f"identity.{key} is missing")
@@ -169,12 +194,8 @@ def _read(path) -> Tuple[Dict[str, Any], Dict[str, np.ndarray]]:
             arrays = _read_arrays(path, f)
     except OSError as exc:
         raise _refuse(path, f"unreadable: {exc.strerror or exc}") from None
-    missing = [k for k in _ARRAYS if k not in arrays]
-    if missing:
-        raise _refuse(path, f"{', '.join(missing)} missing")
-    extra = sorted(set(arrays) - set(_ARRAYS) - set(_PEAK_ARRAYS) - set(_HIST_ARRAYS))
-    if extra:
-        raise _refuse(path, f"unknown fields {', '.join(extra)}")
+    if "identity" not in arrays:
+        raise _refuse(path, "identity missing")
     raw = arrays.pop("identity")
     if raw.shape != () or raw.dtype.kind != "U":
         raise _refuse(path, "identity is not a text")
@@ -186,6 +207,59 @@ def _read(path) -> Tuple[Dict[str, Any], Dict[str, np.ndarray]]:
     return ident, arrays
 
 
+def read(path, ident: Dict[str, Any]) -> Optional[Dict[str, np.ndarray]]:
+    """The state (named arrays) that the checkpoint at ``path`` holds for the run ``ident``
+    (:func:`run_identity`), or None if there is no file.
+
+    Raises ValueError naming the file if it is not a checkpoint, was written with another
+    format or random stream, by another estimator, or for another run (naming every field of
+    the identity that differs).
+    """
+    if not os.path.exists(path):
+        return None
+    stored, arrays = _read(path)
+    # Round-trip through JSON so that both sides compare as stored (inf, floats, lists).
+    expected = json.loads(json.dumps(ident))
+    refuse_other_version(path, stored, expected, (("format_version", "checkpoint format"),
+                                                  ("random_stream", "random stream")))
+    theirs, mine = stored.get("estimator"), expected.get("estimator")
+    if theirs != mine:
+        raise ValueError(f"checkpoint: {os.fspath(path)} is a checkpoint of "
+                         f"{ESTIMATORS.get(theirs, repr(theirs))}, not of "
+                         f"{ESTIMATORS.get(mine, repr(mine))} (field estimator); give another "
+                         "path")
+    refuse_other_run(path, stored, expected)
+    return arrays
+
+
+def write(path, ident: Dict[str, Any], arrays: Dict[str, np.ndarray]) -> None:
+    """Atomically replace the checkpoint at ``path`` with the run ``ident`` and its state."""
+    if "identity" in arrays:
+        raise ValueError("arrays: 'identity' is the checkpoint's own field")
+    out = {"identity": np.array(json.dumps(ident)), **arrays}
+    write_atomic(path, lambda f: np.savez(f, **out))
+
+
+def read_state(path, ident: Dict[str, Any]) -> Optional[Dict[str, Any]]:
+    """:func:`read` for a state kept as one JSON text (the array ``state``), parsed."""
+    arrays = read(path, ident)
+    if arrays is None:
+        return None
+    raw = arrays.get("state")
+    if set(arrays) != {"state"} or raw.shape != () or raw.dtype.kind != "U":
+        raise _refuse(path, "state is missing or not a text")
+    try:
+        return json.loads(str(raw))
+    except ValueError:
+        raise _refuse(path, "state is not JSON") from None
+
+
+def write_state(path, ident: Dict[str, Any], state: Dict[str, Any]) -> None:
+    """:func:`write` of a state kept as one JSON text (floats as Python writes them, which
+    read back exactly)."""
+    write(path, ident, {"state": np.array(json.dumps(state))})
+
+
 def stored_seed(path) -> Optional[int]:
     """The seed recorded in an existing checkpoint, or None if there is no file."""
     if not isinstance(path, (str, os.PathLike)) or not os.path.isfile(path):
@@ -194,24 +268,32 @@ def stored_seed(path) -> Optional[int]:
 
 
 def load(path, ident: Dict[str, Any], chunks: int, histograms=((), ())):
-    """Resume point of a run: (next chunk, merged accumulators as an ``engine.Chunk``).
+    """Resume point of a fixed-step run: (next chunk, merged accumulators as an
+    ``engine.Chunk``); ``(0, None)`` if there is no file. See :func:`restore`."""
+    arrays = read(path, ident)
+    if arrays is None:
+        return 0, None
+    return restore(path, ident, arrays, chunks, histograms)
+
+
+def restore(path, ident: Dict[str, Any], arrays: Dict[str, np.ndarray], chunks: int,
+            histograms=((), ())):
+    """A fixed-step run's state read back (:func:`read`'s arrays): (next chunk, merged
+    accumulators as an ``engine.Chunk``, or None when no chunk is done).
 
     ``histograms``: the run's recorded axes, ``(indices, edges)``; a checkpoint whose edges
     differ (bit for bit) is refused: counts on other bins cannot be merged.
 
-    Returns ``(0, None)`` if there is no file. Raises ValueError if the file belongs to
-    another run (the message names what differs) or is not a valid checkpoint of it (the
-    message names the file and the field: identity, next_chunk, counts, means, central,
-    the peaks' and the histograms' fields).
+    Raises ValueError if the arrays are not a valid state of the run (the message names the
+    file and the field: next_chunk, counts, means, central, the peaks' and the histograms'
+    fields).
     """
-    if not os.path.exists(path):
-        return 0, None
-    stored, arrays = _read(path)
-    # Round-trip through JSON so that both sides compare as stored (inf, floats, lists).
-    expected = json.loads(json.dumps(ident))
-    refuse_other_version(path, stored, expected, (("format_version", "checkpoint format"),
-                                                  ("random_stream", "random stream")))
-    refuse_other_run(path, stored, expected)
+    missing = [k for k in _ARRAYS[1:] if k not in arrays]
+    if missing:
+        raise _refuse(path, f"{', '.join(missing)} missing")
+    extra = sorted(set(arrays) - set(_ARRAYS) - set(_PEAK_ARRAYS) - set(_HIST_ARRAYS))
+    if extra:
+        raise _refuse(path, f"unknown fields {', '.join(extra)}")
     nc = arrays["next_chunk"]
     if nc.shape != () or nc.dtype.kind not in "iu":
         raise _refuse(path, f"next_chunk must be one integer, got {nc.dtype} of shape {nc.shape}")
@@ -292,7 +374,15 @@ def _read_histograms(where, arrays, indices, edges, paths):
 def save(path, ident: Dict[str, Any], next_chunk: int, acc, histograms=((), ())) -> None:
     """Atomically replace the checkpoint with the merge of chunks 0..next_chunk-1 (``acc``,
     an ``engine.Chunk``), with the run's histogram axes ``(indices, edges)``."""
-    arrays = {"identity": np.array(json.dumps(ident)), "next_chunk": np.array(next_chunk)}
+    write(path, ident, state(next_chunk, acc, histograms))
+
+
+def state(next_chunk: int, acc, histograms=((), ())) -> Dict[str, np.ndarray]:
+    """A fixed-step run's state as named arrays: the merge of chunks 0..next_chunk-1
+    (``acc``, an ``engine.Chunk``, None if none) and the histogram axes ``(indices, edges)``."""
+    arrays = {"next_chunk": np.array(next_chunk)}
+    if acc is None:
+        return arrays
     parts = [("times", acc.times), ("stop", acc.stop), ("peaks", acc.peaks),
              ("peaks_stop", acc.peaks_stop)]
     for prefix, moments in parts:
@@ -307,4 +397,4 @@ def save(path, ident: Dict[str, Any], next_chunk: int, acc, histograms=((), ()))
         arrays["histogram_edge_sizes"] = np.array([len(e) for e in edges], dtype=np.int64)
         arrays["histogram_edges"] = np.concatenate(edges).astype(np.float64)
         arrays["histogram_counts"] = np.concatenate(acc.counts).astype(np.uint64)
-    write_atomic(path, lambda f: np.savez(f, **arrays))
+    return arrays

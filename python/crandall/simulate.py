@@ -19,7 +19,8 @@ import numpy as np
 from . import _dataset
 from . import checkpoint as _ckpt
 from . import engine
-from ._resources import available_memory, progress_bar
+from ._resources import available_memory
+from .driver import Estimator, Progress, Task, Tasks, check_client, drive
 from .adaptive import MAX_SECONDS, simulate_to_error
 from .bins import Histograms, axes as _histogram_axes
 from .methods import DEFAULT_METHOD, GRIDS, METHODS
@@ -92,22 +93,13 @@ def validate_run(scene, paths, seed, dt, method, threads):
 
 def run_spec(scene, *, paths, seed, dt, method, threads):
     """simulate's arguments checked: the run's spec, and the thread count (not part of it:
-    results do not depend on it) checked against the memory the accumulators need."""
+    results do not depend on it; the driver checks it against the memory the accumulators
+    need, :meth:`FixedStep.check_memory`)."""
     spec = RunSpec.create(scene, paths=paths, seed=seed, dt=dt, method=method)
     if threads is None:
         threads = os.cpu_count() or 1
     threads = check_int("threads", threads, 1, 1024)
-    _check_memory(scene, threads, spec.method)
     return spec, threads
-
-
-def _check_client(client) -> None:
-    if client is None:
-        return
-    for attr in ("submit", "nthreads", "cancel"):
-        if not callable(getattr(client, attr, None)):
-            raise ValueError(f"client must be a distributed.Client (or None), got {client!r}: "
-                             f"it has no {attr}()")
 
 
 def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads, min_steps=0,
@@ -119,28 +111,71 @@ def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads, min_st
     return engine.run_chunks(spec, first, last, threads, random_stream)
 
 
-class _Run:
-    """One scene's run: the plan, the merge in chunk order, the checkpoint, the result."""
+class FixedStep(Estimator):
+    """A fixed-step run as the driver's estimator (:mod:`crandall.driver`): one batch, its
+    chunks (one task each here; on a cluster about four contiguous ranges per worker thread),
+    merged in chunk order; its checkpoint holds the merge of the finished chunks."""
 
-    def __init__(self, spec: RunSpec, *, threads: int, checkpoint):
+    name = _ckpt.PATHS
+
+    def __init__(self, spec: RunSpec, *, threads: int, task_threads: Optional[int] = None):
         self.started = time.perf_counter()
         self.spec = spec
         self.scene = spec.scene
         self.paths = spec.paths
         self.threads = threads
+        self.task_threads = 1 if task_threads is None else task_threads
         self.axes = engine.histogram_axes(spec)
         self.plan = engine.make_plan(spec, self.axes)
         self.indices = tuple(a.index for a in self.axes)
         self.edges = tuple(engine.axis_edges(self.axes))
         self.peaks = "peaks" in self.scene.observe
-        self.checkpoint = checkpoint
         self.done, self.acc = 0, None
-        if checkpoint is not None:
-            self.ident = _ckpt.identity(spec)
-            self.done, self.acc = _ckpt.load(checkpoint, self.ident, self.plan.chunks,
-                                             histograms=(self.indices, self.edges))
-            if self.done < self.plan.chunks:  # fail now, not after the first chunk
-                _ckpt.check_writable(checkpoint)
+
+    # -- the driver's interface ----------------------------------------------------------
+
+    def identity(self):
+        return self.spec.to_dict()
+
+    def state(self):
+        return _ckpt.state(self.done, self.acc, histograms=(self.indices, self.edges))
+
+    def restore(self, arrays, path):
+        self.done, self.acc = _ckpt.restore(path, _ckpt.identity(self.spec), arrays,
+                                            self.plan.chunks,
+                                            histograms=(self.indices, self.edges))
+
+    def check_memory(self):
+        _check_memory(self.scene, self.threads, self.spec.method)
+
+    def rounds(self):
+        if self.done >= self.plan.chunks:
+            return
+        if self.workers is None:
+            first = self.done
+            yield Tasks(self.plan.chunks - first,
+                        lambda i: Task(None, (), self._local(first + i, first + i + 1),
+                                       self.plan.chunk_paths(first + i)))
+            return
+        # The run's own axes go with every task: every worker bins on the client's edges.
+        axes = engine.plain_axes(self.axes)
+        yield [Task(engine.run_chunks, (self.spec.to_dict(), first, last, self.task_threads,
+                                        engine.RANDOM_STREAM, axes),
+                    size=self.paths_in(first, last))
+               for first, last in self.ranges(4 * self.workers)]
+
+    def _local(self, first, last):
+        return lambda: [engine.run_chunk(self.plan, c, self.threads, self.indices)
+                        for c in range(first, last)]
+
+    def merge(self, task, output):
+        for chunk in output:
+            self.add(chunk)
+
+    def progress(self):
+        return Progress(self.paths_in(0, self.done), self.paths)
+
+    # -- chunks --------------------------------------------------------------------------
 
     @property
     def times_acc(self):
@@ -151,10 +186,12 @@ class _Run:
         return None if self.acc is None else self.acc.stop
 
     def paths_in(self, first, last):
-        return sum(self.plan.chunk_paths(c) for c in range(first, last))
+        # Every chunk holds CHUNK_PATHS paths, the last one the rest.
+        size = engine.CHUNK_PATHS
+        return min(last * size, self.paths) - min(first * size, self.paths)
 
     def add(self, chunk: engine.Chunk):
-        """Merge the next chunk (chunk ``self.done``) and checkpoint."""
+        """Merge the next chunk (chunk ``self.done``)."""
         self._check_chunk(chunk)
         if self.acc is None:
             counts = None if chunk.counts is None else tuple(
@@ -174,9 +211,6 @@ class _Run:
                 for total, part in zip(acc.counts, chunk.counts):
                     np.add(total, part, out=total)
         self.done += 1
-        if self.checkpoint is not None:
-            _ckpt.save(self.checkpoint, self.ident, self.done, self.acc,
-                       histograms=(self.indices, self.edges))
 
     def _check_chunk(self, chunk) -> None:
         """A chunk carries what this run records (a worker of another crandall might not)."""
@@ -245,53 +279,6 @@ class _Run:
                                  "the computation failed); choose units or times in which "
                                  "they are nearer 1" + (", or leave 'stop' out of observe"
                                                         if what == "at the stop" else ""))
-
-
-def _client_threads(client) -> int:
-    try:
-        return max(1, sum(client.nthreads().values()))
-    except Exception:  # noqa: BLE001 - any client-like object: fall back to one task per chunk
-        return 1 << 30
-
-
-def _run_distributed(runs, client, threads, bar):
-    """Submit every run's chunk ranges, then merge each run's ranges in chunk order."""
-    from distributed import as_completed
-
-    per_task = 1 if threads is None else threads
-    tasks = 4 * _client_threads(client)
-    pending = []  # (run index, first, last, future)
-    for i, run in enumerate(runs):
-        for first, last in run.ranges(tasks):
-            # The run's own axes go with the task: every worker bins on the client's edges.
-            fut = client.submit(engine.run_chunks, run.spec.to_dict(), first, last, per_task,
-                                engine.RANDOM_STREAM, engine.plain_axes(run.axes), pure=False)
-            pending.append((i, first, last, fut))
-    by_future = {fut: (i, first, last) for i, first, last, fut in pending}
-    waiting = [dict() for _ in runs]  # per run: first chunk -> (last, parts)
-    try:
-        for fut in as_completed(list(by_future)):
-            i, first, last = by_future[fut]
-            parts = fut.result()
-            run = runs[i]
-            waiting[i][first] = (last, parts)
-            # Merge whatever is now contiguous with what is merged already.
-            while run.done in waiting[i]:
-                _, parts = waiting[i].pop(run.done)
-                for part in parts:
-                    run.add(part)
-            if bar is not None:
-                bar.update(run.paths_in(first, last))
-    except BaseException:
-        client.cancel(list(by_future))
-        raise
-
-
-def _run_local(run, bar):
-    for chunk in range(run.done, run.plan.chunks):
-        run.add(engine.run_chunk(run.plan, chunk, run.threads, run.indices))
-        if bar is not None:
-            bar.update(run.plan.chunk_paths(chunk))
 
 
 #: What simulate takes as a seed: an int, a numpy SeedSequence or Generator, or None.
@@ -485,7 +472,7 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
             if value is not None:
                 raise ValueError(f"{name}: not with error= or rel_error= (the run chooses its "
                                  "grids and paths itself)")
-        _check_client(client)
+        check_client(client)
         if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
             raise ValueError(f"checkpoint must be a path, got {checkpoint!r}")
         if seed is None:
@@ -517,23 +504,11 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
             raise ValueError(f"checkpoint must be a path, got {checkpoint!r}")
         if seed is None:
             seed = _ckpt.stored_seed(checkpoint)
-    task_threads = threads
-    _check_client(client)
-    spec, threads = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
-                             threads=threads)
-    run = _Run(spec, threads=threads, checkpoint=checkpoint)
-    bar = None
-    if run.done < run.plan.chunks:
-        bar = progress_bar(progress, total=paths, initial=run.paths_in(0, run.done))
-    try:
-        if client is not None and run.done < run.plan.chunks:
-            _run_distributed([run], client, task_threads, bar)
-        else:
-            _run_local(run, bar)
-    finally:
-        if bar is not None:
-            bar.close()
-    return run.result()
+    check_client(client)
+    spec, cores = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
+                           threads=threads)
+    run = FixedStep(spec, threads=cores, task_threads=threads)
+    return drive(run, checkpoints=checkpoint, client=client, progress=progress)[0]
 
 
 def simulate_many(
@@ -602,8 +577,7 @@ def simulate_many(
         if seed is None:
             stored = [_ckpt.stored_seed(f) for f in files]
             seed = next((x for x in stored if x is not None), None)
-    task_threads = threads
-    _check_client(client)
+    check_client(client)
     runs = []
     for i, scene in enumerate(scenes):
         if not isinstance(scene, Scene):
@@ -611,17 +585,6 @@ def simulate_many(
         spec, t = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
                            threads=threads)
         seed = spec.seed  # a drawn seed is shared by the following scenes
-        runs.append(_Run(spec, threads=t, checkpoint=files[i]))
-    bar = progress_bar(progress, total=sum(r.paths for r in runs),
-                        initial=sum(r.paths_in(0, r.done) for r in runs))
-    try:
-        if client is not None:
-            _run_distributed(runs, client, task_threads, bar)
-        else:
-            for run in runs:
-                _run_local(run, bar)
-    finally:
-        if bar is not None:
-            bar.close()
-    results = [run.result() for run in runs]
+        runs.append(FixedStep(spec, threads=t, task_threads=threads))
+    results = drive(runs, checkpoints=files, client=client, progress=progress)
     return _dataset.sweep(results) if dataset else results
