@@ -357,8 +357,12 @@ def test_checkpoint_of_another_run_is_refused(tmp_path):
         crandall.simulate(sc, error=4e-2, seed=1, threads=1, checkpoint=ckpt)
     with pytest.raises(ValueError, match="belongs to a different run \\(seed: checkpoint has 1, this run 2\\)"):
         crandall.simulate(sc, error=5e-2, seed=2, threads=1, checkpoint=ckpt)
+    # One format for every estimator: a fixed-step run's checkpoint is refused by name.
+    with pytest.raises(ValueError, match=r"is a checkpoint of a run to an accuracy \(error=\), "
+                                         r"not of a fixed-step run \(paths=\) \(field estimator\)"):
+        crandall.simulate(sc, paths=100, seed=1, threads=1, checkpoint=ckpt)
     ckpt.write_text("{not json")
-    with pytest.raises(ValueError, match="is not a checkpoint of a run to an accuracy"):
+    with pytest.raises(ValueError, match="is not a crandall checkpoint"):
         crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=ckpt)
 
 
@@ -369,16 +373,22 @@ def _edited(tmp_path, edit, *, reseal):
     from crandall import adaptive
 
     sc = crandall.Scene.scaled(tau0=2.0, times=[1.0], observe=["distance"])
-    path = tmp_path / "d.json"
+    path = tmp_path / "d.ckpt"
     if not path.exists():
         crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=path)
-    state = _json.loads(path.read_text())
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    # The checkpoint's identity and the estimator's state (a JSON text with its checksum).
+    state = {"identity": _json.loads(str(arrays["identity"])),
+             **_json.loads(str(arrays["state"]))}
     edit(state)
+    ident = state.pop("identity")
     if reseal:
         state.pop("checksum")
         state["checksum"] = adaptive._checksum(state)
     bad = tmp_path / "bad.json"
-    bad.write_text(_json.dumps(state))
+    with open(bad, "wb") as f:
+        np.savez(f, identity=np.array(_json.dumps(ident)), state=np.array(_json.dumps(state)))
     return sc, bad
 
 
@@ -415,7 +425,7 @@ def test_edited_checkpoints_are_refused_naming_the_file_and_the_field(tmp_path, 
 def test_a_checkpoint_of_the_older_format_is_refused(tmp_path):
     sc, bad = _edited(tmp_path, _set(("identity", "format_version"), 1), reseal=False)
     with pytest.raises(ValueError, match="with checkpoint format 1; this crandall uses checkpoint "
-                                         "format 3"):
+                                         "format 4"):
         crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=bad)
 
 

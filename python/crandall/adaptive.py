@@ -35,9 +35,8 @@ from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from . import _core, bias
-from ._files import check_file_writable, refuse_other_run, refuse_other_version, write_atomic
-from ._resources import available_memory, progress_bar
-from ._version import __version__
+from ._resources import available_memory
+from .driver import Estimator, Progress, Task, drive
 from .quantities import VELOCITY, DISPLACEMENT, DISTANCE, core_flags, names_for, quantity
 from .model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds, ito_constant
 from .results import AccuracyResult, StatisticsWarning
@@ -313,7 +312,13 @@ def _triu(w: int):
     return np.triu_indices(w)
 
 
-class _Engine:
+class _Engine(Estimator):
+    """A run to an accuracy as the driver's estimator (:mod:`crandall.driver`): rounds of
+    batches per level, each round's allocation decided from the merged sums."""
+
+    name = "accuracy"
+    checkpoint_seconds = 1.0  # CHECKPOINT_SECONDS, read when the module is loaded
+
     def __init__(self, scene: Scene, *, eps: Optional[float], rel: Optional[float], seed: int,
                  threads: int, statistics: Optional[set] = None) -> None:
         self.scene = scene
@@ -327,7 +332,7 @@ class _Engine:
         self.levels: List[_Level] = []
         self.centre = None
         self.path_steps = 0
-        self.rounds = 0
+        self.round_count = 0
         # Feature columns: per target one (mean) or two (var: first and second power).
         self.cols: List[Tuple[int, int]] = []
         for i, t in enumerate(self.targets):
@@ -355,12 +360,10 @@ class _Engine:
         self.sums_width = sum(w + w * (w + 1) // 2 for w in self.widths)
         #: What is left of the current round: [level, paths] to grow to, in order.
         self.pending: Optional[List[List[int]]] = None
-        self.checkpoint = None
-        self.bar = None
+        self.checkpoint = None  # where the driver keeps the state (for messages only)
+        self.text = ""  # the progress bar's text
         self.max_seconds = MAX_SECONDS
-        self.client = None
         self.task_threads = 1
-        self.last_save = -math.inf
         self.started = time.perf_counter()
         self.wall_before = 0.0
         self.level_targets = [i for i, t in enumerate(self.targets) if not t.exact]
@@ -523,9 +526,37 @@ class _Engine:
             lev.sums = _Sums(self.widths)
         lev.sums.add(n, flat)
         self.path_steps += n * lev.cost
-        self._save()
 
-    def _simulate(self, lev: _Level, first: int, count: int) -> None:
+    def merge(self, task, output) -> None:
+        """A batch's flat sums; or the first batch's samples, which fix the centring constants
+        and, on the base level, the control coefficients."""
+        level, first, n = task.key
+        lev = self.levels[level]
+        if first is None:
+            self._add(lev, n, np.asarray(output))
+            return
+        block, controls = output
+        if self.centre is None:
+            # The first batch of a run fixes the centring constants (its means: they only
+            # keep the sums of squares well conditioned, any fixed value gives an unbiased
+            # estimate). Every column's sum in one call (each group's sums are those of a call
+            # per column, so the bits are too).
+            values = self._values(block)
+            sums = _core.sum_products(values, [1] * values.shape[1], self.threads)
+            self.centre = np.array([float(x) / len(values) for x in sums[0::2]])
+        if lev.controls and self.beta is None:
+            # On the base level the first batch fits the control coefficients; its paths are
+            # then left out of the estimate.
+            self._fit_controls(block, controls)
+            lev.start = first + n
+            self.path_steps += n * lev.cost
+        else:
+            self._add(lev, n, _core.sum_products(
+                self._features(block, lev.level, controls), self.widths, self.threads))
+
+    def _simulate(self, lev: _Level, first: int, count: int):
+        """The batches of paths [first, first + count) of a level (a generator of the
+        driver's batches)."""
         batches = []
         done = 0
         while done < count:
@@ -533,42 +564,22 @@ class _Engine:
             batches.append((first + done, n))
             done += n
         if self.centre is None or (lev.controls and self.beta is None):
-            # The first batch of a run fixes the centring constants (its means: they only
-            # keep the sums of squares well conditioned, any fixed value gives an unbiased
-            # estimate) and, on the base level, the control coefficients (then its paths are
-            # left out of the estimate).
+            # Run here (its samples are used at once, from the level's buffers): the first
+            # batch fixes what every later batch's features need.
             start, n = batches.pop(0)
-            block, controls = lev.samples(start, n)
-            if self.centre is None:
-                # Every column's sum in one call (each group's sums are those of a call per
-                # column, so the bits are too).
-                values = self._values(block)
-                sums = _core.sum_products(values, [1] * values.shape[1], self.threads)
-                self.centre = np.array([float(x) / len(values) for x in sums[0::2]])
-            if lev.controls and self.beta is None:
-                self._fit_controls(block, controls)
-                lev.start = start + n
-                self.path_steps += n * lev.cost
-                self._save()
-            else:
-                self._add(lev, n, _core.sum_products(
-                    self._features(block, lev.level, controls), self.widths, self.threads))
-        if self.client is None:
-            for start, n in batches:
-                self._add(lev, n, self._batch(lev, start, n))
+            yield [Task(None, (), functools.partial(lev.samples, start, n), n,
+                        key=(lev.level, start, n))]
+        if not batches:
+            return
+        if self.workers is None:
+            yield [Task(None, (), functools.partial(self._batch, lev, start, n), n,
+                        key=(lev.level, None, n)) for start, n in batches]
             return
         # On a Dask cluster: every batch a task; merged in batch order, so bitwise the local
         # result.
         config = self.config()
-        futures = [self.client.submit(batch_task, config, lev.level, start, n, pure=False)
-                   for start, n in batches]
-        try:
-            for (start, n), fut in zip(batches, futures):
-                self._add(lev, n, np.asarray(fut.result()))
-        except BaseException:
-            for fut in futures:
-                fut.cancel()
-            raise
+        yield [Task(batch_task, (config, lev.level, start, n), None, n,
+                    key=(lev.level, None, n)) for start, n in batches]
 
     def config(self) -> Dict:
         """What a Dask worker needs to rebuild this engine (plain data)."""
@@ -589,13 +600,13 @@ class _Engine:
                 self.levels[0].control_slots = self.control_slots
         return self.levels[level]
 
-    def _grow(self, level: int, target: int) -> None:
+    def _grow(self, level: int, target: int):
         lev = self._level(level)
         have = lev.sums.n if lev.sums is not None else 0
         if lev.controls and self.beta is None:
-            self._simulate(lev, 0, PILOT_PATHS)  # the pilot: coefficients only
+            yield from self._simulate(lev, 0, PILOT_PATHS)  # the pilot: coefficients only
         if target > have:
-            self._simulate(lev, lev.start + have, target - have)
+            yield from self._simulate(lev, lev.start + have, target - have)
 
     # -- estimates ------------------------------------------------------------------------
 
@@ -674,8 +685,9 @@ class _Engine:
             f"{'error' if self.eps is not None else 'rel_error'}: {self._target_text()} "
             f"cannot be reached for the {t.stat} of {t.name}: {why}; ask for a larger one")
 
-    def run(self) -> None:
-        """Run the schedule to its end (or on from a checkpoint's state)."""
+    def rounds(self):
+        """The schedule to its end (or on from a checkpoint's state), as the driver's
+        batches."""
         if self.pending is None:
             deepest = 2 if self.level_targets and self.integrals else 0
             self.pending = [[level, PILOT_PATHS] for level in range(deepest + 1)]
@@ -693,10 +705,10 @@ class _Engine:
         while True:
             while self.pending:
                 level, target = self.pending[0]
-                self._grow(level, target)
+                yield from self._grow(level, target)
                 self.pending.pop(0)
-            self._save(force=True)
-            self.rounds += 1
+            yield []  # the round's end: a checkpoint
+            self.round_count += 1
             est = self.estimates()
             want = [lev.sums.n for lev in self.levels]
             done = True
@@ -745,7 +757,7 @@ class _Engine:
                 raise ValueError(
                     f"max_seconds: reaching {self._target_text()} would take about "
                     f"{seconds:.3g} s more ({left:.3g} path-steps at the {rate:.3g} per second "
-                    f"measured so far, after {self.rounds} rounds), beyond max_seconds="
+                    f"measured so far, after {self.round_count} rounds), beyond max_seconds="
                     f"{self.max_seconds:g}; raise max_seconds or ask for a larger target"
                     + (" (the checkpoint keeps what was done)" if self.checkpoint else ""))
             if deeper and len(self.levels) <= MAX_LEVELS:
@@ -765,69 +777,60 @@ class _Engine:
                     self.pending.append([level, n])
 
     def _show(self, worst: float, seconds: float) -> None:
-        if self.bar is None:
-            return
         left = ("done" if seconds == 0 else "estimating" if math.isnan(seconds)
                 else f"about {seconds:.3g} s left")
-        self.bar.set_postfix_str(f"round {self.rounds}, error/target {worst:.3g}, {left}",
-                                 refresh=True)
+        self.text = f"round {self.round_count}, error/target {worst:.3g}, {left}"
+
+    def progress(self) -> Progress:
+        return Progress(text=self.text)
+
+    def result(self) -> AccuracyResult:
+        return _result(self, self.wall_before + time.perf_counter() - self.started)
 
     # -- checkpoints ----------------------------------------------------------------------
 
     def identity(self) -> Dict:
-        return {"format": CHECKPOINT_FORMAT, "format_version": CHECKPOINT_VERSION,
-                "crandall": __version__, "random_stream": int(_core.RANDOM_STREAM),
-                "scene": self.scene.to_dict(), "error": self.eps, "rel_error": self.rel,
+        """The run's spec: what makes two runs the same run (in a checkpoint's identity)."""
+        return {"scene": self.scene.to_dict(), "error": self.eps, "rel_error": self.rel,
                 "seed": self.seed,
                 "statistics": [f"{t.name}:{t.stat}" for t in self.targets]}
 
-    def state(self) -> Dict:
-        return {"identity": self.identity(),
-                "centre": None if self.centre is None else [float(c) for c in self.centre],
-                "beta": self.beta, "path_steps": self.path_steps, "rounds": self.rounds,
+    def _state(self) -> Dict:
+        return {"centre": None if self.centre is None else [float(c) for c in self.centre],
+                "beta": self.beta, "path_steps": self.path_steps, "rounds": self.round_count,
                 "wall_time": self.wall_before + (time.perf_counter() - self.started),
                 "pending": self.pending,
                 "levels": [{"start": lev.start, "n": 0 if lev.sums is None else lev.sums.n,
                             "flat": None if lev.sums is None else [float(v) for v in lev.sums.flat]}
                            for lev in self.levels]}
 
-    def _save(self, force: bool = False) -> None:
-        if self.checkpoint is None:
-            return
-        now = time.perf_counter()
-        if not force and now - self.last_save < CHECKPOINT_SECONDS:
-            return
-        state = self.state()
-        state["checksum"] = _checksum(state)
-        text = json.dumps(state)
-        write_atomic(self.checkpoint, lambda f: f.write(text.encode("utf-8")))
-        self.last_save = now
+    def state(self) -> Dict[str, np.ndarray]:
+        """The state as one JSON text (floats written exactly, as Python's repr round-trips
+        them) with its checksum."""
+        st = self._state()
+        st["checksum"] = _checksum(st)
+        return {"state": np.array(json.dumps(st))}
 
-    def restore(self, path) -> None:
-        """Carry on from the checkpoint at ``path`` (nothing if there is none)."""
-        if not os.path.exists(path):
-            return
+    def restore(self, arrays: Dict[str, np.ndarray], path) -> None:
+        """Carry on from a checkpoint's state (its identity already matched this run's)."""
         where = f"checkpoint: {os.fspath(path)}"
+        raw = arrays.get("state")
         try:
-            with open(path, "rb") as f:
-                st = json.loads(f.read().decode("utf-8"))
-        except (OSError, ValueError, UnicodeDecodeError) as exc:
-            raise ValueError(f"{where} is not a checkpoint of a run to an accuracy "
-                             f"(unreadable: {exc})") from None
-        if not isinstance(st, dict) or not isinstance(st.get("identity"), dict):
-            raise ValueError(f"{where} is not a checkpoint of a run to an accuracy")
-        mine = json.loads(json.dumps(self.identity()))
-        theirs = st["identity"]
-        refuse_other_version(path, theirs, mine, (("format", "format"),
-                                                  ("format_version", "checkpoint format"),
-                                                  ("random_stream", "random stream")))
+            if set(arrays) != {"state"} or raw.shape != () or raw.dtype.kind != "U":
+                raise ValueError("not one text")
+            st = json.loads(str(raw))
+        except ValueError as exc:
+            raise ValueError(f"{where} is not a checkpoint of a run to an accuracy (field "
+                             f"state: {exc})") from None
+        if not isinstance(st, dict):
+            raise ValueError(f"{where} is not a checkpoint of a run to an accuracy (field "
+                             "state: not a table)")
         # Every edit is refused, even one that keeps the fields consistent with each other (a
         # level's path count and its sums changed together): the file is the run's own only
         # if its checksum matches.
         if st.get("checksum") != _checksum({k: v for k, v in st.items() if k != "checksum"}):
             raise ValueError(f"{where} is damaged (field checksum: it does not match the "
                              "contents, which were edited or damaged); remove it to start again")
-        refuse_other_run(path, theirs, mine)
         try:
             self._restore_fields(st)
         except (KeyError, TypeError, ValueError, OverflowError) as exc:
@@ -875,7 +878,7 @@ class _Engine:
         self.path_steps = _nonneg_int(st["path_steps"], "path_steps")
         if self.path_steps != steps:
             raise ValueError("path_steps")
-        self.rounds = _nonneg_int(st["rounds"], "rounds")
+        self.round_count = _nonneg_int(st["rounds"], "rounds")
         wall = st["wall_time"]
         if isinstance(wall, bool) or not isinstance(wall, (int, float)) \
                 or not (math.isfinite(wall) and wall >= 0):
@@ -903,12 +906,9 @@ def _nonneg_int(value, field: str) -> int:
     return value
 
 
-#: Checkpoints of runs to an accuracy: a JSON file (floats written exactly, as Python's repr
-#: round-trips them) replaced atomically at most every CHECKPOINT_SECONDS and at every round's
-#: end.
-CHECKPOINT_FORMAT = "crandall-adaptive-checkpoint"
-#: 2: a checksum, every field checked; 3: control sums at CONTROL_SLOTS slots at most.
-CHECKPOINT_VERSION = 3
+#: Checkpoints of runs to an accuracy (crandall.checkpoint's format, the state a JSON text
+#: with a checksum) are replaced atomically at most every CHECKPOINT_SECONDS and at every
+#: round's end.
 CHECKPOINT_SECONDS = 1.0
 
 
@@ -972,7 +972,7 @@ def _result(engine: _Engine, wall: float) -> AccuracyResult:
         levels=[{"level": lev.level, "paths": lev.sums.n, "steps_per_path": lev.cost,
                  "dt": lev.plan.options.dt / 2 ** lev.level}
                 for lev in engine.levels if lev.sums is not None],
-        path_steps=engine.path_steps, rounds=engine.rounds, wall_time=wall)
+        path_steps=engine.path_steps, rounds=engine.round_count, wall_time=wall)
 
 
 #: The result of a run to an accuracy (the name earlier versions gave it).
@@ -1003,7 +1003,6 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
     eps = _check_target("error", error) if error is not None else None
     rel = _check_target("rel_error", rel_error) if rel_error is not None else None
     seed = check_int("seed", seed, 0, MAX_SEED)
-    start = time.perf_counter()
     if "peaks" in scene.observe:
         raise ValueError("observe: 'peaks' is not available with error= or rel_error= (the "
                          "peaks are maxima over the grid, whose shortfall the levels do not "
@@ -1015,17 +1014,7 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
     chosen = _check_statistics(scene, statistics)
     engine = _Engine(scene, eps=eps, rel=rel, seed=seed, threads=threads, statistics=chosen)
     engine.max_seconds = max_seconds
-    engine.check_memory()
-    if checkpoint is not None:
-        check_file_writable(checkpoint, "checkpoint")
-        engine.restore(checkpoint)
-        engine.checkpoint = checkpoint
-    engine.client = client
+    engine.checkpoint = checkpoint
     engine.task_threads = task_threads
-    engine.bar = progress_bar(progress, total=None)
-    try:
-        engine.run()
-    finally:
-        if engine.bar is not None:
-            engine.bar.close()
-    return _result(engine, engine.wall_before + time.perf_counter() - start)
+    engine.checkpoint_seconds = CHECKPOINT_SECONDS
+    return drive(engine, checkpoints=checkpoint, client=client, progress=progress)[0]

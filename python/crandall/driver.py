@@ -51,13 +51,14 @@ class Task(NamedTuple):
     worker runs it). ``local()``, when given, computes the same output in this process (it may
     reuse what the estimator holds, such as a compiled plan); with ``function`` None the task
     always runs here (a step that needs the estimator's state). ``size``: what the task adds to
-    the progress (paths, samples).
+    the progress (paths, samples). ``key``: what the estimator's merge needs to know of it.
     """
 
     function: Optional[Callable[..., Any]]
     args: Tuple[Any, ...] = ()
     local: Optional[Callable[[], Any]] = None
     size: int = 0
+    key: Any = None
 
     def run_here(self) -> Any:
         if self.local is not None:
@@ -192,12 +193,13 @@ class _Slot:
                 return False
             self.batch = batch if isinstance(batch, Sequence) else list(batch)
             self.next = 0
-            if self.batch:
+            if len(self.batch):
                 if self.checkpoint is not None and not self.checked:
                     _ckpt.check_writable(self.checkpoint)  # fail now, not after the work
                     self.checked = True
                 return True
-            self.save(force=True)  # an empty batch: a point to checkpoint at
+            self.dirty = True  # an empty batch: a point to checkpoint at (the estimator's
+            self.save(force=True)  # state moved on without a merge)
 
     def take(self, output) -> None:
         task = self.batch[self.next]
@@ -306,6 +308,7 @@ def _run_here(slot: _Slot, bar: _Bar) -> None:
             slot.take(output)
             bar.show()
         bar.show()
+    bar.show()  # the estimator's last word (its final round's text)
 
 
 def _run_on(client, slots: Sequence[_Slot], bar: _Bar) -> None:
@@ -347,6 +350,7 @@ def _run_on(client, slots: Sequence[_Slot], bar: _Bar) -> None:
             bar.show()
             if s.next == len(s.batch):
                 submit(i)
+                bar.show()
     except KeyboardInterrupt:
         client.cancel(list(futures))
         for s in slots:
