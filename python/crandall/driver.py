@@ -72,7 +72,6 @@ class Progress(NamedTuple):
     done: int = 0
     total: Optional[int] = None
     text: str = ""
-    unit: str = "path"
 
 
 Batch = Sequence[Task]

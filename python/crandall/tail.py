@@ -21,6 +21,7 @@ a fixed-step exact run at the same ``dt``; velocity and stop time have no step b
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 import os
@@ -34,7 +35,7 @@ import numpy as np
 from . import _core
 from . import streams as _streams
 from ._lazy import lazy_module
-from ._resources import progress_bar
+from .driver import Estimator, Progress, Task, check_client, drive
 from .errors import ParameterError
 from .results import StatisticsWarning
 from .scene import Scene
@@ -45,8 +46,6 @@ __all__ = ["tail", "TailResult", "TAIL_QUANTITIES", "TAIL_METHODS"]
 _schedule = lazy_module("crandall.analytic.schedule")
 
 TAIL_METHODS = ("splitting", "importance")
-#: Checkpoint format of a tail run.
-TAIL_CHECKPOINT_FORMAT = 1
 #: A replica's path streams: replica r uses streams r * 2^40 + 0, 1, ...
 _REPLICA_STREAMS = 1 << 40
 #: Thresholds of an importance-sampling run's degeneracy (docs/methods/tails.md): fewer
@@ -538,34 +537,115 @@ class TailResult:
         return ax
 
 
-# -- checkpoints ----------------------------------------------------------------------------
+# -- the run: the driver's estimator -------------------------------------------------------
 
 
-def _checkpoint_load(path, spec):
-    if path is None or not os.path.exists(path):
-        return []
-    try:
-        with open(path) as f:
-            data = json.load(f)
-    except (OSError, ValueError) as e:
-        raise ValueError(f"checkpoint {path}: not a tail checkpoint ({e})") from None
-    if data.get("format") != TAIL_CHECKPOINT_FORMAT or not isinstance(data.get("samples"), list):
-        raise ValueError(f"checkpoint {path}: not a tail checkpoint of format {TAIL_CHECKPOINT_FORMAT}")
-    stored = data.get("spec", {})
-    for k in sorted(set(stored) | set(spec)):
-        if stored.get(k) != spec.get(k):
-            raise ValueError(f"checkpoint {path} is of another run: its {k} is {stored.get(k)!r}, "
-                             f"this run's is {spec.get(k)!r}")
-    return data["samples"]
+def _stats(chosen, splitting: bool, levels: int):
+    """(samples, mean, stderr, per-sample variance) of the estimate from the samples
+    ``chosen``."""
+    if splitting:
+        arr = np.array([c["estimates"] for c in chosen])
+        n = len(arr)
+        var = arr.var(axis=0, ddof=1) if n > 1 else np.full(levels, np.inf)
+        return n, arr.mean(axis=0), np.sqrt(var / n), var
+    n = sum(c["paths"] for c in chosen)
+    s1 = np.sum([c["sum"] for c in chosen], axis=0)
+    s2 = np.sum([c["sum2"] for c in chosen], axis=0)
+    mean = s1 / n
+    var = np.maximum(s2 / n - mean ** 2, 0.0) * n / max(n - 1, 1)
+    return n, mean, np.sqrt(var / n), var
 
 
-def _checkpoint_save(path, spec, samples):
-    if path is None:
-        return
-    tmp = f"{path}.tmp{os.getpid()}"
-    with open(tmp, "w") as f:
-        json.dump({"format": TAIL_CHECKPOINT_FORMAT, "spec": spec, "samples": samples}, f)
-    os.replace(tmp, path)
+class _TailRun(Estimator):
+    """A tail run's samples (splitting replicas or batches of weighted paths) as the driver's
+    estimator: each sample a pure function of the job and its index, run here or as a Dask
+    task; the checkpoint holds the finished samples.
+
+    Two stages, so that when to stop never depends on the estimate itself (stopping when the
+    running error first looks small enough would favour runs whose rare large contributions
+    have not come yet, a bias towards small probabilities): a pilot of ``min_samples`` samples,
+    left out of the estimate, gives the variance per sample, hence the number of samples the
+    target needs; then exactly that many (or fewer when max_samples or max_seconds ends the
+    run: a cut that does not depend on their values either).
+    """
+
+    name = "tail"
+
+    def __init__(self, job, spec, *, threads, per_sample, min_samples, max_samples, rel_error,
+                 max_seconds, started):
+        self.job, self.spec, self.threads = job, spec, threads
+        self.splitting = job["proposal"] is None
+        self.levels = len(job["levels"])
+        self.max_samples, self.rel_error = max_samples, rel_error
+        self.max_seconds, self.started = max_seconds, started
+        self.per_sample = per_sample
+        self.pilot_n = -(-min_samples // per_sample)
+        self.min_samples = min_samples
+        self.samples: List[Dict[str, Any]] = []
+        self.target_n: Optional[int] = None
+        self.wanted = 0
+        self.stopped_early = False
+
+    def identity(self):
+        return self.spec
+
+    def state(self):
+        return {"state": np.array(json.dumps({"samples": self.samples}))}
+
+    def restore(self, arrays, path):
+        raw = arrays.get("state")
+        try:
+            if set(arrays) != {"state"} or raw.shape != () or raw.dtype.kind != "U":
+                raise ValueError("not one text")
+            samples = json.loads(str(raw))["samples"]
+            if not isinstance(samples, list) or not all(isinstance(x, dict) for x in samples):
+                raise ValueError("samples is not a list of tables")
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ValueError(f"checkpoint: {path} is not a checkpoint of a tail run (field "
+                             f"state: {exc})") from None
+        self.samples = samples
+
+    def _tasks(self, first: int, last: int):
+        return [Task(sample, (self.job, i, 1), functools.partial(sample, self.job, i,
+                                                                 self.threads), 1)
+                for i in range(first, last)]
+
+    def rounds(self):
+        # On a cluster a batch of as many samples as it has threads (at least 8); here one
+        # (the time bound is checked between batches).
+        width = 1 if self.workers is None else max(8, self.workers)
+        while len(self.samples) < self.pilot_n:
+            last = self.pilot_n if self.workers is not None else len(self.samples) + 1
+            yield self._tasks(len(self.samples), last)
+        _, pmean, _, pvar = _stats(self.samples[:self.pilot_n], self.splitting, self.levels)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            need = np.where(pmean > 0, pvar / (self.rel_error * pmean) ** 2, np.nan)
+        if np.all(np.isnan(need)):
+            raise StatisticsFailure(
+                f"{'splitting' if self.splitting else 'importance'}: no pilot sample reached "
+                f"level {self.job['levels'][0]:g}; "
+                + ("use more particles" if self.splitting else "use method='splitting'"))
+        # The pilot's variance is itself noisy (and low more often than high for skewed
+        # samples): SAFETY more, and never fewer than the pilot.
+        self.wanted = int(min(self.max_samples,
+                              max(self.min_samples, math.ceil(SAFETY * np.nanmax(need)))))
+        self.target_n = self.pilot_n + max(2, -(-self.wanted // self.per_sample))
+        while len(self.samples) < self.target_n:
+            if _time.perf_counter() - self.started > self.max_seconds:
+                self.stopped_early = True
+                return
+            yield self._tasks(len(self.samples), min(self.target_n, len(self.samples) + width))
+
+    def merge(self, task, output):
+        self.samples.append(output)
+
+    def progress(self):
+        if self.target_n is None:
+            return Progress(len(self.samples), None, "pilot")
+        return Progress(len(self.samples), self.target_n)
+
+    def result(self):
+        return self.samples
 
 
 def _levels(levels) -> np.ndarray:
@@ -674,8 +754,7 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
         seed = int(np.random.SeedSequence().entropy % (1 << 64))
     check_int("seed", seed, 0, (1 << 64) - 1)
     splitting = method == "splitting"
-    if client is not None and not all(callable(getattr(client, a, None)) for a in ("map", "gather", "nthreads")):
-        raise ParameterError("client", f"client must be a distributed.Client (or None), got {client!r}")
+    check_client(client)
     min_samples = check_int("min_samples", min_samples if min_samples is not None else (20 if splitting else 1000), 2, 10 ** 12)
     max_samples = check_int("max_samples", max_samples if max_samples is not None else (100_000 if splitting else 10 ** 8), min_samples, 10 ** 12)
     key = _streams.tail_key(seed)
@@ -693,7 +772,6 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
         return TailResult(quantity, lv, unit, p, z, z.copy(), method, 1, 0.0, 0,
                           {"deterministic": True}, np.ones(len(lv), bool), spec)
     start = _time.perf_counter()
-    samples = _checkpoint_load(checkpoint, spec)
     diagnostics: Dict[str, Any] = {}
     window = drift = 0.0
     if splitting:
@@ -714,81 +792,17 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
            "levels": lv.tolist(), "particles": particles, "key": key,
            "proposal": None if splitting else (window, drift)}
 
-    def one(index: int) -> Dict[str, Any]:
-        return sample(job, index, threads)
-
-    def many(indices) -> List[Dict[str, Any]]:
-        if client is None:
-            return [one(i) for i in indices]
-        futures = client.map(sample, [job] * len(indices), list(indices),
-                             [1] * len(indices), pure=False)
-        return client.gather(futures)
-
-    def stats(chosen):
-        """(samples, mean, stderr, per-sample variance) of the estimate from `chosen`."""
-        if splitting:
-            arr = np.array([c["estimates"] for c in chosen])
-            n = len(arr)
-            var = arr.var(axis=0, ddof=1) if n > 1 else np.full(len(lv), np.inf)
-            return n, arr.mean(axis=0), np.sqrt(var / n), var
-        n = sum(c["paths"] for c in chosen)
-        s1 = np.sum([c["sum"] for c in chosen], axis=0)
-        s2 = np.sum([c["sum2"] for c in chosen], axis=0)
-        mean = s1 / n
-        var = np.maximum(s2 / n - mean ** 2, 0.0) * n / max(n - 1, 1)
-        return n, mean, np.sqrt(var / n), var
-
-    # Two stages, so that when to stop never depends on the estimate itself (stopping when the
-    # running error first looks small enough would favour runs whose rare large contributions
-    # have not come yet, a bias towards small probabilities): a pilot of `min_samples` samples,
-    # left out of the estimate, gives the variance per sample, hence the number of samples the
-    # target needs; then exactly that many (or fewer when max_samples or max_seconds ends the run:
-    # a cut that does not depend on their values either).
-    per_sample = 1 if splitting else particles
-    pilot_n = -(-min_samples // per_sample)
-    bar = progress_bar(progress, total=None)
-    stopped_early = False
-    try:
-        while len(samples) < pilot_n:
-            batch = many(range(len(samples), pilot_n if client is not None else len(samples) + 1))
-            samples.extend(batch)
-            _checkpoint_save(checkpoint, spec, samples)
-            if bar is not None:
-                bar.set_postfix_str("pilot")
-                bar.update(len(batch))
-        _, pmean, _, pvar = stats(samples[:pilot_n])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            need = np.where(pmean > 0, pvar / (rel_error * pmean) ** 2, np.nan)
-        if np.all(np.isnan(need)):
-            raise StatisticsFailure(
-                f"{method}: no pilot sample reached level {lv[0]:g}; "
-                + ("use more particles" if splitting else "use method='splitting'"))
-        # The pilot's variance is itself noisy (and low more often than high for skewed
-        # samples): SAFETY more, and never fewer than the pilot.
-        wanted = int(min(max_samples, max(min_samples, math.ceil(SAFETY * np.nanmax(need)))))
-        target_n = pilot_n + max(2, -(-wanted // per_sample))
-        diagnostics["pilot_samples"] = pilot_n * per_sample
-        if bar is not None:
-            bar.reset(total=target_n)
-            bar.update(len(samples))
-        while len(samples) < target_n:
-            if _time.perf_counter() - start > max_seconds:
-                stopped_early = True
-                break
-            # On a cluster, a batch of as many samples as it has threads (at least 8).
-            width = 1 if client is None else max(8, sum(client.nthreads().values()))
-            batch = many(range(len(samples), min(target_n, len(samples) + width)))
-            samples.extend(batch)
-            _checkpoint_save(checkpoint, spec, samples)
-            if bar is not None:
-                bar.update(len(batch))
-    finally:
-        if bar is not None:
-            bar.close()
+    run = _TailRun(job, spec, threads=threads, per_sample=1 if splitting else particles,
+                   min_samples=min_samples, max_samples=max_samples, rel_error=rel_error,
+                   max_seconds=max_seconds, started=start)
+    drive(run, checkpoints=checkpoint, client=client, progress=progress)
+    samples, pilot_n, wanted, stopped_early = (run.samples, run.pilot_n, run.wanted,
+                                               run.stopped_early)
+    diagnostics["pilot_samples"] = pilot_n * (1 if splitting else particles)
     used = samples[pilot_n:]
     if len(used) < 2:
         raise StatisticsFailure(f"{method}: stopped by max_seconds before the estimate's samples ran")
-    n, mean, se, _ = stats(used)
+    n, mean, se, _ = _stats(used, splitting, len(lv))
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(mean > 0, se / mean, np.inf)
     reliable = mean > 0
