@@ -148,12 +148,13 @@ def _check_identity(path, ident) -> None:
         raise _refuse(path, "identity is not a table")
     if ident.get("format") != FORMAT:
         raise _refuse(path, f"identity.format is {ident.get('format')!r}, not {FORMAT!r}")
-    kinds = {"format_version": _is_int, "crandall": lambda v: isinstance(v, str),
-             "scene": lambda v: isinstance(v, dict),
-             "seed": lambda v: _is_int(v) and 0 <= v < 1 << 64}
-    # Before format 4 every checkpoint was a fixed-step run's.
+    kinds = {"format_version": _is_int, "crandall": lambda v: isinstance(v, str)}
+    # Before format 4 every checkpoint was a fixed-step run's. Other estimators' fields are
+    # compared with the run's own (read names every one that differs).
     if ident.get("estimator", PATHS) == PATHS:
-        kinds.update({"paths": lambda v: _is_int(v) and v >= 1,
+        kinds.update({"scene": lambda v: isinstance(v, dict),
+                      "seed": lambda v: _is_int(v) and 0 <= v < 1 << 64,
+                      "paths": lambda v: _is_int(v) and v >= 1,
                       "dt": lambda v: isinstance(v, float) and math.isfinite(v) and v > 0,
                       "method": lambda v: isinstance(v, str)})
     for key, ok in kinds.items():
@@ -264,7 +265,9 @@ def stored_seed(path) -> Optional[int]:
     """The seed recorded in an existing checkpoint, or None if there is no file."""
     if not isinstance(path, (str, os.PathLike)) or not os.path.isfile(path):
         return None
-    return int(_read(path)[0]["seed"])
+    seed = _read(path)[0].get("seed")
+    # Another estimator's checkpoint may have none: reading it as this run's refuses it.
+    return seed if _is_int(seed) and 0 <= seed < 1 << 64 else None
 
 
 def load(path, ident: Dict[str, Any], chunks: int, histograms=((), ())):

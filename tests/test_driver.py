@@ -1,0 +1,165 @@
+"""The driver (crandall.driver) and the recipe "... an estimator" of docs/architecture.md.
+
+The toy estimator below follows the recipe as written: a module of its own with an
+``Estimator`` subclass, its name in ``checkpoint.ESTIMATORS`` and a random stream of its own
+from ``crandall.streams``. It estimates E V(tau) of the paper's scene (0 by symmetry) in two
+stages, as the real estimators do: a pilot of two batches, then as many batches as the
+pilot's variance says a target standard error needs. The tests check that the driver gives it,
+with no code of its own, what it gives the fixed-step, accuracy and tail runs: the same bits
+locally, after an interruption and resume, and on a Dask cluster; checkpoints refused for
+another run or estimator naming the field; the progress text.
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+import crandall
+from crandall import _core, checkpoint, driver, streams
+
+TAU = 1.0
+BATCH = 4000
+#: The toy's stream (a number no other estimator uses: see crandall.streams).
+TOY_STREAM = (1 << 20) + 100
+
+
+def toy_batch(key: int, index: int, n: int) -> list:
+    """One batch: the sum and sum of squares of n exact samples of the scaled V(TAU) from
+    rest (a pure function of its arguments: a Dask worker runs it)."""
+    v = _core.exact_steps(np.zeros(n), TAU, 2.0, math.sqrt(2.0), streams.key(key, index))
+    return [float(v.sum()), float((v * v).sum()), n]
+
+
+class Toy(driver.Estimator):
+    name = "toy"
+
+    def __init__(self, seed: int, stderr: float):
+        self.seed, self.target = seed, stderr
+        self.key = streams.key(seed, TOY_STREAM)
+        self.sums = []  # per batch: [sum, sum of squares, n]
+        self.planned = None
+
+    def identity(self):
+        return {"seed": self.seed, "stderr": self.target}
+
+    def state(self):
+        return {"sums": np.array(self.sums, dtype=float).reshape(-1, 3)}
+
+    def restore(self, arrays, path):
+        self.sums = [list(map(float, row)) for row in arrays["sums"]]
+        self.sums = [[a, b, int(n)] for a, b, n in self.sums]
+
+    def _tasks(self, first, last):
+        return [driver.Task(toy_batch, (self.key, i, BATCH), size=BATCH)
+                for i in range(first, last)]
+
+    def rounds(self):
+        if len(self.sums) < 2:
+            yield self._tasks(len(self.sums), 2)  # the pilot
+        s, s2, n = (sum(col) for col in zip(*self.sums[:2]))
+        var = s2 / n - (s / n) ** 2
+        self.planned = 2 + max(1, math.ceil(var / self.target ** 2 / BATCH))
+        while len(self.sums) < self.planned:
+            yield self._tasks(len(self.sums), min(self.planned, len(self.sums) + 3))
+
+    def merge(self, task, output):
+        self.sums.append(output)
+
+    def progress(self):
+        return driver.Progress(len(self.sums), self.planned,
+                               "" if self.planned else "pilot")
+
+    def result(self):
+        s, s2, n = (sum(col) for col in zip(*self.sums[2:]))
+        mean = s / n
+        return mean, math.sqrt((s2 / n - mean * mean) / n), n
+
+
+@pytest.fixture
+def toy(monkeypatch):
+    monkeypatch.setitem(checkpoint.ESTIMATORS, "toy", "the toy estimator of the tests")
+
+
+def test_a_new_estimator_runs_with_no_driver_change(toy):
+    mean, se, n = driver.drive(Toy(7, 0.01), progress=False)[0]
+    # The pilot's 8000 paths estimate Var V to about 2 % (sqrt(2 / 8000)); the plan rounds
+    # the batches up: the standard error is at most the target give or take that.
+    assert n % BATCH == 0 and n >= 2 * BATCH
+    assert se < 0.01 * 1.1
+    assert abs(mean) < 4 * se  # E V = 0 by symmetry; 4 standard errors: fails 1 in 16000
+    again = driver.drive(Toy(7, 0.01), progress=False)[0]
+    assert again == (mean, se, n)
+
+
+def test_an_interrupted_estimator_resumes_bitwise_and_redoes_nothing(toy, tmp_path,
+                                                                     monkeypatch):
+    whole = driver.drive(Toy(3, 0.005), progress=False)[0]
+    path = tmp_path / "toy.ckpt"
+    calls = []
+
+    def interrupting(key, index, n):
+        if index == 4:
+            raise KeyboardInterrupt
+        calls.append(index)
+        return toy_batch(key, index, n)
+
+    monkeypatch.setattr(Toy, "_tasks", lambda self, a, b: [
+        driver.Task(interrupting, (self.key, i, BATCH)) for i in range(a, b)])
+    with pytest.raises(KeyboardInterrupt):
+        driver.drive(Toy(3, 0.005), checkpoints=path, progress=False)
+    assert calls == [0, 1, 2, 3]  # the pilot and the first of the planned batches
+    with np.load(path) as data:
+        assert data["sums"].shape == (4, 3)  # what finished was kept
+    calls.clear()
+    monkeypatch.undo()
+    monkeypatch.setitem(checkpoint.ESTIMATORS, "toy", "the toy estimator of the tests")
+    counted = []
+    real = Toy._tasks
+    monkeypatch.setattr(Toy, "_tasks", lambda self, a, b: counted.extend(range(a, b))
+                        or real(self, a, b))
+    resumed = driver.drive(Toy(3, 0.005), checkpoints=path, progress=False)[0]
+    assert resumed == whole
+    assert counted and min(counted) == 4  # nothing finished was run again
+    # Another run's checkpoint is refused naming the field; another estimator's naming it.
+    with pytest.raises(ValueError, match=r"belongs to a different run \(seed: checkpoint has "
+                                         r"3, this run 4\)"):
+        driver.drive(Toy(4, 0.005), checkpoints=path, progress=False)
+    fixed = tmp_path / "fixed.ckpt"
+    crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[1.0]), paths=100, seed=3,
+                      checkpoint=fixed)
+    with pytest.raises(ValueError, match="is a checkpoint of a fixed-step run .* not of the "
+                                         "toy estimator of the tests \\(field estimator\\)"):
+        driver.drive(Toy(3, 0.005), checkpoints=fixed, progress=False)
+
+
+def test_the_progress_bar_shows_the_estimators_progress(toy, capsys):
+    driver.drive(Toy(5, 0.05), progress=True)
+    err = capsys.readouterr().err
+    assert "crandall" in err
+
+
+def test_a_new_estimator_on_a_cluster_is_bitwise_local(toy):
+    distributed = pytest.importorskip("distributed")
+    local = driver.drive(Toy(9, 0.02), progress=False)[0]
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
+                                  scheduler_port=0, dashboard_address=":0",
+                                  worker_dashboard_address=None) as cluster, \
+            distributed.Client(cluster) as client:
+        remote = driver.drive(Toy(9, 0.02), client=client, progress=False)[0]
+    assert remote == local
+
+
+def test_a_client_without_what_the_driver_calls_is_refused(toy):
+    with pytest.raises(ValueError, match="client must be a distributed.Client"):
+        driver.drive(Toy(1, 0.1), client=object())
+
+
+def test_several_estimators_keep_their_own_checkpoints(toy, tmp_path):
+    paths = [tmp_path / "a.ckpt", tmp_path / "b.ckpt"]
+    out = driver.drive([Toy(1, 0.05), Toy(2, 0.05)], checkpoints=paths, progress=False)
+    assert out == [driver.drive(Toy(s, 0.05), progress=False)[0] for s in (1, 2)]
+    for p, seed in zip(paths, (1, 2)):
+        with np.load(p) as data:
+            assert json.loads(str(data["identity"]))["seed"] == seed
