@@ -320,8 +320,8 @@ def simulate(
         each output time and at the stop) is at most ``error``, in the scene's units. Returns a
         :class:`crandall.adaptive.AdaptiveResult`, whose ``error``, ``bias``, ``stderr`` and
         ``interval`` report it. Not with ``paths``, ``dt``, ``method`` or ``client``; with
-        ``checkpoint`` the run's state is kept in that file (a JSON file, replaced atomically
-        at most every second and at the end of every round) and a rerun with the same
+        ``checkpoint`` the run's state is kept in that file (crandall's checkpoint format,
+        replaced atomically at most every second and at the end of every round) and a rerun with the same
         arguments carries on from it, to a result bitwise the same as an uninterrupted run's.
         ``seed`` None draws one; give a seed to resume. One ``error`` applies to every
         statistic in its own units: a mean energy in J, its variance in J^2. To ask the means

@@ -719,9 +719,10 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
         Run the samples as Dask tasks on this cluster (one thread each; bitwise the same result
         as a local run).
     checkpoint : str or path, optional
-        A JSON file of the finished samples: a run with the same arguments resumes from it, and
-        an interrupted run (Ctrl-C) loses only the replica or batch in progress. A file of
-        another run is refused, naming the argument that differs.
+        A file of the finished samples (crandall's checkpoint format): a run with the same
+        arguments resumes from it, and an interrupted run (Ctrl-C) loses only the replica or
+        batch in progress. A file of another run or estimator is refused, naming the
+        arguments that differ.
 
     Returns
     -------
