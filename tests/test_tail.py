@@ -179,6 +179,15 @@ def test_the_result_does_not_depend_on_threads_and_a_checkpoint_resumes_bitwise(
     assert resumed.probability.tobytes() == one.probability.tobytes()
     with pytest.raises(ValueError, match="levels"):
         tail(PAPER, "stop_time", [13.0], threads=2, checkpoint=str(path), **args)
+    # A damaged state is refused naming the file and the field; so is another run's estimator.
+    for state in ("[1, 2]", '{"samples": 3}', "{not json"):
+        with open(path, "wb") as f:
+            np.savez(f, identity=arrays["identity"], state=np.array(state))
+        with pytest.raises(ValueError, match=r"tail.ckpt is not a checkpoint of a tail run "
+                                             r"\(field state"):
+            tail(PAPER, "stop_time", [12.0], threads=2, checkpoint=str(path), **args)
+    with pytest.raises(ValueError, match="is a checkpoint of a tail run"):
+        crandall.simulate(PAPER, paths=10, seed=5, checkpoint=path)
 
 
 def test_bad_input_is_refused_naming_the_parameter():

@@ -36,6 +36,7 @@ import numpy as np
 
 from . import _core, bias
 from ._resources import available_memory
+from .checkpoint import json_state, read_json_state
 from .driver import Estimator, Progress, Task, drive
 from .quantities import VELOCITY, DISPLACEMENT, DISTANCE, core_flags, names_for, quantity
 from .model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds, ito_constant
@@ -809,22 +810,12 @@ class _Engine(Estimator):
         them) with its checksum."""
         st = self._state()
         st["checksum"] = _checksum(st)
-        return {"state": np.array(json.dumps(st))}
+        return json_state(st)
 
     def restore(self, arrays: Dict[str, np.ndarray], path) -> None:
         """Carry on from a checkpoint's state (its identity already matched this run's)."""
         where = f"checkpoint: {os.fspath(path)}"
-        raw = arrays.get("state")
-        try:
-            if set(arrays) != {"state"} or raw.shape != () or raw.dtype.kind != "U":
-                raise ValueError("not one text")
-            st = json.loads(str(raw))
-        except ValueError as exc:
-            raise ValueError(f"{where} is not a checkpoint of a run to an accuracy (field "
-                             f"state: {exc})") from None
-        if not isinstance(st, dict):
-            raise ValueError(f"{where} is not a checkpoint of a run to an accuracy (field "
-                             "state: not a table)")
+        st = read_json_state(path, arrays, "a run to an accuracy")
         # Every edit is refused, even one that keeps the fields consistent with each other (a
         # level's path count and its sums changed together): the file is the run's own only
         # if its checksum matches.

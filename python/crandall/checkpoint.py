@@ -36,7 +36,7 @@ from .spec import RunSpec
 from ._files import (check_file_writable, check_folder_writable, check_moments,
                      refuse_other_run, refuse_other_version, write_atomic)
 
-__all__ = ["identity", "run_identity", "read", "write", "read_state", "write_state", "load",
+__all__ = ["identity", "run_identity", "read", "write", "json_state", "read_json_state", "load",
            "restore", "save", "state", "stored_seed",
            "check_writable", "make_folder"]
 
@@ -241,24 +241,26 @@ def write(path, ident: Dict[str, Any], arrays: Dict[str, np.ndarray]) -> None:
     write_atomic(path, lambda f: np.savez(f, **out))
 
 
-def read_state(path, ident: Dict[str, Any]) -> Optional[Dict[str, Any]]:
-    """:func:`read` for a state kept as one JSON text (the array ``state``), parsed."""
-    arrays = read(path, ident)
-    if arrays is None:
-        return None
-    raw = arrays.get("state")
-    if set(arrays) != {"state"} or raw.shape != () or raw.dtype.kind != "U":
-        raise _refuse(path, "state is missing or not a text")
-    try:
-        return json.loads(str(raw))
-    except ValueError:
-        raise _refuse(path, "state is not JSON") from None
-
-
-def write_state(path, ident: Dict[str, Any], state: Dict[str, Any]) -> None:
-    """:func:`write` of a state kept as one JSON text (floats as Python writes them, which
+def json_state(state: Dict[str, Any]) -> Dict[str, np.ndarray]:
+    """A state kept as one JSON text (the array ``state``; floats as Python writes them, which
     read back exactly)."""
-    write(path, ident, {"state": np.array(json.dumps(state))})
+    return {"state": np.array(json.dumps(state))}
+
+
+def read_json_state(path, arrays: Dict[str, np.ndarray], what: str) -> Dict[str, Any]:
+    """:func:`json_state`'s table read back from :func:`read`'s arrays; a ValueError naming the
+    file, ``what`` (the kind of run) and the field ``state`` if it is not one."""
+    raw = arrays.get("state")
+    try:
+        if set(arrays) != {"state"} or raw.shape != () or raw.dtype.kind != "U":
+            raise ValueError("not one text")
+        st = json.loads(str(raw))
+        if not isinstance(st, dict):
+            raise ValueError("not a table")
+    except ValueError as exc:
+        raise ValueError(f"checkpoint: {os.fspath(path)} is not a checkpoint of {what} (field "
+                         f"state: {exc})") from None
+    return st
 
 
 def stored_seed(path) -> Optional[int]:

@@ -24,7 +24,6 @@ from __future__ import annotations
 import functools
 import json
 import math
-import os
 import time as _time
 import warnings
 from dataclasses import dataclass, field
@@ -35,6 +34,7 @@ import numpy as np
 from . import _core
 from . import streams as _streams
 from ._lazy import lazy_module
+from .checkpoint import json_state, read_json_state
 from .driver import Estimator, Progress, Task, check_client, drive
 from .errors import ParameterError
 from .results import StatisticsWarning
@@ -590,19 +590,13 @@ class _TailRun(Estimator):
         return self.spec
 
     def state(self):
-        return {"state": np.array(json.dumps({"samples": self.samples}))}
+        return json_state({"samples": self.samples})
 
     def restore(self, arrays, path):
-        raw = arrays.get("state")
-        try:
-            if set(arrays) != {"state"} or raw.shape != () or raw.dtype.kind != "U":
-                raise ValueError("not one text")
-            samples = json.loads(str(raw))["samples"]
-            if not isinstance(samples, list) or not all(isinstance(x, dict) for x in samples):
-                raise ValueError("samples is not a list of tables")
-        except (ValueError, KeyError, TypeError) as exc:
+        samples = read_json_state(path, arrays, "a tail run").get("samples")
+        if not isinstance(samples, list) or not all(isinstance(x, dict) for x in samples):
             raise ValueError(f"checkpoint: {path} is not a checkpoint of a tail run (field "
-                             f"state: {exc})") from None
+                             "state: samples is not a list of tables)")
         self.samples = samples
 
     def _tasks(self, first: int, last: int):
