@@ -163,3 +163,22 @@ def test_several_estimators_keep_their_own_checkpoints(toy, tmp_path):
     for p, seed in zip(paths, (1, 2)):
         with np.load(p) as data:
             assert json.loads(str(data["identity"]))["seed"] == seed
+
+
+def test_the_bias_estimate_runs_under_the_driver_with_the_same_bits_in_any_batches(monkeypatch):
+    from crandall import bias
+
+    sc = crandall.Scene.scaled(tau0=1.0, times=[0.5, 1.0], observe=["distance", "stop"])
+    r = crandall.simulate(sc, paths=20000, seed=2, method="exact")
+    whole = {k: v[0].tobytes() for k, v in bias.estimate(r).items()}
+    seen = []
+    real = driver.drive
+
+    def spy(est, **kw):
+        seen.append(type(est).__name__)
+        return real(est, **kw)
+
+    monkeypatch.setattr(bias, "drive", spy)
+    monkeypatch.setattr(bias, "BATCH_PATHS", 3000)  # 7 batches, the last one short
+    split = {k: v[0].tobytes() for k, v in bias.estimate(r).items()}
+    assert seen == ["_CoupledRun"] and split == whole

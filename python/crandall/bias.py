@@ -41,6 +41,7 @@ difference (twice its bound where it is not resolved); grid and piece errors add
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from typing import Dict, Optional, Tuple
 
@@ -48,6 +49,8 @@ import numpy as np
 
 from . import _core
 from . import engine, results
+from ._resources import available_memory
+from .driver import Estimator, Progress, Task, drive
 from .model import ENVELOPE, exact_in_law
 from .quantities import quantity
 from .spec import RunSpec
@@ -60,6 +63,8 @@ __all__ = ["estimate", "piece_errors", "BIAS_PATHS", "PIECE_ORDER_FACTOR"]
 BIAS_PATHS = 65536
 #: ... and at most this many bytes of per-path values (scenes with many output times).
 BIAS_BYTES = 256 << 20
+#: Paths per batch of the coupled run (the progress bar's and Ctrl-C's unit).
+BATCH_PATHS = 8192
 #: Per method, the refinement of the coupled run over the run's grid (2^r times its steps),
 #: so that the run's grid is the coarsest of the coupled grids ("exact"), the middle one
 #: ("richardson2") or the finest ("richardson").
@@ -74,19 +79,65 @@ def _sum(values: np.ndarray, threads: int) -> float:
     return float(_core.sum_products(values[:, None], [1], threads)[0])
 
 
+class _CoupledRun(Estimator):
+    """The coupled run's per-path values as the driver's estimator: batches of BATCH_PATHS
+    paths written into one array (each path's values depend on its index only, so the batches
+    give the bits of one call). Run on request, here only: it keeps no checkpoint."""
+
+    name = "bias"
+
+    def __init__(self, spec, paths: int, threads: int) -> None:
+        # The run's own options (every field of its spec), on coupled grids that include the
+        # run's grid, with a stream of its own.
+        scene = spec.scene
+        o = engine.plan_options(spec, histograms=False)
+        o.method = "richardson"
+        o.refinement = REFINEMENT[spec.method]
+        o.seed = bias_key(spec.seed)
+        # At most BIAS_BYTES of per-path values (3 grids x 3 variables per output slot).
+        slots = len(scene.times) + (1 if "stop" in scene.observe else 0)
+        n = int(min(paths, BIAS_PATHS, max(2, BIAS_BYTES // (8 * 9 * slots))))
+        o.paths = n
+        self.plan = _core.Plan(o)
+        self.threads = threads
+        self.n = n
+        # The values' layout (a stop slot may hold more than one), from one path.
+        self.shape = (n,) + _core.run_samples(self.plan, 0, 1, 1).shape[1:]
+        self.samples = None
+        self.done = 0
+
+    def check_memory(self) -> None:
+        need = 8 * math.prod(self.shape) + self.threads * (16 << 20)
+        have = available_memory()
+        if need > have:
+            raise ValueError(f"times: the bias estimate's {self.n} coupled paths need about "
+                             f"{need / 2**20:.0f} MiB, more than the {have / 2**20:.0f} MiB "
+                             "this process may still allocate; give fewer times or threads")
+
+    def rounds(self):
+        self.samples = np.empty(self.shape)
+        yield [Task(None, (), functools.partial(self._batch, first, min(BATCH_PATHS,
+                                                                        self.n - first)),
+                    min(BATCH_PATHS, self.n - first))
+               for first in range(0, self.n, BATCH_PATHS)]
+
+    def _batch(self, first: int, count: int):
+        return _core.run_samples(self.plan, first, count, self.threads, False,
+                                 self.samples[first:first + count])
+
+    def merge(self, task, output) -> None:
+        self.done += task.size
+
+    def progress(self) -> Progress:
+        return Progress(self.done, self.n, "bias estimate")
+
+    def result(self) -> np.ndarray:
+        return self.samples
+
+
 def _samples(spec, paths: int, threads: int) -> np.ndarray:
-    # The run's own options (every field of its spec), on coupled grids that include the
-    # run's grid, with a stream of its own.
-    scene = spec.scene
-    o = engine.plan_options(spec, histograms=False)
-    o.method = "richardson"
-    o.refinement = REFINEMENT[spec.method]
-    o.seed = bias_key(spec.seed)
-    # At most BIAS_BYTES of per-path values (3 grids x 3 variables per output slot).
-    per_path = 8 * 9 * (len(scene.times) + (1 if "stop" in scene.observe else 0))
-    n = int(min(paths, BIAS_PATHS, max(2, BIAS_BYTES // per_path)))
-    o.paths = n
-    return _core.run_samples(_core.Plan(o), 0, n, threads)
+    """The coupled run's per-path values, (paths, slots, 3 grids, 3 variables)."""
+    return drive(_CoupledRun(spec, paths, threads))[0]
 
 
 def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray, bool]]:
