@@ -182,3 +182,13 @@ def test_the_bias_estimate_runs_under_the_driver_with_the_same_bits_in_any_batch
     monkeypatch.setattr(bias, "BATCH_PATHS", 3000)  # 7 batches, the last one short
     split = {k: v[0].tobytes() for k, v in bias.estimate(r).items()}
     assert seen == ["_CoupledRun"] and split == whole
+
+
+def test_threads_default_to_every_core_here_and_one_per_cluster_task():
+    import os
+
+    assert driver.threads(None) == (os.cpu_count() or 1, 1)
+    assert driver.threads(3) == (3, 3)
+    for bad in (0, 2.0, "2", True):
+        with pytest.raises(ValueError, match="threads"):
+            driver.threads(bad)

@@ -272,3 +272,17 @@ def test_a_dask_cluster_gives_the_local_bits():
     assert remote_is.probability.tobytes() == local_is.probability.tobytes()
     with pytest.raises(ValueError, match="client"):
         tail(PAPER, "stop_time", [12.0], client=object(), **args)
+
+
+def test_a_run_whose_paths_would_not_fit_in_memory_is_refused_before_it_starts(monkeypatch):
+    import importlib
+
+    tail_module = importlib.import_module("crandall.tail")  # the module, not the function
+    # 200 particles of 2001 grid points (dt = 0.0025 over tau0 = 5): 4 x 9.6 MB plus a stack
+    # per thread; the process "may allocate" 20 MiB.
+    monkeypatch.setattr(tail_module, "available_memory", lambda: 20 << 20)
+    calls = []
+    monkeypatch.setattr(tail_module, "sample", lambda *a: calls.append(a))
+    with pytest.raises(ValueError, match="particles: 200 paths of 2001 grid points need about"):
+        tail(PAPER, "distance_at_stop", [30.0], seed=1, dt=0.0025, threads=1)
+    assert calls == []

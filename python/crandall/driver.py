@@ -40,8 +40,9 @@ import numpy as np
 
 from . import checkpoint as _ckpt
 from ._resources import progress_bar
+from .spec import check_int
 
-__all__ = ["Task", "Tasks", "Progress", "Estimator", "drive", "check_client"]
+__all__ = ["Task", "Tasks", "Progress", "Estimator", "drive", "check_client", "threads"]
 
 
 class Task(NamedTuple):
@@ -139,6 +140,16 @@ class Estimator:
 
     def result(self) -> Any:
         raise NotImplementedError
+
+
+def threads(value) -> Tuple[int, int]:
+    """The threads of a run from the user's ``threads``: (threads here, threads per Dask task).
+    Default: every core here, one per task (Dask runs a task per worker thread). Results do not
+    depend on either."""
+    if value is None:
+        return os.cpu_count() or 1, 1
+    value = check_int("threads", value, 1, 1024)
+    return value, value
 
 
 def check_client(client) -> None:

@@ -21,6 +21,7 @@ from . import checkpoint as _ckpt
 from . import engine
 from ._resources import available_memory
 from .driver import Estimator, Progress, Task, Tasks, check_client, drive
+from .driver import threads as resolve_threads
 from .adaptive import MAX_SECONDS, simulate_to_error
 from .bins import Histograms, axes as _histogram_axes
 from .methods import DEFAULT_METHOD, GRIDS, METHODS
@@ -96,10 +97,7 @@ def run_spec(scene, *, paths, seed, dt, method, threads):
     results do not depend on it; the driver checks it against the memory the accumulators
     need, :meth:`FixedStep.check_memory`)."""
     spec = RunSpec.create(scene, paths=paths, seed=seed, dt=dt, method=method)
-    if threads is None:
-        threads = os.cpu_count() or 1
-    threads = check_int("threads", threads, 1, 1024)
-    return spec, threads
+    return spec, resolve_threads(threads)[0]
 
 
 def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads, min_steps=0,
@@ -118,13 +116,13 @@ class FixedStep(Estimator):
 
     name = _ckpt.PATHS
 
-    def __init__(self, spec: RunSpec, *, threads: int, task_threads: Optional[int] = None):
+    def __init__(self, spec: RunSpec, *, threads: int, task_threads: int = 1):
         self.started = time.perf_counter()
         self.spec = spec
         self.scene = spec.scene
         self.paths = spec.paths
         self.threads = threads
-        self.task_threads = 1 if task_threads is None else task_threads
+        self.task_threads = task_threads
         self.axes = engine.histogram_axes(spec)
         self.plan = engine.make_plan(spec, self.axes)
         self.indices = tuple(a.index for a in self.axes)
@@ -479,10 +477,7 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
             seed = int(np.random.SeedSequence().entropy % (1 << 64))
         if not isinstance(scene, Scene):
             raise ValueError(f"scene must be a crandall.Scene, got {type(scene).__name__}")
-        task_threads = check_int("threads", threads if threads is not None else 1, 1, 1024)
-        if threads is None:
-            threads = os.cpu_count() or 1
-        threads = check_int("threads", threads, 1, 1024)
+        threads, task_threads = resolve_threads(threads)
         return simulate_to_error(scene, error=error, rel_error=rel_error, seed=seed,
                                  threads=threads, statistics=statistics,
                                  checkpoint=checkpoint, client=client,
@@ -507,7 +502,7 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
     check_client(client)
     spec, cores = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
                            threads=threads)
-    run = FixedStep(spec, threads=cores, task_threads=threads)
+    run = FixedStep(spec, threads=cores, task_threads=resolve_threads(threads)[1])
     return drive(run, checkpoints=checkpoint, client=client, progress=progress)[0]
 
 
@@ -585,6 +580,6 @@ def simulate_many(
         spec, t = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
                            threads=threads)
         seed = spec.seed  # a drawn seed is shared by the following scenes
-        runs.append(FixedStep(spec, threads=t, task_threads=threads))
+        runs.append(FixedStep(spec, threads=t, task_threads=resolve_threads(threads)[1]))
     results = drive(runs, checkpoints=files, client=client, progress=progress)
     return _dataset.sweep(results) if dataset else results

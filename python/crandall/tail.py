@@ -34,8 +34,10 @@ import numpy as np
 from . import _core
 from . import streams as _streams
 from ._lazy import lazy_module
+from ._resources import available_memory
 from .checkpoint import json_state, read_json_state
 from .driver import Estimator, Progress, Task, check_client, drive
+from .driver import threads as resolve_threads
 from .errors import ParameterError
 from .results import StatisticsWarning
 from .scene import Scene
@@ -571,14 +573,16 @@ class _TailRun(Estimator):
 
     name = "tail"
 
-    def __init__(self, job, spec, *, threads, per_sample, min_samples, max_samples, rel_error,
-                 max_seconds, started):
+    def __init__(self, job, spec, *, threads, task_threads, per_sample, path_bytes,
+                 min_samples, max_samples, rel_error, max_seconds, started):
         self.job, self.spec, self.threads = job, spec, threads
+        self.task_threads = task_threads
         self.splitting = job["proposal"] is None
         self.levels = len(job["levels"])
         self.max_samples, self.rel_error = max_samples, rel_error
         self.max_seconds, self.started = max_seconds, started
         self.per_sample = per_sample
+        self.path_bytes = path_bytes
         self.pilot_n = -(-min_samples // per_sample)
         self.min_samples = min_samples
         self.samples: List[Dict[str, Any]] = []
@@ -588,6 +592,18 @@ class _TailRun(Estimator):
 
     def identity(self):
         return self.spec
+
+    def check_memory(self):
+        # A sample's paths are stored whole on the grid (velocity, displacement, distance at
+        # every point), with room for a splitting step's copies and scores (4 x).
+        need = 4 * self.job["particles"] * self.path_bytes + self.threads * (16 << 20)
+        have = available_memory()
+        if need > have:
+            raise ParameterError(
+                "particles", f"particles: {self.job['particles']} paths of "
+                f"{self.path_bytes // 24} grid points need about {need / 2**20:.0f} MiB, more "
+                f"than the {have / 2**20:.0f} MiB this process may still allocate; give fewer "
+                "particles or a larger dt")
 
     def state(self):
         return json_state({"samples": self.samples})
@@ -600,7 +616,7 @@ class _TailRun(Estimator):
         self.samples = samples
 
     def _tasks(self, first: int, last: int):
-        return [Task(sample, (self.job, i, 1), functools.partial(sample, self.job, i,
+        return [Task(sample, (self.job, i, self.task_threads), functools.partial(sample, self.job, i,
                                                                  self.threads), 1)
                 for i in range(first, last)]
 
@@ -706,12 +722,12 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     max_seconds : float, default 3600
         Stop adding samples after this long.
     threads : int, optional
-        Threads of the core (default: all cores).
+        Threads of the core (default: all cores; with ``client``, threads per task, default 1).
     progress : bool, optional
         A progress bar (default: where a person watches).
     client : distributed.Client, optional
-        Run the samples as Dask tasks on this cluster (one thread each; bitwise the same result
-        as a local run).
+        Run the samples as Dask tasks on this cluster (bitwise the same result as a local
+        run).
     checkpoint : str or path, optional
         A file of the finished samples (crandall's checkpoint format): a run with the same
         arguments resumes from it, and an interrupted run (Ctrl-C) loses only the replica or
@@ -743,7 +759,7 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     if not (isinstance(max_seconds, (int, float)) and max_seconds > 0):
         raise ParameterError("max_seconds", f"max_seconds must be > 0, got {max_seconds!r}")
     check_int("particles", particles, 10, 10_000_000)
-    threads = check_int("threads", threads, 1, 1024) if threads is not None else 0
+    threads, task_threads = resolve_threads(threads)
     seed = as_seed(seed)
     if seed is None:
         seed = int(np.random.SeedSequence().entropy % (1 << 64))
@@ -787,7 +803,9 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
            "levels": lv.tolist(), "particles": particles, "key": key,
            "proposal": None if splitting else (window, drift)}
 
-    run = _TailRun(job, spec, threads=threads, per_sample=1 if splitting else particles,
+    run = _TailRun(job, spec, threads=threads, task_threads=task_threads,
+                   per_sample=1 if splitting else particles,
+                   path_bytes=8 * 3 * (problem.steps + 1),
                    min_samples=min_samples, max_samples=max_samples, rel_error=rel_error,
                    max_seconds=max_seconds, started=start)
     drive(run, checkpoints=checkpoint, client=client, progress=progress)
