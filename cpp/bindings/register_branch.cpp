@@ -13,7 +13,7 @@ void register_branch(py::module_& m) {
          py::array_t<double, py::array::c_style | py::array::forcecast> lengths,
          py::array_t<double, py::array::c_style | py::array::forcecast> noises,
          py::array_t<double, py::array::c_style | py::array::forcecast> drifts,
-         std::uint64_t key, int threads) {
+         std::uint64_t key, int threads, py::object touched) {
         if (!states.dtype().is(py::dtype::of<double>()) || states.ndim() != 3 ||
             states.shape(2) != 3 || !(states.flags() & py::array::c_style) || !states.writeable())
           throw std::invalid_argument("states must be a writable C-contiguous float64 array of "
@@ -30,17 +30,30 @@ void register_branch(py::module_& m) {
         double* data = static_cast<double*>(states.mutable_data());
         const auto rows_total = static_cast<std::size_t>(states.shape(0));
         const auto count = static_cast<std::size_t>(rows.size());
+        std::uint8_t* flags = nullptr;
+        if (!touched.is_none()) {
+          const char* wrong = "touched must be None or a writable C-contiguous uint8 array of "
+                              "shape (rows, steps)";
+          if (!py::isinstance<py::array>(touched)) throw std::invalid_argument(wrong);
+          auto t = py::reinterpret_borrow<py::array>(touched);
+          if (!t.dtype().is(py::dtype::of<std::uint8_t>()) || t.ndim() != 2 || t.shape(0) != static_cast<py::ssize_t>(rows_total) ||
+              t.shape(1) != static_cast<py::ssize_t>(steps) || !(t.flags() & py::array::c_style) ||
+              !t.writeable())
+            throw std::invalid_argument(wrong);
+          flags = static_cast<std::uint8_t*>(t.mutable_data());
+        }
         bindings::without_gil([&] {
           crandall::extend_paths(data, rows_total, grid, rows.data(), starts.data(), streams.data(),
-                                 count, key, threads);
+                                 count, key, threads, flags);
           return 0;
         });
       },
       py::arg("states"), py::arg("rows"), py::arg("starts"), py::arg("streams"),
       py::arg("lengths"), py::arg("noises"), py::arg("drifts"), py::arg("key"),
-      py::arg("threads") = 0,
+      py::arg("threads") = 0, py::arg("touched") = py::none(),
       "Continues rows `rows` of `states` (rows x (steps + 1) x 3: velocity, displacement, "
       "distance at every grid point) from grid point starts[i] to the end of the grid with the "
       "noise of stream streams[i] of `key`; step k has length lengths[k], noise noises[k] and "
-      "drift drifts[k]. In place; the GIL is released.");
+      "drift drifts[k]. In place; the GIL is released. touched (optional uint8, rows x steps) "
+      "receives whether each step a row takes touched 0 (1) or not (0; a coast step: 0).");
 }

@@ -31,8 +31,8 @@ void validate_branch_grid(const BranchGrid& g) {
 
 namespace {
 
-void extend_one(double* row, const BranchGrid& g, std::size_t start, std::uint64_t stream,
-                std::uint64_t key) {
+void extend_one(double* row, std::uint8_t* touched, const BranchGrid& g, std::size_t start,
+                std::uint64_t stream, std::uint64_t key) {
   double x = row[3 * start], u = row[3 * start + 1], s = row[3 * start + 2];
   StepNoise z[2];
   for (std::size_t k = start; k < g.steps; ++k) {
@@ -44,8 +44,11 @@ void extend_one(double* row, const BranchGrid& g, std::size_t start, std::uint64
       x = next.velocity;
       u = next.displacement;
       s = next.distance;
+      if (touched != nullptr) touched[k] = 0;
     } else {
-      const double x1 = exact_step(x, len, c, sigma, n.normal, n.exponential, n.coin).velocity;
+      const StepResult r = exact_step(x, len, c, sigma, n.normal, n.exponential, n.coin);
+      const double x1 = r.velocity;
+      if (touched != nullptr) touched[k] = r.touched ? 1 : 0;
       u += trapezoid(len, x, x1);
       s += trapezoid(len, std::abs(x), std::abs(x1));
       x = x1;
@@ -62,7 +65,7 @@ void extend_one(double* row, const BranchGrid& g, std::size_t start, std::uint64
 void extend_paths(double* states, std::size_t rows_total, const BranchGrid& grid,
                   const std::int64_t* rows, const std::int64_t* starts,
                   const std::uint64_t* streams, std::size_t count, std::uint64_t key,
-                  int threads) {
+                  int threads, std::uint8_t* touched) {
   validate_branch_grid(grid);
   const std::size_t points = grid.steps + 1;
   std::vector<char> seen(rows_total, 0);
@@ -82,8 +85,10 @@ void extend_paths(double* states, std::size_t rows_total, const BranchGrid& grid
   const long n = static_cast<long>(count);
 #pragma omp parallel for schedule(dynamic, 16) num_threads(team)
   for (long i = 0; i < n; ++i)
-    extend_one(states + static_cast<std::size_t>(rows[i]) * points * 3, grid,
-               static_cast<std::size_t>(starts[i]), streams[i], key);
+    extend_one(states + static_cast<std::size_t>(rows[i]) * points * 3,
+               touched == nullptr ? nullptr
+                                  : touched + static_cast<std::size_t>(rows[i]) * grid.steps,
+               grid, static_cast<std::size_t>(starts[i]), streams[i], key);
 }
 
 }  // namespace crandall

@@ -66,6 +66,36 @@ TEST(Branch, RowsFollowTheExactStepWithTheDocumentedDraws) {
   }
 }
 
+TEST(Branch, TouchedFlagsAreTheExactStepsOwnAndLeaveThePathsAlone) {
+  const Grid g = grid();
+  const std::size_t points = g.lengths.size() + 1, steps = g.lengths.size();
+  std::vector<double> plain(2 * points * 3, 0.0), flagged(2 * points * 3, 0.0);
+  plain[points * 3] = flagged[points * 3] = 0.8;
+  const std::int64_t rows[] = {0, 1};
+  const std::int64_t starts[] = {0, 0};
+  const std::uint64_t streams[] = {11, 12};
+  std::vector<std::uint8_t> touched(2 * steps, 7);
+  crandall::extend_paths(plain.data(), 2, g.view(), rows, starts, streams, 2, 99, 1);
+  crandall::extend_paths(flagged.data(), 2, g.view(), rows, starts, streams, 2, 99, 2,
+                         touched.data());
+  EXPECT_EQ(plain, flagged);
+  int touches = 0;
+  for (int r = 0; r < 2; ++r) {
+    crandall::StepNoise z[2];
+    for (std::size_t k = 0; k < steps; ++k) {
+      if (k % 2 == 0) crandall::draw_pair(99, streams[r], k / 2, z);
+      const double x = flagged[(r * points + k) * 3];
+      bool want = false;  // a coast step (no noise) never draws a sign
+      if (g.noises[k] != 0.0)
+        want = crandall::exact_step(x, g.lengths[k], g.drifts[k], g.noises[k], z[k % 2].normal,
+                                    z[k % 2].exponential, z[k % 2].coin).touched;
+      EXPECT_EQ(touched[r * steps + k], want ? 1 : 0) << "row " << r << " step " << k;
+      touches += want;
+    }
+  }
+  EXPECT_GT(touches, 0);  // the grid's steps from rest touch 0
+}
+
 TEST(Branch, AContinuationKeepsThePrefixAndDependsOnlyOnItsStream) {
   const Grid g = grid();
   const std::size_t points = g.lengths.size() + 1;

@@ -149,9 +149,11 @@ def extend_paths(
     drifts: npt.NDArray[np.float64],
     key: int,
     threads: int = 0,
+    touched: Optional[npt.NDArray[np.uint8]] = None,
 ) -> None:
     """Continue rows of states (rows x (steps + 1) x 3) from grid point starts[i] with the
-    noise of stream streams[i] of key; in place (the rare-event estimators' paths)."""
+    noise of stream streams[i] of key; in place (the rare-event estimators' paths). touched
+    (rows x steps) receives whether each step taken reached 0."""
 
 def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
     """Generate the kernel's noise for paths x steps with no physics (a throughput floor)."""

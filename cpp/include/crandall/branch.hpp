@@ -32,10 +32,13 @@ void validate_branch_grid(const BranchGrid& grid);
 // (key, stream, start state, start point) whatever the threads. Displacement and distance are
 // integrated by the trapezoid rule on the grid (the exact method's integrals); a step without
 // noise and with a drift >= 0 is the closed-form coast (exact integrals, and the stop inside
-// the step). Rows listed twice are refused.
+// the step). Rows listed twice are refused. touched (optional: rows x grid.steps, or nullptr)
+// receives, for every step a row takes, whether its velocity reached 0 during the step (the
+// exact step's touch, after which the sign is a fresh fair coin; 0 for a coast step): what
+// importance sampling needs to re-draw the signs (docs/methods/tails.md).
 void extend_paths(double* states, std::size_t rows_total, const BranchGrid& grid,
                   const std::int64_t* rows, const std::int64_t* starts,
                   const std::uint64_t* streams, std::size_t count, std::uint64_t key,
-                  int threads);
+                  int threads, std::uint8_t* touched = nullptr);
 
 }  // namespace crandall
