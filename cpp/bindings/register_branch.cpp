@@ -13,7 +13,8 @@ void register_branch(py::module_& m) {
          py::array_t<double, py::array::c_style | py::array::forcecast> lengths,
          py::array_t<double, py::array::c_style | py::array::forcecast> noises,
          py::array_t<double, py::array::c_style | py::array::forcecast> drifts,
-         std::uint64_t key, int threads, py::object touched) {
+         std::uint64_t key, int threads, py::object touched, py::object slow,
+         py::object slow_drifts) {
         if (!states.dtype().is(py::dtype::of<double>()) || states.ndim() != 3 ||
             states.shape(2) != 3 || !(states.flags() & py::array::c_style) || !states.writeable())
           throw std::invalid_argument("states must be a writable C-contiguous float64 array of "
@@ -26,7 +27,21 @@ void register_branch(py::module_& m) {
                                       " grid points per row");
         if (starts.size() != rows.size() || streams.size() != rows.size())
           throw std::invalid_argument("rows, starts and streams must have the same length");
-        const crandall::BranchGrid grid{lengths.data(), noises.data(), drifts.data(), steps};
+        crandall::BranchGrid grid{lengths.data(), noises.data(), drifts.data(), steps};
+        using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
+        Doubles slow_a, slow_d;
+        if (slow.is_none() != slow_drifts.is_none())
+          throw std::invalid_argument("slow and slow_drifts: give both or neither");
+        if (!slow.is_none()) {
+          slow_a = Doubles::ensure(slow);
+          slow_d = Doubles::ensure(slow_drifts);
+          if (!slow_a || !slow_d || slow_a.ndim() != 1 || slow_d.ndim() != 1 ||
+              static_cast<std::size_t>(slow_a.size()) != steps ||
+              static_cast<std::size_t>(slow_d.size()) != steps)
+            throw std::invalid_argument("slow and slow_drifts must have one value per step");
+          grid.slow = slow_a.data();
+          grid.slow_drifts = slow_d.data();
+        }
         double* data = static_cast<double*>(states.mutable_data());
         const auto rows_total = static_cast<std::size_t>(states.shape(0));
         const auto count = static_cast<std::size_t>(rows.size());
@@ -50,10 +65,13 @@ void register_branch(py::module_& m) {
       },
       py::arg("states"), py::arg("rows"), py::arg("starts"), py::arg("streams"),
       py::arg("lengths"), py::arg("noises"), py::arg("drifts"), py::arg("key"),
-      py::arg("threads") = 0, py::arg("touched") = py::none(),
+      py::arg("threads") = 0, py::arg("touched") = py::none(), py::arg("slow") = py::none(),
+      py::arg("slow_drifts") = py::none(),
       "Continues rows `rows` of `states` (rows x (steps + 1) x 3: velocity, displacement, "
       "distance at every grid point) from grid point starts[i] to the end of the grid with the "
       "noise of stream streams[i] of `key`; step k has length lengths[k], noise noises[k] and "
       "drift drifts[k]. In place; the GIL is released. touched (optional uint8, rows x steps) "
-      "receives whether each step a row takes touched 0 (1) or not (0; a coast step: 0).");
+      "receives whether each step a row takes touched 0 (1) or not (0; a coast step: 0). "
+      "slow, slow_drifts (optional, one per step): a step that starts with |x| < slow[k] "
+      "takes the drift slow_drifts[k] instead of drifts[k].");
 }

@@ -26,6 +26,16 @@ void validate_branch_grid(const BranchGrid& g) {
     if (!step_in_range(g.lengths[k], std::abs(g.drifts[k]), g.noises[k]))
       throw std::invalid_argument("lengths: step " + std::to_string(k) +
                                   " is too long for its drift and noise");
+    if ((g.slow == nullptr) != (g.slow_drifts == nullptr))
+      throw std::invalid_argument("slow and slow_drifts: give both or neither");
+    if (g.slow != nullptr) {
+      if (!(std::isfinite(g.slow[k]) && g.slow[k] >= 0.0))
+        throw std::invalid_argument("slow must be finite and >= 0 (step " + std::to_string(k) + ")");
+      if (!std::isfinite(g.slow_drifts[k]) ||
+          !step_in_range(g.lengths[k], std::abs(g.slow_drifts[k]), g.noises[k]))
+        throw std::invalid_argument("slow_drifts: step " + std::to_string(k) +
+                                    " is not finite or too long for it");
+    }
   }
 }
 
@@ -38,7 +48,7 @@ void extend_one(double* row, std::uint8_t* touched, const BranchGrid& g, std::si
   for (std::size_t k = start; k < g.steps; ++k) {
     if (k == start || k % 2 == 0) draw_pair(key, stream, k / 2, z);
     const StepNoise& n = z[k % 2];
-    const double len = g.lengths[k], c = g.drifts[k], sigma = g.noises[k];
+    const double len = g.lengths[k], c = g.drift(k, x), sigma = g.noises[k];
     if (sigma == 0.0 && c >= 0.0) {
       const State next = coast({x, u, s}, c, len);
       x = next.velocity;

@@ -96,6 +96,43 @@ TEST(Branch, TouchedFlagsAreTheExactStepsOwnAndLeaveThePathsAlone) {
   EXPECT_GT(touches, 0);  // the grid's steps from rest touch 0
 }
 
+TEST(Branch, ASpeedDependentDriftTakesTheSlowDriftBelowItsThreshold) {
+  // A proposal that reverses the friction only while |x| >= 0.5: each step's drift follows
+  // the speed at its start, and the steps are the exact step with that drift.
+  Grid g{{0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1},
+         std::vector<double>(8, 1.4), std::vector<double>(8, -1.0)};
+  const std::vector<double> slow(8, 0.5), slow_drifts(8, 2.0);
+  crandall::BranchGrid view = g.view();
+  view.slow = slow.data();
+  view.slow_drifts = slow_drifts.data();
+  const std::size_t points = 9;
+  std::vector<double> states(2 * points * 3, 0.0);
+  states[points * 3] = 0.8;
+  const std::int64_t rows[] = {0, 1};
+  const std::int64_t starts[] = {0, 0};
+  const std::uint64_t streams[] = {5, 6};
+  crandall::extend_paths(states.data(), 2, view, rows, starts, streams, 2, 31, 1);
+  int fast = 0, slow_steps = 0;
+  for (int r = 0; r < 2; ++r) {
+    double x = r ? 0.8 : 0.0;
+    crandall::StepNoise z[2];
+    for (std::size_t k = 0; k < 8; ++k) {
+      if (k % 2 == 0) crandall::draw_pair(31, streams[r], k / 2, z);
+      const double c = std::abs(x) < 0.5 ? 2.0 : -1.0;
+      (c < 0 ? fast : slow_steps) += 1;
+      x = crandall::exact_step(x, 0.1, c, 1.4, z[k % 2].normal, z[k % 2].exponential,
+                               z[k % 2].coin).velocity;
+      EXPECT_EQ(states[(r * points + k + 1) * 3], x) << "row " << r << " step " << k;
+    }
+  }
+  EXPECT_GT(fast, 0);
+  EXPECT_GT(slow_steps, 0);
+  const std::vector<double> bad(8, -1.0);
+  view.slow = bad.data();
+  EXPECT_THROW(crandall::extend_paths(states.data(), 2, view, rows, starts, streams, 2, 31, 1),
+               std::invalid_argument);
+}
+
 TEST(Branch, AContinuationKeepsThePrefixAndDependsOnlyOnItsStream) {
   const Grid g = grid();
   const std::size_t points = g.lengths.size() + 1;

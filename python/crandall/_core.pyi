@@ -150,10 +150,13 @@ def extend_paths(
     key: int,
     threads: int = 0,
     touched: Optional[npt.NDArray[np.uint8]] = None,
+    slow: Optional[npt.NDArray[np.float64]] = None,
+    slow_drifts: Optional[npt.NDArray[np.float64]] = None,
 ) -> None:
     """Continue rows of states (rows x (steps + 1) x 3) from grid point starts[i] with the
     noise of stream streams[i] of key; in place (the rare-event estimators' paths). touched
-    (rows x steps) receives whether each step taken reached 0."""
+    (rows x steps) receives whether each step taken reached 0; a step that starts with
+    |x| < slow[k] takes the drift slow_drifts[k] instead of drifts[k]."""
 
 def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
     """Generate the kernel's noise for paths x steps with no physics (a throughput floor)."""

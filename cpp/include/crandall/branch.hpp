@@ -5,6 +5,7 @@
 // any stored state, each with its own random stream, the whole trajectory kept.
 #pragma once
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 
@@ -12,12 +13,21 @@ namespace crandall {
 
 // The grid of a branching run: step k (0 <= k < steps) has length lengths[k], noise intensity
 // noises[k] (sigma of the velocity's dX = -c sign(X) dt + sigma dW) and drift drifts[k] (c; may
-// be negative: an importance-sampling proposal that pushes the body outward).
+// be negative: an importance-sampling proposal that pushes the body outward). Optionally the
+// drift depends on the speed at the step's start: a step that starts with |x| < slow[k] takes
+// slow_drifts[k] instead (a proposal that changes the friction only while the body slides
+// fast, so that its weight does not see the time spent near 0); both null: drifts[k] always.
 struct BranchGrid {
   const double* lengths;
   const double* noises;
   const double* drifts;
   std::size_t steps;
+  const double* slow = nullptr;
+  const double* slow_drifts = nullptr;
+
+  double drift(std::size_t k, double x) const {
+    return (slow != nullptr && std::abs(x) < slow[k]) ? slow_drifts[k] : drifts[k];
+  }
 };
 
 // Checks a grid: lengths finite and > 0, noises finite and >= 0, drifts finite, every step in
