@@ -27,7 +27,7 @@ import math
 import time as _time
 import warnings
 from dataclasses import dataclass, field
-from typing import Any, Dict, List, Optional, Sequence, Union
+from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Union
 
 import numpy as np
 
@@ -218,11 +218,13 @@ class _Problem:
         return {"quantity": self.q.name, "time": self.time, "dt": self.dt, "steps": self.steps}
 
 
-def _extend(problem: _Problem, states, rows, starts, streams, key, threads, drifts=None,
+def _extend(problem: _Problem, states, rows, starts, streams, key, threads, law=None,
             touched=None):
+    law = law or _Law(problem.drifts)
     _core.extend_paths(states, np.asarray(rows, dtype=np.int64), np.asarray(starts, dtype=np.int64),
                        np.asarray(streams, dtype=np.uint64), problem.lengths, problem.noises,
-                       problem.drifts if drifts is None else drifts, key, threads, touched)
+                       law.drifts, key, threads, touched, law.slow,
+                       None if law.slow is None else problem.drifts)
 
 
 # -- splitting ------------------------------------------------------------------------------
@@ -305,30 +307,43 @@ def _log_weights(problem: _Problem, states: np.ndarray, drifts: np.ndarray) -> n
     return out
 
 
-def _proposal(problem: _Problem, window: float, drift: float) -> np.ndarray:
-    """The proposal's drifts: ``drift`` on the noisy steps that start in the last ``window`` of
-    the horizon, the scene's friction elsewhere."""
+class _Law(NamedTuple):
+    """A proposal's law on a grid: per step the drift, and (or None) the speed below which a
+    step keeps the scene's friction."""
+
+    drifts: np.ndarray
+    slow: Optional[np.ndarray] = None
+
+
+def _proposal(problem: _Problem, window: float, drift: float, slow: float = 0.0) -> _Law:
+    """The proposal's law: ``drift`` on the noisy steps that start in the last ``window`` of
+    the horizon, the scene's friction elsewhere; with ``slow`` > 0 only while the speed at the
+    step's start is at least ``slow`` times the piece's mean stationary speed sigma^2 / (2 c)
+    (below it the scene's friction: the weight then does not see the time spent near 0)."""
     d = problem.drifts.copy()
     inside = (problem.step_starts >= problem.horizon - window - 1e-12 * problem.horizon) & (problem.noises > 0)
     d[inside] = drift
-    return d
+    if slow <= 0.0:
+        return _Law(d)
+    return _Law(d, np.where(inside, slow * problem.noises ** 2 / (2 * problem.scene.drift), 0.0))
 
 
-def _importance_batch(problem, drifts, levels, paths, key, first, threads):
+def _importance_batch(problem, law, levels, paths, key, first, threads):
     """Per path and level: the path's weight if it passes the level, else 0."""
     states = problem.start_states(paths)
     rows = np.arange(paths)
     if problem.q.name in SIGN_QUANTITIES:
         touched = np.zeros((paths, problem.steps), dtype=np.uint8)
-        _extend(problem, states, rows, np.zeros(paths), first + rows, key, threads,
-                drifts=drifts, touched=touched)
+        _extend(problem, states, rows, np.zeros(paths), first + rows, key, threads, law=law,
+                touched=touched)
         value, logw = _resigned(problem, states, touched, float(levels[-1]), key, first)
-        logw = logw + _log_weights_touched(problem, states, touched, drifts)
+        logw = logw + _log_weights_touched(problem, states, touched, law)
     else:
-        _extend(problem, states, rows, np.zeros(paths), first + rows, key, threads,
-                drifts=drifts)
+        if law.slow is not None:
+            raise ValueError("slow: a speed-dependent proposal needs the touches' weights")
+        _extend(problem, states, rows, np.zeros(paths), first + rows, key, threads, law=law)
         value = problem.value(problem.score(states))
-        logw = _log_weights(problem, states, drifts)
+        logw = _log_weights(problem, states, law.drifts)
     hits = value[:, None] > levels[None, :]
     return np.where(hits, np.exp(logw)[:, None], 0.0)
 
@@ -338,30 +353,35 @@ def _importance_batch(problem, drifts, levels, paths, key, first, threads):
 #: The quantities whose importance sampling re-draws the signs of the velocity's excursions
 #: (a friction change alone pushes the distance, not the displacement, one way).
 SIGN_QUANTITIES = ("displacement_at_stop", "residual_displacement")
+#: Their proposals' speed thresholds, in units of the stationary mean speed sigma^2 / (2 c).
+SLOW_FACTORS = (0.0, 1.0)
 #: Tilts are solved for in t = theta max_j B_j, in [0, _MAX_TILT] (tanh(40) is 1 in doubles).
 _MAX_TILT = 40.0
 
 
 def _log_weights_touched(problem: _Problem, states: np.ndarray, touched: np.ndarray,
-                         drifts: np.ndarray) -> np.ndarray:
+                         law: _Law) -> np.ndarray:
     """log dP/dQ of the speeds |V| on the grid and the steps' touches of 0 (a Markov chain
     under either law, the signs left out: they are re-drawn, _resigned), over the steps where
     the proposal's drift differs. A step from |x| = a to |x'| = y that did not touch 0 has the
     density of a Brownian motion with drift -c killed at 0, whose ratio between two drifts
     is exp(-(c - c') (y - a) / sigma^2 - (c^2 - c'^2) t / (2 sigma^2)); one that touched has
-    twice the density of reaching the opposite sign, p(-y | a) (docs/methods/tails.md)."""
+    twice the density of reaching the opposite sign, p(-y | a) (docs/methods/tails.md). With
+    a speed-dependent proposal, only the steps that started at or above its threshold."""
     out = np.zeros(states.shape[0])
-    changed = np.flatnonzero(drifts != problem.drifts)
+    changed = np.flatnonzero(law.drifts != problem.drifts)
     c = problem.scene.drift
     for k in changed:
         a, y = np.abs(states[:, k, 0]), np.abs(states[:, k + 1, 0])
-        t, sigma, d = problem.lengths[k], problem.noises[k], drifts[k]
+        t, sigma, d = problem.lengths[k], problem.noises[k], law.drifts[k]
         s2 = sigma * sigma
         hit = touched[:, k] != 0
         free = -(c - d) * (y - a) / s2 - (c * c - d * d) * t / (2 * s2)
         if hit.any():
             free[hit] = (log_transition_density(-y[hit], a[hit], t, c, sigma)
                          - log_transition_density(-y[hit], a[hit], t, d, sigma))
+        if law.slow is not None:
+            free[a < law.slow[k]] = 0.0  # the scene's own law there
         out += free
     return out
 
@@ -400,24 +420,8 @@ def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray, level:
     the signs are drawn tilted (exponential tilting of a sum of independent signs: P(s_j = +1)
     = (1 + tanh(theta B_j)) / 2, theta solving E U = level), for |U| a half-half mixture of the
     tilts towards +level and -level; the weight is the exact ratio of the coins' laws."""
-    v, s = states[:, :, 0], states[:, :, 2]
-    n, points = v.shape
-    speed = np.abs(v)
-    seg = np.zeros((n, points), dtype=np.int64)
-    np.cumsum(touched, axis=1, out=seg[:, 1:])
-    # Per step, what it adds to the distance on each side of a touch.
-    hit = touched != 0
-    h = problem.lengths[None, :]
-    before = np.where(hit, 0.5 * h * speed[:, :-1], s[:, 1:] - s[:, :-1])
-    after = np.where(hit, 0.5 * h * speed[:, 1:], 0.0)
-    width = int(seg[:, -1].max()) + 1
-    parts = np.zeros((n, width))
-    row = np.repeat(np.arange(n), points - 1)
-    np.add.at(parts, (row, seg[:, :-1].ravel()), before.ravel())
-    np.add.at(parts, (row, seg[:, 1:].ravel()), after.ravel())
-    parts[np.arange(n), seg[:, -1]] += speed[:, -1] ** 2 / (2 * problem.scene.drift)
-    fixed = problem.scene.u0 + np.sign(problem.scene.v0) * parts[:, 0]
-    free = parts[:, 1:]
+    fixed, free = _excursions(problem, states, touched)
+    n = len(fixed)
     top = free.max(axis=1) if free.shape[1] else np.zeros(n)
     rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence([key, first, 1 << 40])))
     pick, draws = rng.random(n), rng.random(free.shape)
@@ -440,6 +444,30 @@ def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray, level:
         log_q = log_up
         value = fixed + total
     return value, -log_q
+
+
+def _excursions(problem: _Problem, states: np.ndarray, touched: np.ndarray):
+    """The displacement at the stop as fixed + sum_j s_j B_j (see _resigned): per path the
+    fixed part (u0 and the stretch before the first touch, with the start velocity's sign) and
+    the B_j >= 0 of the stretches after each touch (rows padded with 0)."""
+    v, s = states[:, :, 0], states[:, :, 2]
+    n, points = v.shape
+    speed = np.abs(v)
+    seg = np.zeros((n, points), dtype=np.int64)
+    np.cumsum(touched, axis=1, out=seg[:, 1:])
+    # Per step, what it adds to the distance on each side of a touch.
+    hit = touched != 0
+    h = problem.lengths[None, :]
+    before = np.where(hit, 0.5 * h * speed[:, :-1], s[:, 1:] - s[:, :-1])
+    after = np.where(hit, 0.5 * h * speed[:, 1:], 0.0)
+    width = int(seg[:, -1].max()) + 1
+    parts = np.zeros((n, width))
+    row = np.repeat(np.arange(n), points - 1)
+    np.add.at(parts, (row, seg[:, :-1].ravel()), before.ravel())
+    np.add.at(parts, (row, seg[:, 1:].ravel()), after.ravel())
+    parts[np.arange(n), seg[:, -1]] += speed[:, -1] ** 2 / (2 * problem.scene.drift)
+    fixed = problem.scene.u0 + np.sign(problem.scene.v0) * parts[:, 0]
+    return fixed, parts[:, 1:]
 
 
 def _grid_for(problem: _Problem, window: float) -> _Problem:
@@ -484,20 +512,28 @@ def _choose_proposal(problem, levels, key, threads, pilot):
         # 1e-9 (62 and 79, Pareto shapes 0.55 and 0.42), a reversed -c a heavy tail at 5e-7
         # (shape 0.90).
         drifts = [c * f for f in (1.0, 0.5, 0.0, -0.25, -0.5)]
+    # The displacement's proposals may also change the friction only while the body slides
+    # faster than the stationary mean speed (SLOW_FACTORS; 0: whatever its speed).
+    slows = SLOW_FACTORS if problem.q.name in SIGN_QUANTITIES else (0.0,)
     best, tried = None, []
     stream = 1 << 62
     for w in windows:
         grid = _grid_for(problem, w)
         for d in drifts:
-            prop = _proposal(grid, w, d)
-            contrib = _importance_batch(grid, prop, np.array([top]), pilot, key, stream, threads)[:, 0]
-            stream += pilot
-            hits = int(np.count_nonzero(contrib))
-            mean = contrib.mean()
-            rel = contrib.var() / mean ** 2 if mean > 0 else math.inf
-            tried.append({"window": w, "drift": d, "hits": hits, "relative_variance": rel})
-            if hits >= 20 and (best is None or rel < best[2]):
-                best = (w, d, rel)
+            for f in slows:
+                if f > 0 and d == c:
+                    continue  # no change of law: the same proposal as f = 0
+                prop = _proposal(grid, w, d, f)
+                contrib = _importance_batch(grid, prop, np.array([top]), pilot, key, stream,
+                                            threads)[:, 0]
+                stream += pilot
+                hits = int(np.count_nonzero(contrib))
+                mean = contrib.mean()
+                rel = contrib.var() / mean ** 2 if mean > 0 else math.inf
+                tried.append({"window": w, "drift": d, "slow": f, "hits": hits,
+                              "relative_variance": rel})
+                if hits >= 20 and (best is None or rel < best[3]):
+                    best = (w, d, f, rel)
     return best, tried
 
 
@@ -546,9 +582,9 @@ def sample(job: Dict[str, Any], index: int, threads: int = 0) -> Dict[str, Any]:
                                        200 * n * 60)
         return {"estimates": est.tolist(), "iterations": info["iterations"],
                 "steps": info["steps"]}
-    window, drift = job["proposal"]
+    window, drift, slow = job["proposal"]
     grid = _grid_for(problem, window)
-    contrib = _importance_batch(grid, _proposal(grid, window, drift), lv, n, key,
+    contrib = _importance_batch(grid, _proposal(grid, window, drift, slow), lv, n, key,
                                 index * _REPLICA_STREAMS, threads)
     return {"paths": n, "steps": n * grid.steps,
             "sum": contrib.sum(axis=0).tolist(),
@@ -910,7 +946,7 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
                           {"deterministic": True}, np.ones(len(lv), bool), spec)
     start = _time.perf_counter()
     diagnostics: Dict[str, Any] = {}
-    window = drift = 0.0
+    window = drift = slow = 0.0
     if splitting:
         diagnostics.update(particles=particles, killed_per_iteration=max(1, particles // 10))
     else:
@@ -923,14 +959,14 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
             raise StatisticsFailure(
                 f"importance sampling: no proposal reached level {lv[-1]:g} in its pilot paths; "
                 f"use method='splitting'")
-        window, drift, _ = best
-        diagnostics["proposal"] = {"window": window, "drift": drift}
+        window, drift, slow, _ = best
+        diagnostics["proposal"] = {"window": window, "drift": drift, "slow": slow}
 
     # What a sample needs, as plain data: the sample is a pure function of it and its index,
     # run here or as a Dask task (bitwise the same).
     job = {"scene": scene.to_dict(), "quantity": quantity, "time": time, "dt": problem.dt,
            "levels": lv.tolist(), "particles": particles, "key": key,
-           "proposal": None if splitting else (window, drift)}
+           "proposal": None if splitting else (window, drift, slow)}
 
     run = _TailRun(job, spec, threads=threads, task_threads=task_threads,
                    per_sample=1 if splitting else particles,
