@@ -11,7 +11,9 @@ Measured, one thread, in one run:
 2. Plain Monte Carlo of the same quantities (crandall.simulate, method exact, the same step):
    its measured time per path; its time to 10 % at p is 100 / p paths times that.
 3. The residual displacement |U(t_s)| of scenes/crate.toml (SI), from 1 down to 1e-9 in one
-   splitting run, with its 95 % band, joined to plain Monte Carlo where that is informative.
+   splitting run, with its 95 % band, joined to plain Monte Carlo where that is informative;
+   and its last level by importance sampling (the excursions' signs re-drawn), to the same
+   relative error.
 
 Writes bench/out/tails.json and bench/out/tails.png; --publish copies both to bench/results/.
 
@@ -112,6 +114,18 @@ def main() -> None:
                    "mc_probability": mc_p, "units": "m"}
     print(f"crate residual displacement: P(> {levels[-1]:.2f} m) = {curve.probability[-1]:.3g} "
           f"(rel. {curve.rel_error[-1]:.3f}), {crate_entry['seconds']:.1f} s")
+    t = time.perf_counter()
+    m = crandall.tail(crate, "residual_displacement", [top], method="importance",
+                      rel_error=rel, seed=1, threads=1)
+    crate_entry["importance"] = {
+        "level": top, "probability": float(m.probability[0]), "stderr": float(m.stderr[0]),
+        "rel_error": float(m.rel_error[0]), "reliable": bool(m.reliable[0]),
+        "pareto_shape": m.diagnostics["pareto_shape"][0], "proposal": m.diagnostics["proposal"],
+        "seconds": time.perf_counter() - t,
+        "z_against_splitting": (float(m.probability[0]) - float(curve.probability[-1]))
+        / math.hypot(float(m.stderr[0]), float(curve.stderr[-1]))}
+    print(f"  by importance sampling: {m.probability[0]:.3g} (rel. {m.rel_error[0]:.3f}, "
+          f"reliable {bool(m.reliable[0])}), {crate_entry['importance']['seconds']:.1f} s")
     out = {"script": "bench/tails.py",
            "command": "python bench/tails.py" + (" --quick" if args.quick else "")
            + (" --publish" if args.publish else ""),
@@ -145,6 +159,10 @@ def plot(data, path: Path) -> None:
     b.fill_between(lv[ok], np.maximum(np.array(c["lower_95"])[ok], 1e-300),
                    np.array(c["upper_95"])[ok], alpha=0.3, label="95 % interval")
     b.plot(lv[ok], p[ok], "o-", ms=3, label="splitting")
+    imp = c.get("importance")
+    if imp is not None:
+        b.errorbar([imp["level"]], [imp["probability"]], yerr=[1.96 * imp["stderr"]], fmt="s",
+                   color="C3", ms=5, label="importance sampling (one level)")
     mp = np.array(c["mc_probability"])
     keep = mp >= 100.0 / c["mc_paths"]
     b.plot(np.array(c["mc_levels"])[keep], mp[keep], "k--",

@@ -204,12 +204,16 @@ class _Slot:
             self.batch = batch if isinstance(batch, Sequence) else list(batch)
             self.next = 0
             if len(self.batch):
-                if self.checkpoint is not None and not self.checked:
-                    _ckpt.check_writable(self.checkpoint)  # fail now, not after the work
-                    self.checked = True
+                self.writable()  # fail now, not after the work
                 return True
             self.dirty = True  # an empty batch: a point to checkpoint at (the estimator's
             self.save(force=True)  # state moved on without a merge)
+
+    def writable(self) -> None:
+        """Check once that the checkpoint can be written (a ValueError naming it)."""
+        if self.checkpoint is not None and not self.checked:
+            _ckpt.check_writable(self.checkpoint)
+            self.checked = True
 
     def take(self, output) -> None:
         task = self.batch[self.next]
@@ -226,6 +230,7 @@ class _Slot:
         now = time.perf_counter()
         if not force and now - self.last_save < self.est.checkpoint_seconds:
             return
+        self.writable()
         _ckpt.write(self.checkpoint, self.ident, self.est.state())
         self.last_save, self.dirty = now, False
 
