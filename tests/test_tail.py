@@ -344,3 +344,22 @@ def test_the_variance_bound_is_the_chi_square_one():
         assert 1.0 < ratio < 1.0 + above, n
     assert T.variance_upper_factor(1) == math.inf
     assert 1.6 < T.variance_upper_factor(20) < 1.65  # what a pilot of 20 replicas gets
+
+
+def test_the_displacements_weights_are_bounded_by_the_defensive_mixture():
+    # The signs come from a mixture holding the fair coin (weight at most its number of
+    # components), the speeds from one holding the scene's law (at most 1 / DEFENSIVE): every
+    # path's weight is at most their product, whatever the proposal.
+    import importlib
+
+    T = importlib.import_module("crandall.tail")
+    problem = T._Problem(PAPER, "residual_displacement", None, 0.05)
+    # Low levels that most paths pass: the paths of the scene's own law, under a reversed
+    # friction's density, would weigh astronomically much without the mixture.
+    levels = np.array([0.5, 1.0])
+    law = T._proposal(problem, 5.0, -2.0 * PAPER.drift)
+    w = T._importance_batch(problem, law, levels, 4000, 777, 0, 1)
+    components = 1 + 2 * len(levels)
+    assert np.count_nonzero(w[:, 0]) > 1000
+    assert w.max() <= components / T.DEFENSIVE * (1 + 1e-12)
+    assert w.max() > 2.0  # the bound is reached for: some weights far above 1

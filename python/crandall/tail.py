@@ -351,11 +351,20 @@ def _importance_batch(problem, law, levels, paths, key, first, threads):
     states = problem.start_states(paths)
     rows = np.arange(paths)
     if problem.q.name in SIGN_QUANTITIES:
+        # A defensive mixture (Hesterberg 1995): the first DEFENSIVE of the paths under the
+        # scene's own law, the others under the proposal; each weighed against the mixture,
+        # which bounds the speeds' part of the weight by 1 / DEFENSIVE.
+        own = int(round(DEFENSIVE * paths)) if np.any(law.drifts != problem.drifts) else 0
         touched = np.zeros((paths, problem.steps), dtype=np.uint8)
-        _extend(problem, states, rows, np.zeros(paths), first + rows, key, threads, law=law,
-                touched=touched)
-        value, logw = _resigned(problem, states, touched, float(levels[-1]), key, first)
-        logw = logw + _log_weights_touched(problem, states, touched, law)
+        for part, part_law in ((rows[:own], _Law(problem.drifts)), (rows[own:], law)):
+            if len(part):
+                _extend(problem, states, part, np.zeros(len(part)), first + part, key, threads,
+                        law=part_law, touched=touched)
+        value, logw = _resigned(problem, states, touched, levels, key, first)
+        log_pq = _log_weights_touched(problem, states, touched, law)
+        if own:
+            log_pq = -np.logaddexp(math.log(DEFENSIVE), math.log1p(-DEFENSIVE) - log_pq)
+        logw = logw + log_pq
     else:
         if law.slow is not None:
             raise ValueError("slow: a speed-dependent proposal needs the touches' weights")
@@ -371,6 +380,8 @@ def _importance_batch(problem, law, levels, paths, key, first, threads):
 #: The quantities whose importance sampling re-draws the signs of the velocity's excursions
 #: (a friction change alone pushes the distance, not the displacement, one way).
 SIGN_QUANTITIES = ("displacement_at_stop", "residual_displacement")
+#: The share of their paths simulated under the scene's own law (a defensive mixture).
+DEFENSIVE = 0.1
 #: Their proposals' speed thresholds, in units of the stationary mean speed sigma^2 / (2 c).
 SLOW_FACTORS = (0.0, 1.0)
 #: Tilts are solved for in t = theta max_j B_j, in [0, _MAX_TILT] (tanh(40) is 1 in doubles).
@@ -425,8 +436,8 @@ def _tilt(fixed: np.ndarray, parts: np.ndarray, top: np.ndarray, target: float,
     return np.where(sign * fixed >= sign * target, 0.0, theta)
 
 
-def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray, level: float,
-              key: int, first: int):
+def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray,
+              levels: np.ndarray, key: int, first: int):
     """The displacement's quantity with the excursions' signs re-drawn, and log dP/dQ of the
     signs.
 
@@ -435,32 +446,37 @@ def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray, level:
     the path covers between touch j and the next (trapezoid halves of a touching step go to
     the two sides; the coast after the grid to the last), U_fixed the start's u0 plus the part
     before the first touch (its sign the start velocity's), s_j fair signs. Given the speeds,
-    the signs are drawn tilted (exponential tilting of a sum of independent signs: P(s_j = +1)
-    = (1 + tanh(theta B_j)) / 2, theta solving E U = level), for |U| a half-half mixture of the
-    tilts towards +level and -level; the weight is the exact ratio of the coins' laws."""
+    the signs are drawn from an equal mixture of fair coins and, per level, the coins tilted
+    towards it (exponential tilting of a sum of independent signs: P(s_j = +1) =
+    (1 + tanh(theta B_j)) / 2, theta solving E U = level; for |U| also towards -level); the
+    weight is the exact ratio of the fair coins' law to the mixture's (at most the number of
+    components)."""
     fixed, free = _excursions(problem, states, touched)
     n = len(fixed)
     top = free.max(axis=1) if free.shape[1] else np.zeros(n)
     rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence([key, first, 1 << 40])))
     pick, draws = rng.random(n), rng.random(free.shape)
-    up = _tilt(fixed, free, top, level, 1.0)
-    if problem.q.name == "residual_displacement":
-        down = _tilt(fixed, free, top, -level, -1.0)
-        towards = np.where(pick < 0.5, 1.0, -1.0)
-    else:
-        down, towards = up, np.ones(n)
-    theta = np.where(towards > 0, up, down)
+    # The components: (theta per path, direction); the fair coin first.
+    parts = [(np.zeros(n), 1.0)]
+    for level in np.asarray(levels, dtype=float):
+        parts.append((_tilt(fixed, free, top, level, 1.0), 1.0))
+        if problem.q.name == "residual_displacement":
+            parts.append((_tilt(fixed, free, top, -level, -1.0), -1.0))
+    which = np.minimum((pick * len(parts)).astype(np.int64), len(parts) - 1)
+    theta = np.zeros(n)
+    towards = np.ones(n)
+    for i, (th, d) in enumerate(parts):
+        theta = np.where(which == i, th, theta)
+        towards = np.where(which == i, d, towards)
     p = 0.5 * (1.0 + np.tanh(theta[:, None] * free))
     signs = np.where(draws < p, 1.0, -1.0) * towards[:, None]
     total = np.sum(signs * free, axis=1)
-    log_up = up * total - np.sum(_log_cosh(up[:, None] * free), axis=1)
+    log_q = np.stack([d * th * total - np.sum(_log_cosh(th[:, None] * free), axis=1)
+                      for th, d in parts])
+    log_q = np.logaddexp.reduce(log_q, axis=0) - math.log(len(parts))
+    value = fixed + total
     if problem.q.name == "residual_displacement":
-        log_down = -down * total - np.sum(_log_cosh(down[:, None] * free), axis=1)
-        log_q = np.logaddexp(log_up, log_down) - math.log(2.0)
-        value = np.abs(fixed + total)
-    else:
-        log_q = log_up
-        value = fixed + total
+        value = np.abs(value)
     return value, -log_q
 
 
