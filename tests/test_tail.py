@@ -347,8 +347,8 @@ def test_the_variance_bound_is_the_chi_square_one():
 
 
 def test_the_displacements_weights_are_bounded_by_the_defensive_mixture():
-    # The signs come from a mixture holding the fair coin (weight at most its number of
-    # components), the speeds from one holding the scene's law (at most 1 / DEFENSIVE): every
+    # The signs come from a mixture holding the fair coin, the speeds from one holding the
+    # scene's law, each with the share DEFENSIVE (so at most 1 / DEFENSIVE each): every
     # path's weight is at most their product, whatever the proposal.
     import importlib
 
@@ -359,7 +359,6 @@ def test_the_displacements_weights_are_bounded_by_the_defensive_mixture():
     levels = np.array([0.5, 1.0])
     law = T._proposal(problem, 5.0, -2.0 * PAPER.drift)
     w = T._importance_batch(problem, law, levels, 4000, 777, 0, 1)
-    components = 1 + 2 * len(levels)
     assert np.count_nonzero(w[:, 0]) > 1000
-    assert w.max() <= components / T.DEFENSIVE * (1 + 1e-12)
+    assert w.max() <= 1 / T.DEFENSIVE ** 2 * (1 + 1e-12)
     assert w.max() > 2.0  # the bound is reached for: some weights far above 1

@@ -380,7 +380,8 @@ def _importance_batch(problem, law, levels, paths, key, first, threads):
 #: The quantities whose importance sampling re-draws the signs of the velocity's excursions
 #: (a friction change alone pushes the distance, not the displacement, one way).
 SIGN_QUANTITIES = ("displacement_at_stop", "residual_displacement")
-#: The share of their paths simulated under the scene's own law (a defensive mixture).
+#: The share of their paths simulated under the scene's own law, and of their signs drawn as
+#: fair coins (defensive mixtures).
 DEFENSIVE = 0.1
 #: Their proposals' speed thresholds, in units of the stationary mean speed sigma^2 / (2 c).
 SLOW_FACTORS = (0.0, 1.0)
@@ -446,11 +447,11 @@ def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray,
     the path covers between touch j and the next (trapezoid halves of a touching step go to
     the two sides; the coast after the grid to the last), U_fixed the start's u0 plus the part
     before the first touch (its sign the start velocity's), s_j fair signs. Given the speeds,
-    the signs are drawn from an equal mixture of fair coins and, per level, the coins tilted
-    towards it (exponential tilting of a sum of independent signs: P(s_j = +1) =
-    (1 + tanh(theta B_j)) / 2, theta solving E U = level; for |U| also towards -level); the
-    weight is the exact ratio of the fair coins' law to the mixture's (at most the number of
-    components)."""
+    the signs are drawn from a mixture of fair coins (a DEFENSIVE share) and, per level in
+    equal shares, the coins tilted towards it (exponential tilting of a sum of independent
+    signs: P(s_j = +1) = (1 + tanh(theta B_j)) / 2, theta solving E U = level; for |U| also
+    towards -level); the weight is the exact ratio of the fair coins' law to the mixture's (at
+    most 1 / DEFENSIVE)."""
     fixed, free = _excursions(problem, states, touched)
     n = len(fixed)
     top = free.max(axis=1) if free.shape[1] else np.zeros(n)
@@ -462,7 +463,9 @@ def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray,
         parts.append((_tilt(fixed, free, top, level, 1.0), 1.0))
         if problem.q.name == "residual_displacement":
             parts.append((_tilt(fixed, free, top, -level, -1.0), -1.0))
-    which = np.minimum((pick * len(parts)).astype(np.int64), len(parts) - 1)
+    # The fair coin takes DEFENSIVE of the paths, the tilts share the rest equally.
+    share = np.array([DEFENSIVE] + [(1.0 - DEFENSIVE) / (len(parts) - 1)] * (len(parts) - 1))
+    which = np.minimum(np.searchsorted(np.cumsum(share), pick, side="right"), len(parts) - 1)
     theta = np.zeros(n)
     towards = np.ones(n)
     for i, (th, d) in enumerate(parts):
@@ -471,9 +474,9 @@ def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray,
     p = 0.5 * (1.0 + np.tanh(theta[:, None] * free))
     signs = np.where(draws < p, 1.0, -1.0) * towards[:, None]
     total = np.sum(signs * free, axis=1)
-    log_q = np.stack([d * th * total - np.sum(_log_cosh(th[:, None] * free), axis=1)
-                      for th, d in parts])
-    log_q = np.logaddexp.reduce(log_q, axis=0) - math.log(len(parts))
+    log_q = np.stack([math.log(w) + d * th * total - np.sum(_log_cosh(th[:, None] * free), axis=1)
+                      for w, (th, d) in zip(share, parts)])
+    log_q = np.logaddexp.reduce(log_q, axis=0)
     value = fixed + total
     if problem.q.name == "residual_displacement":
         value = np.abs(value)
