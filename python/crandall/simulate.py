@@ -28,7 +28,7 @@ from .methods import DEFAULT_METHOD, GRIDS, METHODS
 from .quantities import names_for, quantity, simulated_variables
 from .results import MONOMIALS, Result, StatisticsWarning
 from .scene import Scene
-from .spec import MAX_PATHS, RunSpec, as_seed, check_int, default_dt
+from .spec import MAX_PATHS, RunSpec, as_seed, default_dt
 from .errors import UnresolvableGrid
 from .model import EXACT_STEP, check_simulated, holds
 
