@@ -15,7 +15,7 @@ The file is a NumPy ``.npz`` archive (no pickles). It is replaced atomically aft
 (``crandall._files.write_atomic``: temporary file, fsync, rename, fsync of the folder), so a
 kill at any moment leaves either the previous or the new checkpoint, never a torn one. Where it
 goes is checked before the first chunk (:func:`check_writable`), and every field is checked
-when it is read back (:func:`load`): a damaged or edited checkpoint is a ValueError naming the
+when it is read back (:func:`read`, :func:`restore`): a damaged or edited checkpoint is a ValueError naming the
 file and the field, never a wrong result.
 """
 
@@ -36,8 +36,8 @@ from .spec import RunSpec
 from ._files import (check_file_writable, check_folder_writable, check_moments,
                      refuse_other_run, refuse_other_version, write_atomic)
 
-__all__ = ["identity", "run_identity", "read", "write", "json_state", "read_json_state", "load",
-           "restore", "save", "state", "stored_seed",
+__all__ = ["identity", "run_identity", "read", "write", "json_state", "read_json_state",
+           "restore", "state", "stored_seed",
            "check_writable", "make_folder"]
 
 FORMAT = "crandall-checkpoint"
@@ -162,7 +162,7 @@ def _check_identity(path, ident) -> None:
             raise _refuse(path, f"identity.{key} is missing")
         if not ok(ident[key]):
             raise _refuse(path, f"identity.{key} is {ident[key]!r}")
-    # Fields beyond these are compared with the run's identity by load, which names them.
+    # Fields beyond these are compared with the run's identity by read, which names them.
 
 
 def _read_arrays(path, f) -> Dict[str, np.ndarray]:
@@ -272,15 +272,6 @@ def stored_seed(path) -> Optional[int]:
     return seed if _is_int(seed) and 0 <= seed < 1 << 64 else None
 
 
-def load(path, ident: Dict[str, Any], chunks: int, histograms=((), ())):
-    """Resume point of a fixed-step run: (next chunk, merged accumulators as an
-    ``engine.Chunk``); ``(0, None)`` if there is no file. See :func:`restore`."""
-    arrays = read(path, ident)
-    if arrays is None:
-        return 0, None
-    return restore(path, ident, arrays, chunks, histograms)
-
-
 def restore(path, ident: Dict[str, Any], arrays: Dict[str, np.ndarray], chunks: int,
             histograms=((), ())):
     """A fixed-step run's state read back (:func:`read`'s arrays): (next chunk, merged
@@ -374,12 +365,6 @@ def _read_histograms(where, arrays, indices, edges, paths):
                              "run's bins (written by another crandall or SciPy?); remove it to "
                              "start again")
     return counts
-
-
-def save(path, ident: Dict[str, Any], next_chunk: int, acc, histograms=((), ())) -> None:
-    """Atomically replace the checkpoint with the merge of chunks 0..next_chunk-1 (``acc``,
-    an ``engine.Chunk``), with the run's histogram axes ``(indices, edges)``."""
-    write(path, ident, state(next_chunk, acc, histograms))
 
 
 def state(next_chunk: int, acc, histograms=((), ())) -> Dict[str, np.ndarray]:

@@ -1069,10 +1069,6 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     return result
 
 
-def _count(samples, splitting) -> int:
-    return len(samples) if splitting else sum(s["paths"] for s in samples)
-
-
 class StatisticsFailure(RuntimeError):
     """An estimator found no usable answer (e.g. no importance-sampling proposal reached the
     level); the message says what to do instead."""
