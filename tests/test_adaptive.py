@@ -429,6 +429,26 @@ def test_a_checkpoint_of_the_older_format_is_refused(tmp_path):
         crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=bad)
 
 
+def test_a_checkpoint_that_summed_the_variance_at_the_stop_otherwise_is_refused(tmp_path):
+    # The variance of the distance at the stop is summed through Ito's isometry (one feature
+    # column); a checkpoint whose identity does not say so (an earlier crandall summed the
+    # squares: two columns) belongs to another run, and is refused naming the field.
+    import json as _json
+    sc = crandall.Scene.scaled(tau0=1.0, times=[1.0], observe=["distance", "stop"])
+    kw = dict(error=5e-2, seed=1, threads=1, statistics=["distance_at_stop:var"])
+    path = tmp_path / "c.ckpt"
+    crandall.simulate(sc, checkpoint=path, **kw)
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    ident = _json.loads(str(arrays["identity"]))
+    assert ident["isometry"] == ["distance_at_stop:var"]
+    del ident["isometry"]
+    with open(path, "wb") as f:
+        np.savez(f, **{**arrays, "identity": np.array(_json.dumps(ident))})
+    with pytest.raises(ValueError, match=r"belongs to a different run \(.*isometry"):
+        crandall.simulate(sc, checkpoint=path, **kw)
+
+
 def test_cli_error(tmp_path, capsys):
     from crandall import cli
     scene = tmp_path / "s.toml"
@@ -702,7 +722,10 @@ def test_form_features_refuses_columns_it_cannot_form():
     samples[:, 1, 0, 2] = 3.0
     assert _core.form_features(samples, columns(slot=[1], power=[2], centre=[1.0]), 2.0, 0,
                                out).ravel().tolist() == [4.0] * 4
-    for bad in (dict(slot=[2]), dict(variable=[3]), dict(kind=[5]), dict(power=[3]),
+    # kind 5: the constant times the value (the isometry's integral over c^2).
+    assert _core.form_features(samples, columns(slot=[1], kind=[5], constant=[0.25]), 2.0, 0,
+                               out).ravel().tolist() == [0.75] * 4
+    for bad in (dict(slot=[2]), dict(variable=[3]), dict(kind=[6]), dict(power=[3]),
                 dict(centre=[])):
         with pytest.raises(ValueError, match="form_features"):
             _core.form_features(samples, columns(**bad), 2.0, 0, out)

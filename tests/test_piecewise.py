@@ -123,6 +123,28 @@ def test_splitting_a_piece_does_not_change_the_law():
         assert np.all(np.abs(va - vb) <= 4 * err), (name, stat, va, vb, err)
 
 
+def test_the_variance_at_the_stop_through_the_isometry_holds_for_any_schedule():
+    # A run to an accuracy takes Var S(t_s) as the mean of int h^2 V^2 dt / (mu g)^2 (Ito's
+    # isometry, crandall.model.ISOMETRY): on a schedule with a start at 0.4 m/s, a pause and a
+    # weaker piece it must agree with the fixed-step run's plain sample variance of S(t_s)
+    # (other seed, other estimator), within 4 combined reported errors (stderr and bias):
+    # about 0.9 % of the variance each here, so a shift of 6 % or more fails (a piece's h
+    # or the start left out of the integral moves it by far more).
+    sc = crandall.Scene(mu=0.3, h=[1.0, 0.0, 0.6], t0=[1.0, 1.5, 2.5], v0=0.4,
+                        times=[2.0], observe=["distance", "stop"])
+    assert model.holds(sc, model.ISOMETRY)
+    a = crandall.simulate(sc, rel_error=0.01, seed=4, threads=2,
+                          statistics=["distance_at_stop:var"])
+    b = crandall.simulate(sc, paths=200_000, seed=5, threads=2)
+    va, vb = a.var("distance_at_stop"), b.var("distance_at_stop")
+    err = math.hypot(a.error("distance_at_stop", "var"), b.error("distance_at_stop", "var"))
+    assert err < 0.015 * vb
+    assert abs(va - vb) <= 4 * err, (va, vb, err)
+    # The isometry's per-path value spreads far less than (S - E S)^2: the run needed fewer
+    # base-level paths than the fixed-step run's 200 000 for about the same error.
+    assert a.cost["paths"][0] < 50_000
+
+
 @pytest.mark.parametrize("kw, match", [
     (dict(h=[1.0, 0.5], t0=[1.0]), "h, t0: a piecewise intensity needs as many"),
     (dict(h=[1.0, 0.5], t0=2.0), "h, t0: give both as numbers, or both as sequences"),

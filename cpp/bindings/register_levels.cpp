@@ -12,7 +12,7 @@ void register_levels(py::module_& m) {
          bool controls, py::object out, py::object controls_out,
          const std::vector<std::size_t>& control_slots) -> py::object {
         const crandall::Options& o = plan.options();
-        const std::size_t slots = o.times.size() + (o.stop ? 1 : 0);
+        const std::size_t slots = o.sample_slots();
         const auto grids = static_cast<std::size_t>(o.grids());
         const auto n = static_cast<std::size_t>(count);
         // The arrays written: the caller's (reused between calls), or new ones. Every element
@@ -34,7 +34,7 @@ void register_levels(py::module_& m) {
         py::array_t<double> ctl;
         if (controls)
           ctl = buffer(controls_out,
-                       {n, control_slots.empty() ? slots : control_slots.size(),
+                       {n, control_slots.empty() ? o.times.size() + (o.stop ? 1 : 0) : control_slots.size(),
                         static_cast<std::size_t>(crandall::control_count())},
                        "controls_out");
         double* values_ptr = values.mutable_data();
@@ -58,7 +58,8 @@ void register_levels(py::module_& m) {
       py::arg("control_slots") = std::vector<std::size_t>{},
       "Per-path values of paths first .. first + count - 1, shape (count, slots, grids, 3): "
       "at each output time (velocity, displacement, distance) on each coupled grid, and at the "
-      "stop (time from the switch-off, displacement, distance). The same bits for any thread "
+      "stop (time from the switch-off, displacement, distance), and with the plan's "
+      "quadratic_variation one more slot (Q, 0, 0), Q = int_0^t0 noise^2 X^2 dt on that grid. The same bits for any thread "
       "count. With controls=True (exact method, an integral observed), returns (values, "
       "controls) with the base level's control sums, shape (count, slots, CONTROLS), or at the "
       "ascending slots control_slots only, shape (count, len(control_slots), CONTROLS). out and "
@@ -69,7 +70,7 @@ void register_levels(py::module_& m) {
       m, "FeatureColumns",
       "The feature columns of a run to an accuracy, one entry per column (levels.hpp): slot, "
       "variable, kind (0 value, 1 its square, 2 the Ito identity, 3 the identity at the stop, "
-      "4 its magnitude), "
+      "4 its magnitude, 5 constant times the value), "
       "power (1 or 2), constant, centre, inexact; with control sums, control (the control slot "
       "index) and beta (CONTROLS coefficients per column).")
       .def(py::init<>())

@@ -28,6 +28,7 @@ void register_plan(py::module_& m) {
       .def_readwrite("piece_ends", &crandall::Options::piece_ends)
       .def_readwrite("piece_noise", &crandall::Options::piece_noise)
       .def_readwrite("residual", &crandall::Options::residual)
+      .def_readwrite("quadratic_variation", &crandall::Options::quadratic_variation)
       .def_readwrite("start_velocity", &crandall::Options::start_velocity)
       .def_readwrite("start_displacement", &crandall::Options::start_displacement)
       .def_readwrite("times", &crandall::Options::times)

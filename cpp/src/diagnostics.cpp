@@ -43,7 +43,7 @@ std::vector<double> simulate_states(const Plan& plan) {
   if (o.method != Method::exact && o.method != Method::euler)
     throw std::invalid_argument("simulate_states: method must be 'exact' or 'euler'");
   std::vector<double> out(o.paths);
-  const BlockFn block_fn = active_kernel().block_fn(o.method, false, false, false);
+  const BlockFn block_fn = active_kernel().block_fn(o.method, false, false, false, false);
   Workspace ws(plan);
   ws.states = out.data();
   for (std::uint64_t start = 0; start < o.paths; start += kBlockPaths) {

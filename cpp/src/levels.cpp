@@ -23,19 +23,22 @@ void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int
     throw std::invalid_argument("run_samples: paths [first, first + count) must lie in the plan's paths");
   if (count > (std::uint64_t{1} << 24)) throw std::invalid_argument("run_samples: count must be <= 2^24");
   const int team = thread_count(threads);
-  const std::size_t slots = o.times.size() + (o.stop ? 1 : 0);
+  const std::size_t slots = o.sample_slots();
   const int grids = o.grids();
-  BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks);
+  BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks,
+                                              o.quadratic_variation);
   if (controls_out) {
     if (o.method != Method::exact || !o.integrals())
       throw std::invalid_argument("run_samples: controls need the exact method and an observed integral");
-    block_fn = active_kernel().controls_fn(o.displacement, o.distance);
+    block_fn = active_kernel().controls_fn(o.displacement, o.distance, o.quadratic_variation);
   }
+  // Control sums belong to the output times and the stop (not the quadratic variation's slot).
+  const std::size_t outputs = o.times.size() + (o.stop ? 1 : 0);
   std::vector<std::size_t> chosen(control_slots);
   if (chosen.empty())
-    for (std::size_t j = 0; j < slots; ++j) chosen.push_back(j);
+    for (std::size_t j = 0; j < outputs; ++j) chosen.push_back(j);
   for (std::size_t a = 0; a < chosen.size(); ++a)
-    if (chosen[a] >= slots || (a > 0 && chosen[a] <= chosen[a - 1]))
+    if (chosen[a] >= outputs || (a > 0 && chosen[a] <= chosen[a - 1]))
       throw std::invalid_argument("run_samples: control_slots must be ascending, distinct slots");
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
   // Every path writes only its own values, so the order in which blocks are claimed does not
@@ -62,7 +65,7 @@ void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int
 
 std::size_t sample_size(const Plan& plan) {
   const Options& o = plan.options();
-  return (o.times.size() + (o.stop ? 1 : 0)) * static_cast<std::size_t>(o.grids()) * 3;
+  return o.sample_slots() * static_cast<std::size_t>(o.grids()) * 3;
 }
 
 namespace {
@@ -76,6 +79,7 @@ double column_value(const double* path, int grids, int grid, const FeatureColumn
   double v = kind == 0   ? x
              : kind == 1 ? x * x
              : kind == 4 ? std::abs(x)
+             : kind == 5 ? c.constant[j] * x
                          : (c.constant[j] - x * x) / two_drift;
   v = v - c.centre[j];
   return c.power[j] == 2 ? v * v : v;
@@ -98,7 +102,7 @@ void form_features(const double* samples, std::uint64_t rows, std::uint64_t slot
     throw std::invalid_argument("form_features: one control slot and k coefficients per column");
   for (std::size_t j = 0; j < cols; ++j) {
     if (c.slot[j] < 0 || static_cast<std::uint64_t>(c.slot[j]) >= slots || c.variable[j] < 0 ||
-        c.variable[j] > 2 || c.kind[j] < 0 || c.kind[j] > 4 || (c.power[j] != 1 && c.power[j] != 2))
+        c.variable[j] > 2 || c.kind[j] < 0 || c.kind[j] > 5 || (c.power[j] != 1 && c.power[j] != 2))
       throw std::invalid_argument("form_features: a column's slot, variable, kind or power is out of range");
     if (subtract && (c.control[j] < 0 || static_cast<std::uint64_t>(c.control[j]) >= control_slots))
       throw std::invalid_argument("form_features: a column's control slot is out of range");

@@ -88,6 +88,11 @@ void Options::validate() const {
   require(piece_ends.empty() || piece_ends.back() == switch_off,
           "the last of piece_ends must be switch_off");
   require(!residual || (stop && displacement), "residual needs the stop and the displacement");
+  require(!quadratic_variation ||
+              (stop && integrals() && !peaks &&
+               (method == Method::exact || method == Method::richardson || method == Method::richardson2)),
+          "quadratic_variation needs the stop, an observed integral, no peaks and the exact or a "
+          "Richardson method");
   require(std::isfinite(start_velocity), "start_velocity must be finite");
   require(std::isfinite(start_displacement), "start_displacement must be finite");
   for (std::size_t i = 0; i < times.size(); ++i) {

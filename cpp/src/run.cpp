@@ -42,7 +42,9 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   const std::uint64_t first = chunk * kChunkPaths;
   const std::uint64_t count = plan.chunk_paths(chunk);
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
-  const BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks);
+  // The quadratic variation is only recorded with run_samples' values: not integrated here.
+  const BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks,
+                                                    false);
   const int coupled = o.grids();
   ChunkResult result = empty_result(o);
   std::vector<ChunkResult> coarse_result(static_cast<std::size_t>(coupled - 1), empty_result(o));

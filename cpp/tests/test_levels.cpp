@@ -6,9 +6,11 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <cstring>
 #include <stdexcept>
 #include <vector>
 
+#include "crandall/dispatch.hpp"
 #include "crandall/levels.hpp"
 #include "support.hpp"
 
@@ -103,6 +105,105 @@ TEST(Levels, CancelStopsEvenInsideALongBlock) {
                  crandall::Cancelled);
     EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(2));
   }
+}
+
+TEST(Levels, QuadraticVariationIsTheTrapezoidOfTheSquaredVelocity) {
+  // Output times on every point of a grid with a pause and a change of intensity: the slot
+  // after the stop's holds int noise^2 X^2 dt by the trapezoid rule over those points, on the
+  // fine grid (exact) and on Richardson's coarse grid of every 2nd point (richardson2, whose
+  // fine grid halves each segment), computed here from the recorded velocities. Adding the slot
+  // changes no other value.
+  for (auto m : {crandall::Method::exact, crandall::Method::richardson2}) {
+    auto o = scene();
+    o.method = m;
+    o.switch_off = 1.2;
+    o.piece_ends = {0.4, 0.6, 1.2};
+    o.piece_noise = {1.5, 0.0, 0.7};
+    o.start_velocity = 0.8;
+    o.times.clear();
+    for (int i = 1; i <= 30; ++i) o.times.push_back(0.04 * i);
+    o.times.back() = 1.2;
+    o.dt = 0.04;
+    const crandall::Plan without(o);
+    o.quadratic_variation = true;
+    const crandall::Plan plan(o);
+    const std::size_t slots = o.times.size() + 2, grids = static_cast<std::size_t>(o.grids());
+    ASSERT_EQ(crandall::sample_size(plan), slots * grids * 3);
+    const std::uint64_t n = 300;
+    const auto got = samples(plan, 0, n, 2);
+    const auto plain = samples(without, 0, n, 2);
+    const std::size_t stride = slots * grids * 3, plain_stride = (slots - 1) * grids * 3;
+    const int grid = m == crandall::Method::exact ? 0 : 1;
+    for (std::uint64_t p = 0; p < n; ++p) {
+      const double* v = &got[p * stride];
+      for (std::size_t i = 0; i < plain_stride; ++i)
+        ASSERT_EQ(v[i], plain[p * plain_stride + i]) << crandall::method_name(m);
+      double want = 0.0, x0 = o.start_velocity, t0 = 0.0;
+      for (std::size_t k = 0; k < o.times.size(); ++k) {
+        const double x1 = v[(k * grids + 0) * 3 + 0], t1 = o.times[k];
+        const double mid = 0.5 * (t0 + t1);
+        const double h = mid < 0.4 ? 1.5 : mid < 0.6 ? 0.0 : 0.7;
+        want += 0.5 * (t1 - t0) * h * h * (x0 * x0 + x1 * x1);
+        x0 = x1;
+        t0 = t1;
+      }
+      const double* q = v + ((slots - 1) * grids + static_cast<std::size_t>(grid)) * 3;
+      EXPECT_NEAR(q[0], want, 1e-13 * (1.0 + want)) << crandall::method_name(m) << " path " << p;
+      EXPECT_EQ(q[1], 0.0);
+      EXPECT_EQ(q[2], 0.0);
+    }
+  }
+}
+
+TEST(Levels, QuadraticVariationIsTheSameInEveryVariant) {
+  // The loops that integrate it are compiled per instruction set like the others: the values
+  // and the control sums must be the same bits in every variant this CPU runs.
+  KeepKernel keep;
+  for (auto m : {crandall::Method::exact, crandall::Method::richardson2}) {
+    auto o = scene();
+    o.method = m;
+    o.quadratic_variation = true;
+    o.piece_ends = {0.4, 1.0};
+    o.piece_noise = {1.5, 0.7};
+    const crandall::Plan plan(o);
+    std::vector<double> want, want_controls;
+    for (const auto* k : crandall::compiled_kernels()) {
+      if (!crandall::kernel_supported(*k)) continue;
+      crandall::select_kernel(k->name);
+      std::vector<double> controls;
+      const auto got = samples(plan, 3, 203, 2, m == crandall::Method::exact ? &controls : nullptr);
+      if (want.empty()) {
+        want = got;
+        want_controls = controls;
+      }
+      EXPECT_EQ(0, std::memcmp(got.data(), want.data(), got.size() * sizeof(double)))
+          << k->name << " " << crandall::method_name(m);
+      EXPECT_EQ(controls, want_controls) << k->name;
+    }
+  }
+}
+
+TEST(Levels, QuadraticVariationNeedsTheStopAnIntegralAndAnExactSkeleton) {
+  auto o = scene();
+  o.quadratic_variation = true;
+  for (auto m : {crandall::Method::exact, crandall::Method::richardson, crandall::Method::richardson2}) {
+    o.method = m;
+    EXPECT_NO_THROW(crandall::Plan{o});
+  }
+  for (auto m : {crandall::Method::euler, crandall::Method::refine}) {
+    o.method = m;
+    EXPECT_THROW(crandall::Plan{o}, std::invalid_argument);
+  }
+  o.method = crandall::Method::exact;
+  auto no_stop = o;
+  no_stop.stop = false;
+  EXPECT_THROW(crandall::Plan{no_stop}, std::invalid_argument);
+  auto no_integral = o;
+  no_integral.displacement = no_integral.distance = false;
+  EXPECT_THROW(crandall::Plan{no_integral}, std::invalid_argument);
+  auto peaks = o;
+  peaks.peaks = true;
+  EXPECT_THROW(crandall::Plan{peaks}, std::invalid_argument);
 }
 
 TEST(Levels, SumProductsIsThePlainSum) {

@@ -27,6 +27,7 @@ class Options:
     piece_ends: List[float]
     piece_noise: List[float]
     residual: bool
+    quadratic_variation: bool
     start_velocity: float
     start_displacement: float
     times: List[float]

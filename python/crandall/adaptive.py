@@ -9,6 +9,10 @@ error estimates are in docs/methods/adaptive.md; in short:
   same exact path: the coupling is perfect, no extra random numbers). The telescoping sum of
   the level means estimates the statistic on the finest grid; its discretisation bias is
   estimated from the finest level's mean.
+- The variance of the distance at the stop (and of the dissipated energy there) is the mean of
+  int_0^t0 sigma^2 V^2 dt / c^2 (Ito's isometry, crandall.model.ISOMETRY): a per-path value with
+  far less spread than (S(t_s) - E S(t_s))^2, still an integral on the grid, so its levels
+  and bias are estimated as for any other.
 - Statistics exact in law at any step (every moment of the velocity, the kinetic energy, the
   stop time) need level 0 only, and their bias is exactly 0. So does the mean distance (and
   the mean dissipated energy), through the identity
@@ -38,8 +42,8 @@ from . import _core, bias
 from ._resources import available_memory
 from .checkpoint import json_state, read_json_state
 from .driver import Estimator, Progress, Task, drive
-from .quantities import VELOCITY, DISPLACEMENT, DISTANCE, core_flags, names_for, quantity
-from .model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds, ito_constant
+from .quantities import VELOCITY, DISTANCE, core_flags, names_for, quantity
+from .model import EXACT_STEP, ISOMETRY, ITO_DISTANCE, ZERO_FRICTION, holds, ito_constant
 from .results import AccuracyResult, StatisticsWarning
 from .scene import Scene
 from .streams import level_key
@@ -100,6 +104,9 @@ class _Target:
     exact: bool        # exact in law at any step: level 0 only, bias 0
     ito: bool = False  # the mean distance through the Ito identity
     magnitude: bool = False  # |variable| (the residual displacement)
+    #: The variance of the distance at the stop as the mean of int sigma^2 V^2 dt / c^2 (Ito's
+    #: isometry): one feature column, formed and summed like a mean's.
+    isometry: bool = False
 
 
 def _check_statistics(scene: Scene, statistics) -> Optional[set]:
@@ -152,8 +159,13 @@ def _targets(scene: Scene, statistics: Optional[set] = None) -> List[_Target]:
                          or (q.factor(scene) == 0.0 and holds(scene, ZERO_FRICTION)))
                 ito = (stat == "mean" and q.variable == DISTANCE and scene.drift > 0
                        and holds(scene, ITO_DISTANCE))
-                out.append(_Target(name, slot, ti, stat, q.variable, q.power, exact or ito, ito,
-                                   q.magnitude))
+                isometry = (stat == "var" and q.variable == DISTANCE and q.at_stop
+                            and q.power == 1 and not q.magnitude and scene.drift > 0
+                            and holds(scene, ISOMETRY))
+                # The isometry's integral is the samples' slot after the stop's.
+                out.append(_Target(name, n_times + 1 if isometry else slot, ti, stat,
+                                   q.variable, q.power, exact or ito, ito, q.magnitude,
+                                   isometry))
     return out
 
 
@@ -197,10 +209,18 @@ def _lower(w: int) -> np.ndarray:
     return np.tri(w, w, k=0, dtype=bool)
 
 
+def _sample_slots(scene: Scene, quadratic: bool) -> int:
+    """A path's slots of per-path values: the output times, the stop, and with ``quadratic``
+    the isometry's integral."""
+    return len(scene.times) + (1 if "stop" in scene.observe else 0) + (1 if quadratic else 0)
+
+
 class _Level:
     def __init__(self, scene: Scene, level: int, seed: int, base_dt: float, threads: int,
-                 integrals: bool) -> None:
+                 integrals: bool, quadratic: bool = False) -> None:
         o = scene_options(scene)
+        # The slot after the stop's: int sigma^2 V^2 dt, for the isometry's targets.
+        o.quadratic_variation = quadratic
         o.dt = base_dt
         o.min_steps = BASE_MIN_STEPS
         o.refinement = level
@@ -216,8 +236,7 @@ class _Level:
         #: Steps a path of this level takes (its cost unit).
         self.cost = max(int(self.plan.steps_per_path), 1)
         #: (slots, grids, 3): one path's values.
-        self.shape = (len(scene.times) + (1 if "stop" in scene.observe else 0),
-                      2 if level > 0 else 1, 3)
+        self.shape = (_sample_slots(scene, quadratic), 2 if level > 0 else 1, 3)
         self.sums: Optional[_Sums] = None
         #: Whether the level runs with control variates, and the first path its sums hold
         #: (the paths before it fitted the control coefficients).
@@ -327,6 +346,8 @@ class _Engine(Estimator):
         self.seed = seed
         self.threads = threads
         self.targets = _targets(scene, statistics)
+        #: Whether a target takes the isometry's integral (the samples' extra slot).
+        self.quadratic = any(t.isometry for t in self.targets)
         flags = core_flags(scene.observe)
         self.integrals = flags["displacement"] or flags["distance"]
         self.base_dt = BASE_DT_FACTOR * default_dt(scene)
@@ -338,15 +359,19 @@ class _Engine(Estimator):
         self.cols: List[Tuple[int, int]] = []
         for i, t in enumerate(self.targets):
             self.cols.append((i, 1))
-            if t.stat == "var":
+            if t.stat == "var" and not t.isometry:
                 self.cols.append((i, 2))
-        self.widths = [2 if t.stat == "var" else 1 for t in self.targets]
+        self.widths = [2 if t.stat == "var" and not t.isometry else 1 for t in self.targets]
         # Paths per batch: a pure function of the scene and the statistics (the batches a run
         # makes must not depend on the machine), small enough that a batch's per-path values,
         # control sums and feature columns stay within BATCH_BYTES.
-        slots = len(scene.times) + (1 if "stop" in scene.observe else 0)
-        #: The slots that carry control sums, and per slot the one whose sums it uses.
-        self.control_slots, self.control_of = _control_slots(scene, slots)
+        outputs = len(scene.times) + (1 if "stop" in scene.observe else 0)
+        slots = _sample_slots(scene, self.quadratic)
+        #: The slots that carry control sums, and per slot the one whose sums it uses (the
+        #: isometry's integral runs to the switch-off, as the stop's sums do).
+        self.control_slots, self.control_of = _control_slots(scene, outputs)
+        if self.quadratic:
+            self.control_of.append(self.control_of[-1])
         per_path = 8 * (slots * 2 * 3 + len(self.control_slots) * _core.CONTROLS
                         + 2 * len(self.widths))
         self.batch = int(min(BATCH_PATHS, max(256, BATCH_BYTES // per_path // 256 * 256)))
@@ -376,7 +401,7 @@ class _Engine(Estimator):
         """Refuse, before anything is allocated, a run whose batches (one level's buffers of
         per-path values and control sums, the feature columns and their temporaries) and
         threads (a stack each) would not fit in what this process may still allocate."""
-        slots = len(self.scene.times) + (1 if "stop" in self.scene.observe else 0)
+        slots = _sample_slots(self.scene, self.quadratic)
         per_path = 8 * (max(slots * 2 * 3, slots * 3 + len(self.control_slots) * _core.CONTROLS)
                         + 3 * len(self.cols))
         need = self.batch * per_path + self.threads * (16 << 20)
@@ -414,8 +439,8 @@ class _Engine(Estimator):
     def _target_columns(self) -> "_core.FeatureColumns":
         """One column per target: how its per-path value is formed from the samples (its slot
         and variable; the value itself, the stop time from the switch-off included; its
-        square; or the mean distance's Ito identity (sigma^2 elapsed - V^2) / (2 c), with V = 0
-        at the stop), with centre 0 and power 1."""
+        square; the mean distance's Ito identity (sigma^2 elapsed - V^2) / (2 c), with V = 0
+        at the stop; or the isometry's int sigma^2 V^2 dt / c^2), with centre 0 and power 1."""
         if self._targets_cache is None:
             sc = self.scene
             c = _core.FeatureColumns()
@@ -426,13 +451,17 @@ class _Engine(Estimator):
                     elapsed = (min(sc.times[t.time_index], sc.t0) if t.time_index is not None
                                else sc.t0)
                     const.append(ito_constant(sc, elapsed))
+                elif t.isometry:
+                    kind.append(5)
+                    const.append(1.0 / (sc.drift * sc.drift))
                 else:
                     first = t.power == 1 or (t.stat == "mean" and t.variable == VELOCITY
                                              and t.time_index is None)
                     kind.append(4 if t.magnitude else 0 if first else 1)
                     const.append(0.0)
             c.slot = [t.slot for t in self.targets]
-            c.variable = [VELOCITY if t.ito else t.variable for t in self.targets]
+            c.variable = [VELOCITY if t.ito or t.isometry else t.variable
+                          for t in self.targets]
             c.kind, c.constant = kind, const
             c.power = [1] * len(self.targets)
             c.centre = [0.0] * len(self.targets)
@@ -593,7 +622,7 @@ class _Engine(Estimator):
     def _level(self, level: int) -> _Level:
         while len(self.levels) <= level:
             self.levels.append(_Level(self.scene, len(self.levels), self.seed, self.base_dt,
-                                      self.threads, self.integrals))
+                                      self.threads, self.integrals, self.quadratic))
             self.levels[-1].siblings = self.levels
             self.levels[-1].batch = self.batch
             if len(self.levels) == 1 and self.use_controls:
@@ -621,7 +650,7 @@ class _Engine(Estimator):
             groups = [lev.sums.group(i) for lev in used]
             d = sum(m[0] for m, _ in groups)
             var_d = sum(c[0, 0] / lev.sums.n for (_, c), lev in zip(groups, used))
-            if t.stat == "mean":
+            if t.stat == "mean" or t.isometry:
                 value = self.centre[i] + d
                 # A column constant on every path (a quantity identically 0 on a level, an
                 # identity's constant) can leave its sum of squares a rounding below 0.
@@ -715,7 +744,7 @@ class _Engine(Estimator):
             done = True
             deeper = False
             worst = 0.0  # the largest error / target, for the progress bar
-            for i, (value, se, bias, level_var) in enumerate(est):
+            for i, (value, se, grid_bias, level_var) in enumerate(est):
                 tol = self.tolerance(i, value, level_var)
                 if tol == math.inf:
                     continue  # 0 on every path (its factor is 0)
@@ -723,15 +752,15 @@ class _Engine(Estimator):
                     if value == 0.0 and all(v == 0.0 for v in level_var):
                         continue  # a statistic that is exactly 0 (e.g. at time 0)
                     raise self._unreachable(i, "the target is 0 in doubles")
-                err2 = se * se + bias * bias
+                err2 = se * se + grid_bias * grid_bias
                 worst = max(worst, math.sqrt(err2) / tol)
                 if err2 > tol * tol:
                     done = False
-                if bias > tol / math.sqrt(2.0):
+                if grid_bias > tol / math.sqrt(2.0):
                     deeper = True
                 # Giles' allocation with the variance budget left by the bias (at least half).
-                budget = max(tol * tol - bias * bias, 0.5 * tol * tol) if math.isfinite(bias) \
-                    else 0.5 * tol * tol
+                budget = (max(tol * tol - grid_bias * grid_bias, 0.5 * tol * tol)
+                          if math.isfinite(grid_bias) else 0.5 * tol * tol)
                 costs = [lev.cost for lev in self.levels[:len(level_var)]]
                 total = sum(math.sqrt(v * c) for v, c in zip(level_var, costs))
                 for level, (v, c) in enumerate(zip(level_var, costs)):
@@ -766,7 +795,7 @@ class _Engine(Estimator):
                 continue
             if deeper:
                 raise ValueError(
-                    f"error: the discretisation bias is still above the target on a grid "
+                    f"error: the discretisation grid_bias is still above the target on a grid "
                     f"2^{MAX_LEVELS} times finer than the base; ask for a larger error")
             self.pending = []
             for level, n in enumerate(want):
@@ -792,9 +821,15 @@ class _Engine(Estimator):
 
     def identity(self) -> Dict:
         """The run's spec: what makes two runs the same run (in a checkpoint's identity)."""
-        return {"scene": self.scene.to_dict(), "error": self.eps, "rel_error": self.rel,
+        spec = {"scene": self.scene.to_dict(), "error": self.eps, "rel_error": self.rel,
                 "seed": self.seed,
                 "statistics": [f"{t.name}:{t.stat}" for t in self.targets]}
+        # The statistics estimated through Ito's isometry (a checkpoint of a run that summed
+        # them otherwise is another run: refused naming this field).
+        isometry = [f"{t.name}:{t.stat}" for t in self.targets if t.isometry]
+        if isometry:
+            spec["isometry"] = isometry
+        return spec
 
     def _state(self) -> Dict:
         return {"centre": None if self.centre is None else [float(c) for c in self.centre],

@@ -24,7 +24,7 @@ from typing import FrozenSet
 
 from .quantities import VELOCITY, quantity
 
-__all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
+__all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ISOMETRY", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
            "holds", "check_simulated", "exact_in_law"]
 
 
@@ -63,6 +63,16 @@ EXACT_STEP = Identity(
 ITO_DISTANCE = Identity(
     "ito_distance", "E S(t) = (v0^2 + int_0^t sigma(s)^2 ds - E V(t)^2) / (2 c), and "
     "(v0^2 + int sigma^2) / (2 c) at the stop",
+    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
+#: The variance of the distance at the stop from the velocity alone (Ito's isometry): by Ito's
+#: formula c S(t_s) = (v0^2 + int sigma^2) / 2 + int_0^t0 sigma V dW, so
+#: Var S(t_s) = E int_0^t0 sigma(t)^2 V(t)^2 dt / c^2, from any start and under any intensity
+#: schedule (V(t_s) = 0 at the stop, and the noise's work after t0 is 0). A run to an accuracy
+#: estimates it from that integral, whose per-path variance is far smaller than that of
+#: (S(t_s) - E S(t_s))^2; the integral keeps a grid bias (the trapezoid rule), which the
+#: levels estimate as for any integral.
+ISOMETRY = Identity(
+    "isometry", "Var S(t_s) = E int_0^t0 sigma(t)^2 V(t)^2 dt / c^2",
     frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
 #: Without friction the dissipated energy is 0 on every path.
 ZERO_FRICTION = Identity(

@@ -23,10 +23,12 @@ struct KernelTable {
   const char* name;                // "baseline", "avx2" or "avx512"
   int philox_paths_per_register;   // 1 (Random123's scalar code), 4 or 8
   int doubles_per_register;        // widest vector the variant targets: 2, 4 or 8
-  // simulate_block instantiation for a method, the observed integrals and the peaks.
-  BlockFn (*block_fn)(Method method, bool displacement, bool distance, bool peaks);
+  // simulate_block instantiation for a method, the observed integrals, the peaks and the
+  // quadratic variation (Options::quadratic_variation).
+  BlockFn (*block_fn)(Method method, bool displacement, bool distance, bool peaks,
+                      bool quadratic);
   // The exact method's loop with control variates (kernel_controls.hpp).
-  BlockFn (*controls_fn)(bool displacement, bool distance);
+  BlockFn (*controls_fn)(bool displacement, bool distance, bool quadratic);
   // The noise of paths [path0, path0 + kLanes) for `steps` steps, summed (random_floor).
   double (*noise_checksum)(std::uint64_t seed, std::uint64_t path0, std::uint64_t steps);
   // Draws of pair `pair` for paths path0 .. path0 + count - 1, as 6 arrays of `count` doubles:

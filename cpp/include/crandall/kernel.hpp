@@ -193,10 +193,19 @@ inline void track_peaks(const double* x, const double* u, double* pv, double* pu
   }
 }
 
+// One trapezoid step of the quadratic variation (Options::quadratic_variation) over all lanes:
+// q += half (a^2 + b^2), half = step noise^2 / 2.
+inline void add_squares(double* q, const double* a, const double* b, double half) {
+#pragma omp simd
+  for (int l = 0; l < kLanes; ++l) q[l] += half * (a[l] * a[l] + b[l] * b[l]);
+}
+
 // Outputs after the switch-off (closed-form coast) and at the stop, from the state at t0.
 // The fine grid also passes its peaks at t0 (pv: max |velocity|, pu: max |displacement| or
 // null) and its histograms; Richardson's coarse grids pass neither (their moments are only
-// extrapolated, the peaks and the distributions come from the fine grid).
+// extrapolated, the peaks and the distributions come from the fine grid). Each grid passes
+// its quadratic variation int noise^2 X^2 dt up to t0 in `quadratic` (Options::quadratic_variation),
+// recorded after the stop's values.
 //
 // Peaks after the switch-off: the speed falls linearly to 0 and stays there (coast.hpp), so
 // |X(t)| <= |X(t0)| <= pv and the peak speed does not change. The displacement moves by
@@ -208,7 +217,7 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
                                  BlockSums& times, BlockSums& stop, const double* pv = nullptr,
                                  const double* pu = nullptr, Workspace* ws = nullptr,
                                  const Workspace* recorder = nullptr, int grid = 0,
-                                 std::uint64_t path0 = 0) {
+                                 std::uint64_t path0 = 0, const double* quadratic = nullptr) {
   const Options& o = plan.options();
   const auto& slots = plan.coast_slots();
   const auto& elapsed = plan.coast_elapsed();
@@ -260,7 +269,12 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
       for (int l = 0; l < lanes; ++l) au[l] = std::abs(us[l]);
       stop.add(1, au, zero, zero, lanes, active);
     }
-    if (recorder != nullptr) recorder->record(o.times.size(), grid, path0, ts, us, ss, lanes);
+    if (recorder != nullptr) {
+      recorder->record(o.times.size(), grid, path0, ts, us, ss, lanes);
+      // The quadratic variation: no noise after the switch-off, so its value at t0.
+      if (o.quadratic_variation)
+        recorder->record(o.times.size() + 1, grid, path0, quadratic, zero, zero, lanes);
+    }
     if (peaks) {
       if (pu != nullptr)
         for (int l = 0; l < lanes; ++l) qu[l] = std::max(pu[l], std::abs(us[l]));
@@ -304,9 +318,14 @@ inline bool at_rest(const double* x, int lanes) {
 // kPeaks: track the running maxima of |velocity| and |displacement| (Options::peaks), compiled
 // in only when asked for. Histograms are a run-time choice made at output slots only.
 // Observer: what else the exact method's steps feed (NoObserver: nothing).
-template <Method M, bool kDisp, bool kDist, bool kPeaks, class Observer = NoObserver>
+// kQuad: integrate the quadratic variation (Options::quadratic_variation; runs to an accuracy
+// only), compiled in only when asked for, as the peaks are: the other loops stay as they were.
+template <Method M, bool kDisp, bool kDist, bool kPeaks, class Observer = NoObserver,
+          bool kQuad = false>
 void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, Workspace& ws) {
   static_assert(M == Method::exact || !Observer::kActive, "only the exact method's steps are observed");
+  static_assert(!kQuad || M == Method::exact || M == Method::richardson || M == Method::richardson2,
+                "the quadratic variation is integrated on the exact skeleton's grids only");
   constexpr int kGrids = grids(M, kDisp || kDist);
   constexpr bool kCoarse = kGrids > 1;
   const Options& o = plan.options();
@@ -324,6 +343,10 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
     // Richardson's coarse grids g = 1, 2 (steps 2^g times the fine one): integrals, and x where
     // their step began.
     double xc[kGrids][kLanes], uc[kGrids][kLanes], sc[kGrids][kLanes] = {};
+    // Options::quadratic_variation: int noise^2 X^2 dt by the trapezoid rule, on the fine grid
+    // (qv) and on the coarse grids (qc).
+    [[maybe_unused]] alignas(64) double qv[kLanes] = {};
+    [[maybe_unused]] double qc[kGrids][kLanes] = {};
     for (int l = 0; l < kLanes; ++l) {
       x[l] = o.start_velocity;
       u[l] = o.start_displacement;
@@ -460,6 +483,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
               if constexpr (kDist) s[l] += trapezoid(step, std::abs(x0), std::abs(x1[l]));
             }
           }
+          if constexpr (kQuad) add_squares(qv, x, x1, 0.5 * step * (noise * noise));
           if constexpr (kCoarse) {
             // Segments have step counts that are multiples of 2^(kGrids - 1), so a coarse step
             // never straddles two segments.
@@ -474,6 +498,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
                   if constexpr (kDisp) uc[g][l] += coarse_half * (xc[g][l] + x1[l]);
                   if constexpr (kDist) sc[g][l] += coarse_half * (std::abs(xc[g][l]) + std::abs(x1[l]));
                 }
+                if constexpr (kQuad) add_squares(qc[g], xc[g], x1, coarse_half * (noise * noise));
               }
             }
           }
@@ -510,11 +535,13 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
       for (int l = 0; l < lanes; ++l) ws.states[path0 + l] = x[l];
     if (!plan.needs_switch_state()) continue;
     add_after_switch_off(plan, x, u, s, lanes, ws.active, ws.times, ws.stop,
-                         kPeaks ? pv : nullptr, kPeaks && kDisp ? pu : nullptr, &ws, &ws, 0, path0);
+                         kPeaks ? pv : nullptr, kPeaks && kDisp ? pu : nullptr, &ws, &ws, 0, path0,
+                         qv);
     if constexpr (kCoarse)
       for (int g = 1; g < kGrids; ++g)
         add_after_switch_off(plan, x, uc[g], sc[g], lanes, ws.active, ws.coarse_times[g - 1],
-                             ws.coarse_stop[g - 1], nullptr, nullptr, nullptr, &ws, g, path0);
+                             ws.coarse_stop[g - 1], nullptr, nullptr, nullptr, &ws, g, path0,
+                             qc[g]);
   }
 }
 

@@ -17,8 +17,9 @@ namespace crandall {
 // count x slots x grids x 3 doubles, path-major: slot k < times.size() holds (velocity,
 // displacement, distance) at output time k on each grid (grid g: steps 2^g times the fine
 // one, as many grids as the method walks), slot times.size() (when the stop is observed) the
-// time from the switch-off to the stop and the displacement and distance there. Variables not
-// observed are 0. `cancel` is polled as run_chunk polls it (team.hpp: by the calling thread,
+// time from the switch-off to the stop and the displacement and distance there, and with
+// Options::quadratic_variation slot times.size() + 1 (Q, 0, 0), Q = int_0^t0 noise^2 X^2 dt on
+// that grid. Variables not observed are 0. `cancel` is polled as run_chunk polls it (team.hpp: by the calling thread,
 // inside long blocks too); returning true throws Cancelled.
 // Written into out (count x sample_size(plan) doubles, every one of them written), and with
 // controls_out (exact method only, at least one integral observed) the control sums of
@@ -29,7 +30,7 @@ namespace crandall {
 void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int threads,
                  double* out, double* controls_out = nullptr, const CancelCheck& cancel = {},
                  const std::vector<std::size_t>& control_slots = {});
-// Doubles per path of run_samples' out: slots x grids x 3.
+// Doubles per path of run_samples' out: Options::sample_slots() x grids x 3.
 std::size_t sample_size(const Plan& plan);
 // Number of control sums per path and slot.
 int control_count();
@@ -38,7 +39,7 @@ int control_count();
 // column. A column's value on a grid is its target's: the sample x = samples[slot, grid,
 // variable] itself (kind 0), its square x * x (kind 1), the Ito identity's
 // (constant - x * x) / two_drift (kind 2; kind 3 the same with x = 0, at the stop), or its
-// magnitude |x| (kind 4); minus
+// magnitude |x| (kind 4), or constant * x (kind 5); minus
 // centre, to the power `power` (1 or 2; squared as x * x).
 struct FeatureColumns {
   std::vector<std::int64_t> slot;

@@ -63,6 +63,12 @@ struct Options {
   // With stop and displacement: the stop's moments get a second slot, (|U(t_s)|, 0, 0), the
   // magnitude of the residual displacement (its moments are not functions of U's).
   bool residual = false;
+  // Runs to an accuracy (levels.hpp): with the stop and an integral observed, no peaks, and the
+  // exact or a Richardson method, run_samples' samples get one more slot after the stop's, (Q, 0, 0) on
+  // each grid, with Q = int_0^t0 noise(t)^2 X(t)^2 dt by the trapezoid rule on that grid: the
+  // quadratic variation of the noise's work int noise X dW, whose mean is drift^2 times the
+  // variance of the distance at the stop (Ito's isometry). run_chunk's sums do not use it.
+  bool quadratic_variation = false;
   // The state at t = 0: velocity X(0) and displacement U(0) (the distance starts at 0).
   double start_velocity = 0.0;
   double start_displacement = 0.0;
@@ -102,6 +108,10 @@ struct Options {
   // Slots of the stop's moments: none, the stop, and with residual |U(t_s)|.
   std::size_t stop_slots() const { return stop ? (residual ? 2 : 1) : 0; }
   bool integrals() const { return displacement || distance; }
+  // Slots of run_samples' per-path values: the output times, the stop, the quadratic variation.
+  std::size_t sample_slots() const {
+    return times.size() + (stop ? 1 : 0) + (quadratic_variation ? 1 : 0);
+  }
   int grids() const { return crandall::grids(method, integrals()); }
   // Output slots that carry histograms: the output times, and the stop if observed.
   std::size_t histogram_slots() const { return times.size() + (stop ? 1 : 0); }

@@ -1,0 +1,5 @@
+// The baseline variant of the kernel, its path loops that integrate the quadratic variation
+// (variant.hpp, kernel_variant.inc).
+#define CRANDALL_VARIANT_LEVEL 0
+#define CRANDALL_KERNEL_QUADRATIC 1
+#include "kernel_variant.inc"
