@@ -23,8 +23,9 @@ ratios measured in the same run: the machine is shared).
    1.15e-3 m^2, so an absolute 1e-3 m^2 would be 87 % of the answer itself (crandall's
    pilot alone meets it; that run is recorded too, without a peer).
    - crandall: ``simulate(scene, rel_error=R, statistics=[("distance_at_stop", "var"),
-     ("distance_at_stop", "mean")], threads=1)``, run in full; its answer and reported
-     error are the reference the peer's bias is measured against.
+     ("distance_at_stop", "mean")], threads=1)``, run in full (it takes the variance as the
+     mean of int h^2 V^2 dt / (mu g)^2, Ito's isometry); its answer and reported error are
+     the reference the peer's bias is measured against.
    - The peer, bench/peers/numpy_em_pieces.py (NumPy vectorised Euler-Maruyama, steps of at
      most dt ending on every piece end, closed-form coast), EPS = R times crandall's
      variance in m^2. Its bias of the variance is measured at several dt against crandall's
@@ -36,6 +37,10 @@ ratios measured in the same run: the machine is shared).
      dt, relative to the variance). The peer is timed at the chosen dt on --peer-paths paths
      and scaled linearly to the paths it needs (run in full if it needs fewer); every point
      records whether it was run or scaled.
+   - The same peer with the estimator crandall uses (``quadratic=True``: the mean of
+     sum h^2 V_k^2 dt / (mu g)^2 over the Euler steps, V its per-path variance), measured and
+     chosen the same way: how much of crandall's lead is the identity, and how much the exact
+     skeleton and the levels.
 
 3. Checks that can fail (the script exits with status 1 and does not publish): the mean
    distance at the stop against the energy law E[mu g S(t_s)] = v0^2 / 2 + (1/2) int h^2 dt
@@ -212,19 +217,31 @@ def crandall_to_error(scene, rel):
                "rounds": r.cost["rounds"]}
 
 
-def peer_run(paths, dt, h, ends, seed):
+def peer_run(paths, dt, h, ends, seed, estimator="direct"):
+    """The peer on ``paths`` paths: the mean distance at the stop, and the variance as the
+    plain sample variance ("direct") or as the mean quadratic variation over (mu g)^2
+    ("isometry", computed only then); V is the per-path variance of its summand."""
+    iso = estimator == "isometry"
     t = time.perf_counter()
-    o = peer.simulate(paths, dt, h, ends, MU, G, seed=seed, batch=PEER_BATCH)
+    o = peer.simulate(paths, dt, h, ends, MU, G, seed=seed, batch=PEER_BATCH, quadratic=iso)
     wall = time.perf_counter() - t
     x = o["distance_at_stop"]
     m = float(x.mean())
     c = x - m
     v = float(c @ c / (paths - 1))
     m4 = float(np.mean(c ** 4))
-    return {"dt": dt, "paths": paths, "steps_per_path": peer.steps(ends, dt), "seconds": wall,
-            "mean": m, "mean_stderr": float(x.std(ddof=1) / math.sqrt(paths)),
-            "var": v, "var_stderr": math.sqrt(max(m4 - v * v, 0.0) / paths),
-            "kappa": (m4 - v * v) / (v * v)}
+    out = {"dt": dt, "paths": paths, "steps_per_path": peer.steps(ends, dt), "seconds": wall,
+           "estimator": estimator,
+           "mean": m, "mean_stderr": float(x.std(ddof=1) / math.sqrt(paths)),
+           "var": v, "var_stderr": math.sqrt(max(m4 - v * v, 0.0) / paths),
+           "kappa": (m4 - v * v) / (v * v), "V": max(m4 - v * v, 0.0)}
+    if iso:
+        y = o["quadratic_variation"] / (A * A)
+        out["sample_var"] = v
+        out["var"] = float(y.mean())
+        out["V"] = float(y.var(ddof=1))
+        out["var_stderr"] = math.sqrt(out["V"] / paths)
+    return out
 
 
 def fit(points):
@@ -290,13 +307,29 @@ def time_to_answer(quick: bool, peer_paths: int, checks: Checks):
         ref = c  # the most accurate run is the reference
     ref_var, ref_err = ref["var"], ref["reported_error"]
 
-    # The peer's bias of the variance against crandall's answer.
+    # The peer's bias of the variance against crandall's answer: with the plain sample
+    # variance (the way a user writes it), and with the same Ito isometry crandall uses.
+    out["rows"] = rows
+    out["reference"] = {"var": ref_var, "reported_error": ref_err}
+    for estimator, key in (("direct", "peer"), ("isometry", "peer_isometry")):
+        info = peer_answers(estimator, key, quick, rows, rels, ref_var, ref_err, h, ends, law,
+                            peer_paths, checks)
+        out["peer_bias" if estimator == "direct" else "peer_isometry_bias"] = info
+    return out
+
+
+def peer_answers(estimator, key, quick, rows, rels, ref_var, ref_err, h, ends, law,
+                 peer_paths, checks):
+    """The peer with one estimator of Var S(t_s): its bias measured on a ladder of steps
+    against crandall's answer, a power law fitted, and per row the step and paths that reach
+    EPS soonest, timed (scaled in paths when it needs more than peer_paths)."""
     ladder = ([(0.05, 20_000), (0.025, 40_000), (0.0125, 40_000)] if quick else
               [(0.05, 50_000), (0.025, 100_000), (0.0125, 200_000), (0.00625, 200_000),
                (0.003125, 200_000)])
+    iso = estimator == "isometry"
     points = []
     for i, (dt, n) in enumerate(ladder):
-        p = peer_run(n, dt, h, ends, seed=100 + i)
+        p = peer_run(n, dt, h, ends, seed=(200 if iso else 100) + i, estimator=estimator)
         p["bias"] = p["var"] - ref_var
         p["bias_error"] = math.hypot(p["var_stderr"], ref_err)
         p["resolved"] = abs(p["bias"]) > 3 * p["bias_error"]
@@ -304,55 +337,58 @@ def time_to_answer(quick: bool, peer_paths: int, checks: Checks):
         p["scheme_mean"] = exact_mean
         p["mean_bias_vs_law"] = exact_mean - law
         points.append(p)
-        print(f"  peer dt={dt:g}: {p['seconds']:.1f} s ({n} paths x {p['steps_per_path']} steps), "
-              f"var {p['var']:.4g} +- {p['var_stderr']:.2g}, bias {p['bias']:+.3g} "
-              f"({p['bias'] / ref_var:+.2%}), mean {p['mean']:.5g} (law {law:.5g})", flush=True)
-        checks.add(f"peer dt={dt:g}: mean distance at the stop vs its scheme's exact mean",
-                   p["mean"], exact_mean, 4 * p["mean_stderr"],
+        print(f"  peer ({estimator}) dt={dt:g}: {p['seconds']:.1f} s ({n} paths x "
+              f"{p['steps_per_path']} steps), var {p['var']:.4g} +- {p['var_stderr']:.2g}, bias "
+              f"{p['bias']:+.3g} ({p['bias'] / ref_var:+.2%}), mean {p['mean']:.5g} "
+              f"(law {law:.5g})", flush=True)
+        checks.add(f"peer ({estimator}) dt={dt:g}: mean distance at the stop vs its scheme's "
+                   f"exact mean", p["mean"], exact_mean, 4 * p["mean_stderr"],
                    f"the scheme's mean is the law + {exact_mean - law:.3g} m")
     resolved = [(q["dt"], abs(q["bias"])) for q in points if q["resolved"]]
     if len(resolved) < 2:
-        checks.add("peer: resolved bias points", len(resolved), 2, 0, "need at least 2")
-        out.update({"rows": rows, "peer_bias": {"points": points}})
-        return out
+        checks.add(f"peer ({estimator}): resolved bias points", len(resolved), 2, 0,
+                   "need at least 2")
+        return {"points": points}
     resolved.sort()
     laws = {"all": fit(resolved), "finest_three": fit(resolved[:3])}
     finest = min(points, key=lambda q: q["dt"])
     kappa = finest["kappa"]
     rate = finest["seconds"] / (finest["paths"] * finest["steps_per_path"])
     dt_cap = max(q["dt"] for q in points)
-    print("  peer bias laws: " + ", ".join(f"{k}: {v['c']:.3g} dt^{v['p']:.3f}"
-                                           for k, v in laws.items())
+    print(f"  peer ({estimator}) bias laws: "
+          + ", ".join(f"{k}: {v['c']:.3g} dt^{v['p']:.3f}" for k, v in laws.items())
           + f"; kappa {kappa:.3g}; {rate * 1e9:.1f} ns per path-step", flush=True)
     for row in rows:
         eps = row["rel_error"] * ref_var
-        V = kappa * ref_var ** 2
+        # The per-path variance of the estimator's summand: the squared centred distance's
+        # (kappa Var^2), or the quadratic variation's own, measured at the finest step.
+        V = finest["V"] if iso else kappa * ref_var ** 2
         options = {k: peer_choice(eps, law_, V, rate, ends, dt_cap) for k, law_ in laws.items()}
         used = min(options, key=lambda k: options[k]["predicted_seconds"])
         choice = dict(options[used], law=used, eps=eps, V=V)
         timed = min(peer_paths, choice["paths"])
-        run = peer_run(timed, choice["dt"], h, ends, seed=1000 + rels.index(row["rel_error"]))
+        run = peer_run(timed, choice["dt"], h, ends, seed=(2000 if iso else 1000)
+                       + rels.index(row["rel_error"]), estimator=estimator)
         seconds = run["seconds"] * choice["paths"] / timed
         choice.update({"timed_paths": timed, "timed_seconds": run["seconds"],
                        "seconds": seconds, "run": timed == choice["paths"],
                        "scaled_from": None if timed == choice["paths"] else timed,
                        "timed_var": run["var"], "timed_var_stderr": run["var_stderr"],
                        "options": options})
-        row["peer"] = choice
+        row[key] = choice
         row["eps_m2"] = eps
-        row["ratio_peer_to_crandall"] = seconds / row["crandall"]["seconds"]
-        print(f"  rel {row['rel_error']:g} (EPS {eps:.3g} m^2): peer dt {choice['dt']:.3g} s, "
-              f"{choice['paths']} paths, {choice['steps_per_path']} steps ({used} law), "
-              f"{seconds:.1f} s {'run' if choice['run'] else f'scaled from {timed} paths'}; "
-              f"crandall {row['crandall']['seconds']:.1f} s: ratio "
-              f"{row['ratio_peer_to_crandall']:.1f}", flush=True)
-        checks.add(f"peer rel {row['rel_error']:g}: timed run's variance vs reference + "
-                   f"predicted bias", run["var"], ref_var + choice["bias"],
+        row[f"ratio_{key}_to_crandall"] = seconds / row["crandall"]["seconds"]
+        print(f"  rel {row['rel_error']:g} (EPS {eps:.3g} m^2): peer ({estimator}) dt "
+              f"{choice['dt']:.3g} s, {choice['paths']} paths, {choice['steps_per_path']} steps "
+              f"({used} law), {seconds:.1f} s "
+              f"{'run' if choice['run'] else f'scaled from {timed} paths'}; crandall "
+              f"{row['crandall']['seconds']:.1f} s: ratio "
+              f"{row[f'ratio_{key}_to_crandall']:.1f}", flush=True)
+        checks.add(f"peer ({estimator}) rel {row['rel_error']:g}: timed run's variance vs "
+                   f"reference + predicted bias", run["var"], ref_var + choice["bias"],
                    4 * math.hypot(run["var_stderr"], ref_err))
-    out.update({"rows": rows, "reference": {"var": ref_var, "reported_error": ref_err},
-                "peer_bias": {"points": points, "laws": laws, "kappa": kappa,
-                              "seconds_per_path_step": rate, "batch": PEER_BATCH}})
-    return out
+    return {"points": points, "laws": laws, "kappa": kappa, "V_finest": finest["V"],
+            "seconds_per_path_step": rate, "batch": PEER_BATCH}
 
 
 def fixed_step_check(quick: bool, checks: Checks, ref):
@@ -442,46 +478,59 @@ def plot(data, path):
 
     tta = data["time_to_answer"]
     ax = axes[1]
-    pb = tta.get("peer_bias", {})
-    pts = pb.get("points", [])
-    if pts:
+    grid = None
+    for key, label, colour in (("peer_bias", "sample variance", "tab:orange"),
+                               ("peer_isometry_bias", "Ito isometry", "tab:green")):
+        pb = tta.get(key, {})
+        pts = pb.get("points", [])
+        if not pts:
+            continue
         ax.errorbar([p["dt"] for p in pts], [abs(p["bias"]) for p in pts],
-                    yerr=[p["bias_error"] for p in pts], fmt="o", capsize=2,
-                    label="peer: |Var S(t_s) - crandall's|")
+                    yerr=[p["bias_error"] for p in pts], fmt="o", capsize=2, color=colour,
+                    label=f"peer, {label}: |Var S(t_s) - crandall's|")
         grid = np.geomspace(1e-4, max(p["dt"] for p in pts), 50)
         for name, law in pb.get("laws", {}).items():
-            ax.loglog(grid, law["c"] * grid ** law["p"], "--", lw=1,
+            ax.loglog(grid, law["c"] * grid ** law["p"], "--", lw=1, color=colour,
+                      alpha=1.0 if name == "all" else 0.5,
                       label=f"fit ({name}): {law['c']:.3g} dt^{law['p']:.2f}")
+    if grid is not None:
         for row in tta["rows"]:
-            if "peer" in row:
-                ax.axhline(row["eps_m2"], color="grey", lw=0.8, ls=":")
-                ax.plot(row["peer"]["dt"], row["peer"]["bias"], "k^", mfc="none")
-                ax.annotate(f"EPS (R = {row['rel_error']:g})", (grid[0], row["eps_m2"]),
-                            fontsize=7, xytext=(0, 2), textcoords="offset points")
+            ax.axhline(row["eps_m2"], color="grey", lw=0.8, ls=":")
+            ax.annotate(f"EPS (R = {row['rel_error']:g})", (grid[0], row["eps_m2"]),
+                        fontsize=7, xytext=(0, 2), textcoords="offset points")
+            for key, colour in (("peer", "tab:orange"), ("peer_isometry", "tab:green")):
+                if key in row:
+                    ax.plot(row[key]["dt"], abs(row[key]["bias"]), "^", color=colour,
+                            mfc="none")
         ax.set_xscale("log")
         ax.set_yscale("log")
     ax.set_xlabel("peer step dt (s)")
     ax.set_ylabel("bias of the variance of the distance at the stop (m^2)")
     ax.set_title("NumPy Euler-Maruyama: measured bias (triangles: chosen dt)", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=6)
 
     ax = axes[2]
     rows = [r for r in tta["rows"] if "peer" in r]
     x = np.arange(len(rows))
     c = [r["crandall"]["seconds"] for r in rows]
-    p = [r["peer"]["seconds"] for r in rows]
-    ax.bar(x - 0.2, c, 0.4, label="crandall rel_error=R (run)")
-    for i, r in enumerate(rows):
-        ax.bar(i + 0.2, p[i], 0.4, color="tab:orange", hatch="" if r["peer"]["run"] else "//",
-               label="NumPy Euler-Maruyama (hatched: timed, scaled in paths)" if i == 0
-               else None)
-    for i, r in enumerate(rows):
-        ax.annotate(f"x{r['ratio_peer_to_crandall']:.1f}", (i + 0.2, p[i]), ha="center",
-                    xytext=(0, 3), textcoords="offset points", fontsize=8)
+    ax.bar(x - 0.27, c, 0.27, label="crandall rel_error=R (run)")
+    every = list(c)
+    for k, (key, colour, label) in enumerate(
+            (("peer", "tab:orange", "Euler-Maruyama, sample variance"),
+             ("peer_isometry", "tab:green", "Euler-Maruyama, Ito isometry"))):
+        for i, r in enumerate(rows):
+            if key not in r:
+                continue
+            y = r[key]["seconds"]
+            every.append(y)
+            ax.bar(i + 0.27 * k, y, 0.27, color=colour, hatch="" if r[key]["run"] else "//",
+                   label=f"{label} (hatched: timed, scaled in paths)" if i == 0 else None)
+            ax.annotate(f"x{r[f'ratio_{key}_to_crandall']:.3g}", (i + 0.27 * k, y),
+                        ha="center", xytext=(0, 3), textcoords="offset points", fontsize=7)
     ax.set_yscale("log")
     if rows:
-        ax.set_ylim(bottom=0.3 * min(c + p), top=3 * max(c + p))
+        ax.set_ylim(bottom=0.3 * min(every), top=10 * max(every))
     ax.set_xticks(x, [f"R = {r['rel_error']:g}" for r in rows])
     ax.set_ylabel("wall time to the answer (s), 1 thread")
     ax.set_title(f"time to Var S(t_s) within R (relative)\n{tta['scene_file']}", fontsize=10)

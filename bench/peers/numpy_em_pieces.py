@@ -8,7 +8,10 @@ Every piece is cut into equal steps of at most ``dt`` (so no step straddles a pi
 each step uses its own piece's intensity); the distance takes the velocity at the start of
 the step, as the velocity's Euler step does. After the last piece end the coast is closed
 form: the body stops at e_last + |V| / (mu g) and the distance grows by V^2 / (2 mu g).
-Returns per-path values, so that any statistic can be formed. Independent of crandall.
+Returns per-path values, so that any statistic can be formed; with ``quadratic=True`` also
+the quadratic variation sum_k h_k^2 V_k^2 dt_k (the velocity at each step's start, as Ito's
+sums take it), whose mean over (mu g)^2 is the variance of the distance at the stop by Ito's
+isometry, up to the scheme's bias. Independent of crandall.
 """
 
 from __future__ import annotations
@@ -37,9 +40,10 @@ def steps(ends: Sequence[float], dt: float) -> int:
 
 def simulate(paths: int, dt: float, h: Sequence[float], ends: Sequence[float], mu: float,
              g: float = 9.81, seed: int = 0, v0: float = 0.0,
-             batch: int = 100_000) -> Dict[str, np.ndarray]:
+             batch: int = 100_000, quadratic: bool = False) -> Dict[str, np.ndarray]:
     """Per-path velocity at the last piece end, distance there, stop time and distance at
-    the stop, for intensities ``h[i]`` (m s^-3/2) on the pieces ending at ``ends[i]`` (s)."""
+    the stop, for intensities ``h[i]`` (m s^-3/2) on the pieces ending at ``ends[i]`` (s);
+    with ``quadratic`` the quadratic variation too (its arithmetic only then)."""
     if len(h) != len(ends) or not len(h):
         raise ValueError("h and ends must have the same, nonzero length")
     a = mu * g
@@ -47,21 +51,29 @@ def simulate(paths: int, dt: float, h: Sequence[float], ends: Sequence[float], m
     plan = grid(ends, dt)
     out = {"velocity": np.empty(paths), "distance": np.empty(paths),
            "stop_time": np.empty(paths), "distance_at_stop": np.empty(paths)}
+    if quadratic:
+        out["quadratic_variation"] = np.empty(paths)
     for start in range(0, paths, batch):
         n = min(batch, paths - start)
         v = np.full(n, float(v0))
         s = np.zeros(n)
+        q = np.zeros(n) if quadratic else None
         for count, step, i in plan:
             drift = a * step
             noise = float(h[i]) * math.sqrt(step)
+            weight = float(h[i]) ** 2 * step
             for _ in range(count):
                 s += np.abs(v) * step
+                if quadratic:
+                    q += weight * (v * v)
                 v += -drift * np.sign(v) + noise * rng.standard_normal(n)
         sl = slice(start, start + n)
         out["velocity"][sl] = v
         out["distance"][sl] = s
         out["stop_time"][sl] = float(ends[-1]) + np.abs(v) / a
         out["distance_at_stop"][sl] = s + v * v / (2.0 * a)
+        if quadratic:
+            out["quadratic_variation"][sl] = q
     return out
 
 
