@@ -33,7 +33,8 @@ def stub_simulated(monkeypatch):
 def test_the_paper_scene_holds_every_identity():
     sc = Scene(mu=0.5, h=1.0, t0=1.0, times=[0.5, 1.0])
     assert sc.effects == frozenset()
-    for identity in (model.EXACT_STEP, model.ITO_DISTANCE, model.ZERO_FRICTION, model.ANALYTIC):
+    for identity in (model.EXACT_STEP, model.ITO_DISTANCE, model.ISOMETRY, model.ZERO_FRICTION,
+                     model.ANALYTIC):
         assert model.holds(sc, identity)
 
 
@@ -70,11 +71,17 @@ def test_nothing_is_reported_exact_for_an_effect_no_identity_supports(stub_simul
     assert a.error("distance_at_stop") > 0.0
     # Both are still honest estimates of the same numbers (4 reported errors: a false
     # failure has probability below 1e-4 per statistic).
-    for name in ("distance", "velocity"):
+    for name in ("distance", "velocity", "distance_at_stop"):
         for stat in ("mean", "var"):
             d = np.abs(np.asarray(getattr(a, stat)(name)) - np.asarray(getattr(a_paper, stat)(name)))
             tol = 4 * np.hypot(a.error(name, stat), a_paper.error(name, stat)) + 1e-12
             assert np.all(d <= tol), (name, stat)
+    # The variance at the stop comes from Ito's isometry on the paper's scene only; the stub's
+    # run sums the squares of the distance (its per-path values hold no isometry slot).
+    from crandall import adaptive
+    iso = {(t.name, t.stat) for t in adaptive._targets(paper) if t.isometry}
+    assert iso == {("distance_at_stop", "var"), ("dissipated_energy_at_stop", "var")}
+    assert not any(t.isometry for t in adaptive._targets(sc))
 
 
 def test_the_closed_forms_are_not_offered_for_an_effect_they_do_not_hold_under(stub_simulated):

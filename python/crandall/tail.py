@@ -62,8 +62,8 @@ SAFETY = 1.3
 #: its variance times (n - 1) / chi2_0.01(n - 1) (2.49 for a pilot of 20 replicas). Splitting
 #: replicas are skewed (the distance at 1e-9: relative spread 1.2, skewness 2.5), so their
 #: sample variance is low more often than a normal sample's: with the 90 % bound, 19 % of runs
-#: would end above the target relative error there, with the 99 % one 3 %, for 47 % more
-#: samples (bench/tails.py). The normal quantile of the bound; chi2 by Wilson & Hilferty's cube
+#: end above the target relative error there, with the 99 % one 2.7 %, for 46 % more samples
+#: (bench/tails_pilot.py). The normal quantile of the bound; chi2 by Wilson & Hilferty's cube
 #: (plain float arithmetic, the same on every machine).
 UPPER_Z = 2.3263478740408408
 
