@@ -349,6 +349,18 @@ def test_checkpoint_resume_is_bitwise(tmp_path, monkeypatch):
         np.testing.assert_array_equal(_table(again), _table(whole))
 
 
+def test_a_bias_no_level_can_reach_is_refused_naming_error(monkeypatch):
+    # With two levels at most, a small target's grid bias cannot fall below it: the run says
+    # so in words (the message once read "grid_bias" after a rename).
+    from crandall import adaptive
+    monkeypatch.setattr(adaptive, "MAX_LEVELS", 2)
+    sc = crandall.Scene.scaled(tau0=2.0, times=[2.0], observe=["distance"])
+    with pytest.raises(ValueError, match=r"^error: the discretisation bias is still above the "
+                                         r"target on a grid 2\^2 times finer than the base"):
+        crandall.simulate(sc, error=1e-4, seed=1, threads=1, statistics=["distance:var"],
+                          max_seconds=1e9)
+
+
 def test_checkpoint_of_another_run_is_refused(tmp_path):
     sc = crandall.Scene.scaled(tau0=2.0, times=[1.0], observe=["distance"])
     ckpt = tmp_path / "c.json"

@@ -795,7 +795,7 @@ class _Engine(Estimator):
                 continue
             if deeper:
                 raise ValueError(
-                    f"error: the discretisation grid_bias is still above the target on a grid "
+                    f"error: the discretisation bias is still above the target on a grid "
                     f"2^{MAX_LEVELS} times finer than the base; ask for a larger error")
             self.pending = []
             for level, n in enumerate(want):
