@@ -12,8 +12,9 @@ Measured, one thread, in one run:
    its measured time per path; its time to 10 % at p is 100 / p paths times that.
 3. The residual displacement |U(t_s)| of scenes/crate.toml (SI), from 1 down to 1e-9 in one
    splitting run, with its 95 % band, joined to plain Monte Carlo where that is informative;
-   and its last level by importance sampling (the excursions' signs re-drawn), to the same
-   relative error.
+   and its last level by importance sampling (the excursions' signs re-drawn) and by
+   splitting of that level alone (the score normalised towards it), to the same relative
+   error.
 
 Writes bench/out/tails.json and bench/out/tails.png; --publish copies both to bench/results/.
 
@@ -126,6 +127,17 @@ def main() -> None:
         / math.hypot(float(m.stderr[0]), float(curve.stderr[-1]))}
     print(f"  by importance sampling: {m.probability[0]:.3g} (rel. {m.rel_error[0]:.3f}, "
           f"reliable {bool(m.reliable[0])}), {crate_entry['importance']['seconds']:.1f} s")
+    # The top level alone: splitting ranks by the score normalised towards it.
+    t = time.perf_counter()
+    one = crandall.tail(crate, "residual_displacement", [top], rel_error=rel, seed=5, threads=1)
+    crate_entry["splitting_one_level"] = {
+        "level": top, "probability": float(one.probability[0]), "stderr": float(one.stderr[0]),
+        "rel_error": float(one.rel_error[0]), "samples": one.samples,
+        "seconds": time.perf_counter() - t,
+        "z_against_importance": (float(one.probability[0]) - float(m.probability[0]))
+        / math.hypot(float(one.stderr[0]), float(m.stderr[0]))}
+    print(f"  by splitting of that level alone: {one.probability[0]:.3g} (rel. "
+          f"{one.rel_error[0]:.3f}), {crate_entry['splitting_one_level']['seconds']:.1f} s")
     out = {"script": "bench/tails.py",
            "command": "python bench/tails.py" + (" --quick" if args.quick else "")
            + (" --publish" if args.publish else ""),
@@ -163,6 +175,10 @@ def plot(data, path: Path) -> None:
     if imp is not None:
         b.errorbar([imp["level"]], [imp["probability"]], yerr=[1.96 * imp["stderr"]], fmt="s",
                    color="C3", ms=5, label="importance sampling (one level)")
+    one = c.get("splitting_one_level")
+    if one is not None:
+        b.errorbar([one["level"] - 0.08], [one["probability"]], yerr=[1.96 * one["stderr"]],
+                   fmt="D", color="C2", ms=5, label="splitting, that level alone")
     mp = np.array(c["mc_probability"])
     keep = mp >= 100.0 / c["mc_paths"]
     b.plot(np.array(c["mc_levels"])[keep], mp[keep], "k--",

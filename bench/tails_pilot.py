@@ -5,7 +5,8 @@ many samples: two stages").
 A splitting replica's estimate is skewed, so the sample variance of a small pilot is low more
 often than a normal sample's, and a run sized from it falls short of its target. This script
 draws many replicas of two runs of the paper's scene (scaled, tau0 = 5, 200 particles, the
-default step): the distance at the stop at P about 1e-9 (level 51) and the stop time at
+default step; one level each, so the distance's replicas rank by the normalised score): the
+distance at the stop at P about 1e-9 (level 51) and the stop time at
 P = 1e-6 (the level of bench/tails_coverage.py). Then, for each confidence level, it replays
 crandall.tail's two stages on them: a pilot of 20 replicas drawn from the pool, the second
 stage as many replicas as max(1.3, (n - 1) / chi2_(1-conf)(n - 1)) times the pilot's variance

@@ -94,6 +94,10 @@ def test_splitting_and_importance_agree_on_the_distance_at_the_stop():
         assert 1e-10 < s.probability[i] < 1e-5
         combined = math.hypot(s.stderr[i], m.stderr[0])
         assert abs(s.probability[i] - m.probability[0]) <= Z * combined, (s.probability[i], m.probability[0], combined)
+    # Splitting of the one level near 1e-9, with the score normalised towards it.
+    one = tail(PAPER, "distance_at_stop", [44.0], seed=18, dt=0.05, rel_error=0.15, threads=2)
+    combined = math.hypot(one.stderr[0], m.stderr[0])
+    assert abs(one.probability[0] - m.probability[0]) <= Z * combined, (one.probability[0], m.probability[0], combined)
 
 
 def test_splitting_and_importance_agree_on_the_residual_displacement():
@@ -178,6 +182,54 @@ def test_splitting_agrees_with_plain_monte_carlo_at_1e_3_and_1e_4(name, levels):
     r = tail(scene, name, levels, seed=22, dt=0.05, rel_error=0.1, threads=2)
     for i in range(2):
         assert abs(r.probability[i] - mc[i]) <= Z * math.hypot(r.stderr[i], mc_se[i])
+    # One level per run: splitting ranks the paths by the score normalised towards that level
+    # (docs/methods/tails.md, "The score"), another score than the curve's above.
+    for i, lv in enumerate(levels):
+        one = tail(scene, name, [lv], seed=23 + i, dt=0.05, rel_error=0.1, threads=2)
+        assert abs(one.probability[0] - mc[i]) <= Z * math.hypot(one.stderr[0], mc_se[i])
+
+
+#: A start in motion and a calm first piece: every path shares the first two grid points, so
+#: the normalised score's maximum is taken from the first random one on.
+CALM_START = crandall.Scene(mu=0.3, h=[0.0, 1.0], t0=[0.3, 1.5], v0=0.5, times=[1.0],
+                            observe=["displacement", "distance", "dissipated_energy", "stop",
+                                     "residual"])
+
+
+@pytest.mark.parametrize("name, level", [("dissipated_energy_at_stop", 2.4),
+                                         ("displacement_at_stop", 0.65)])
+def test_the_normalised_score_after_a_calm_start_against_plain_monte_carlo(name, level):
+    # The energy is binned as the distance (m mu g S); levels near 1e-3 (from plain runs).
+    mc_name, mc_level = name, level
+    if name == "dissipated_energy_at_stop":
+        mc_name, mc_level = "distance_at_stop", level / (CALM_START.mass * CALM_START.drift)
+    mc, mc_se = plain(CALM_START, mc_name, [mc_level], 200_000, 41, 0.01)
+    assert 3e-4 < mc[0] < 3e-3
+    r = tail(CALM_START, name, [level], seed=42, dt=0.01, rel_error=0.1, threads=2)
+    assert abs(r.probability[0] - mc[0]) <= Z * math.hypot(r.stderr[0], mc_se[0])
+
+
+def test_the_normalised_score_ends_at_the_quantity_and_starts_where_paths_differ():
+    # At the last point the score is (Q - top) / (scale eps): Q above a level is a score above
+    # that level's threshold, the condition for splitting to stay unbiased; the points before
+    # the first random one are every path's.
+    import importlib
+
+    T = importlib.import_module("crandall.tail")
+    for name in T._Problem.NORMALISED:
+        problem = T._Problem(CALM_START, name, None, 0.01)
+        n = 400
+        states = problem.start_states(n)
+        T._extend(problem, states, np.arange(n), np.zeros(n), np.arange(n), 777, 1)
+        xi, m = problem.split_score(states, 0.3)
+        q = problem.value(m)
+        first = problem.first_random_point()
+        assert first == 2  # one exact step over the calm piece, then the first noisy one
+        assert np.all(xi[:, :first] == xi[:1, :first]) and np.all(np.ptp(xi[:, first:], axis=0) > 0)
+        assert np.all(np.isfinite(xi))
+        for lv in np.quantile(q, [0.1, 0.5, 0.9]):
+            assert np.array_equal(q > lv, xi[:, -1] > problem.split_threshold(lv, 0.3))
+        assert problem.split_threshold(0.3, 0.3) == 0.0
 
 
 def test_a_piecewise_scene_and_an_initial_state():

@@ -60,9 +60,9 @@ MIN_SPLITTING_STEPS = 50
 SAFETY = 1.3
 #: ... or, if larger, as many as the 99 % upper confidence bound of the pilot's variance asks:
 #: its variance times (n - 1) / chi2_0.01(n - 1) (2.49 for a pilot of 20 replicas). Splitting
-#: replicas are skewed (the distance at 1e-9: relative spread 1.2, skewness 2.5), so their
-#: sample variance is low more often than a normal sample's: with the 90 % bound, 19 % of runs
-#: end above the target relative error there, with the 99 % one 2.7 %, for 46 % more samples
+#: replicas are skewed (the distance at 1e-9, normalised score: relative spread 0.58, skewness
+#: 1.6), so their sample variance is low more often than a normal sample's: with the 90 % bound,
+#: 17 % of runs end above the target relative error there, with the 99 % one 3.9 %
 #: (bench/tails_pilot.py). The normal quantile of the bound; chi2 by Wilson & Hilferty's cube
 #: (plain float arithmetic, the same on every machine).
 UPPER_Z = 2.3263478740408408
@@ -176,6 +176,73 @@ class _Problem:
             self.remaining = np.concatenate([np.cumsum(per_step[::-1])[::-1], [0.0]])
         else:
             self.remaining = np.zeros(len(lengths) + 1)
+        self._normal = None  # the splitting score's normalisation (_normaliser), built on demand
+
+    def _normaliser(self):
+        """What the normalised splitting score needs, per grid point (docs/methods/tails.md,
+        "The score"): the point's time, the cumulative sums of sigma^2 dt, sigma^2 dt r and
+        sigma^2 dt r^2 over the steps before it (r: a step's midpoint), and the variance the
+        rest of the excitation adds at the stationary speed, sum of sigma^6 dt / (2 c^4) over
+        the steps after it; and each point's step length."""
+        if self._normal is None:
+            c = self.scene.drift
+            points = np.concatenate([[0.0], np.cumsum(self.lengths)])
+            w = self.noises ** 2 * self.lengths
+            mid = self.step_starts + self.lengths / 2
+            cum = [np.concatenate([[0.0], np.cumsum(w * mid ** k)]) for k in range(3)]
+            stat = self.noises ** 6 * self.lengths / (2 * c ** 4)
+            stationary = np.concatenate([np.cumsum(stat[::-1])[::-1], [0.0]])
+            step = np.concatenate([self.lengths, self.lengths[-1:]])
+            self._normal = (points, cum, stationary, step)
+        return self._normal
+
+    #: The quantities whose splitting score is normalised by the spread still to come (when a
+    #: run asks for one level): the distance and energy at the stop and the displacement where
+    #: the body would stop, whose martingale parts all grow at the rate sigma^2 V^2 / c^2.
+    NORMALISED = ("distance_at_stop", "dissipated_energy_at_stop", "displacement_at_stop",
+                  "residual_displacement")
+
+    def first_random_point(self) -> int:
+        """The first grid point that differs between paths: the end of the first noisy step."""
+        return int(np.argmax(self.noises > 0)) + 1
+
+    def split_score(self, states: np.ndarray, top: Optional[float]):
+        """(the score splitting ranks paths by, the quantity's score), both of shape
+        states.shape[:2]. With ``top`` (a run of one level, for the NORMALISED quantities) the
+        first is (m - top) / sd, m the quantity's score (its conditional mean, or where the body
+        would stop now) and sd^2 an estimate of the variance still to come: sigma^2 (|V| / c -
+        r)^2 integrated while the speed would decay to zero, plus the stationary speed's share
+        of the rest. At the last point sd is a floor eps, so the score there is (Q - top) / eps
+        and Q > top is a score above 0 (split_threshold). Otherwise both are m."""
+        m = self.score(states)
+        if top is None:
+            return m, m
+        points, cum, stationary, step = self._normaliser()
+        c = self.scene.drift
+        q = np.abs(states[..., 0]) / c
+        end = points + q  # when the speed would reach zero without noise
+        # The grid point at or after it, counted in the steps of the point's own piece (the
+        # pieces' steps differ a little; a score needs no more than that).
+        e = np.minimum(np.arange(self.steps + 1) + np.ceil(np.minimum(q / step, self.steps)).astype(np.int64),
+                       self.steps)
+        var = end * end * (cum[0][e] - cum[0]) - 2 * end * (cum[1][e] - cum[1]) + (cum[2][e] - cum[2])
+        np.maximum(var, 0.0, out=var)
+        var += stationary
+        var[..., -1] = 0.0
+        var += self.floor2()
+        return (m - top) / (self._scale() * np.sqrt(var)), m
+
+    def _scale(self) -> float:
+        """The quantity's unit over the distance's (the energy: m mu g)."""
+        return self.scene.mass * self.scene.drift if self.q.name == "dissipated_energy_at_stop" else 1.0
+
+    def floor2(self) -> float:
+        """eps^2 of split_score: a millionth of the stationary variance to come at the start."""
+        return 1e-6 * float(self._normaliser()[2][0])
+
+    def split_threshold(self, level: float, top: float) -> float:
+        """The normalised score's value at the last point for Q = level (0 for level = top)."""
+        return (level - top) / (self._scale() * np.sqrt(0.0 + self.floor2()))
 
     @property
     def noisy_steps(self) -> int:
@@ -252,13 +319,19 @@ def _extend(problem: _Problem, states, rows, starts, streams, key, threads, law=
 
 
 def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, kill: int,
-                       key: int, replica: int, threads: int, max_iterations: int):
+                       key: int, replica: int, threads: int, max_iterations: int,
+                       normalise: bool = True):
     """One run of adaptive multilevel splitting: an unbiased estimate of P(Q > L) for each L.
 
     The estimate for L is taken at the first iteration whose kill level z (the kill-th smallest
     path maximum of the score) reaches L: prod(1 - K_j / n) times the fraction of the particles
     with Q > L, K_j the number killed at iteration j (every particle at or below z, so ties are
     killed together: Bréhier et al. 2016). If every particle sits at z the estimate is 0.
+
+    A run of one level of a NORMALISED quantity ranks the paths by the normalised score
+    (_Problem.split_score) over the points from the first random one on (the points before are
+    every path's, so a maximum there would tie them all); the level is then its threshold.
+    ``normalise=False`` keeps the plain score (bench/tails_score.py compares the two).
     """
     n = particles
     rng = np.random.default_rng([key, replica, 1])
@@ -267,9 +340,14 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     _extend(problem, states, np.arange(n), np.zeros(n), base + np.arange(n), key, threads)
     branches = n
     steps = n * problem.steps
-    score = problem.score(states)
-    level = score.max(axis=1)
-    value = problem.value(score)
+    top = (float(levels[0]) if normalise and len(levels) == 1 and problem.q.name in problem.NORMALISED
+           else None)
+    first = problem.first_random_point() if top is not None else 0
+    thresholds = (np.array([problem.split_threshold(float(x), top) for x in levels])
+                  if top is not None else levels)
+    score, plain = problem.split_score(states, top)
+    level = score[:, first:].max(axis=1)
+    value = problem.value(plain)
     order = np.argsort(levels, kind="stable")
     estimates = np.full(len(levels), np.nan)
     log_weight = 0.0
@@ -277,7 +355,7 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     iterations = 0
     while True:
         z = np.partition(level, kill - 1)[kill - 1]
-        while done < len(order) and levels[order[done]] <= z:
+        while done < len(order) and thresholds[order[done]] <= z:
             estimates[order[done]] = math.exp(log_weight) * np.mean(value > levels[order[done]])
             done += 1
         if done == len(order):
@@ -291,15 +369,15 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
         log_weight += math.log1p(-len(killed) / n)
         survivors = np.flatnonzero(level > z)
         parents = survivors[rng.integers(len(survivors), size=len(killed))]
-        branch = np.argmax(score[parents] > z, axis=1)
+        branch = np.argmax(score[parents, first:] > z, axis=1) + first
         states[killed] = states[parents]
         _extend(problem, states, killed, branch, base + branches + np.arange(len(killed)), key,
                 threads)
         branches += len(killed)
         steps += int(np.sum(problem.steps - branch))
-        score[killed] = problem.score(states[killed])
-        level[killed] = score[killed].max(axis=1)
-        value[killed] = problem.value(score[killed])
+        score[killed], plain = problem.split_score(states[killed], top)
+        level[killed] = score[killed, first:].max(axis=1)
+        value[killed] = problem.value(plain)
         iterations += 1
     return estimates, {"iterations": iterations, "steps": steps, "log_weight": log_weight}
 

@@ -1,0 +1,115 @@
+"""What splitting's normalised score buys: one replica's relative spread, skewness and time,
+with the plain score (the conditional mean, or where the body would stop now) and with the
+score normalised towards the level (docs/methods/tails.md, "The score splitting ranks by, for
+one level").
+
+Cases: the paper's scene (scaled, tau0 = 5, the default step) at the distance at the stop
+51 (P about 1e-9) and 30.5 (about 5e-7), and scenes/crate.toml's residual displacement at
+5.3 m (about 1.3e-9). Each replica is crandall.tail's own (its replica function, 200 particles,
+one thread), the two scores on the same replica numbers. The work to a given relative error
+is the spread squared times the seconds per replica.
+
+Writes bench/out/tails_score.{json,png} (bench/results/ with --publish).
+
+    .venv/bin/python bench/tails_score.py [--replicas 200] [--publish]
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from _publish import write  # noqa: E402
+
+PARTICLES = 200
+
+
+def replicas(problem, level, n, normalise, key):
+    tail = importlib.import_module("crandall.tail")
+    est = np.empty(n)
+    start = time.perf_counter()
+    for r in range(n):
+        e, _ = tail._splitting_replica(problem, np.array([level]), PARTICLES, PARTICLES // 10,
+                                       key, r, 1, 10 ** 6, normalise=normalise)
+        est[r] = e[0]
+    return est, (time.perf_counter() - start) / n
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--replicas", type=int, default=200)
+    ap.add_argument("--publish", action="store_true")
+    args = ap.parse_args()
+    import crandall
+    from crandall import streams
+
+    tail = importlib.import_module("crandall.tail")
+    paper = crandall.Scene.scaled(tau0=5.0, times=[5.0])
+    crate = crandall.Scene.from_toml(str(HERE.parent / "scenes" / "crate.toml"))
+    cases = (("paper distance_at_stop 51", paper, "distance_at_stop", 51.0, args.replicas),
+             ("paper distance_at_stop 30.5", paper, "distance_at_stop", 30.5, args.replicas),
+             ("crate residual_displacement 5.3 m", crate, "residual_displacement", 5.3,
+              max(2, args.replicas // 2)))
+    key = streams.tail_key(20261126)
+    out = {"script": "bench/tails_score.py",
+           "command": "python bench/tails_score.py " + " ".join(sys.argv[1:]),
+           "crandall_version": crandall.__version__, "particles": PARTICLES, "threads": 1,
+           "cases": {}}
+    start = time.perf_counter()
+    for name, scene, quantity, level, n in cases:
+        problem = tail._Problem(scene, quantity, None, None)
+        rows = {}
+        for label, normalise in (("plain", False), ("normalised", True)):
+            est, per = replicas(problem, level, n, normalise, key)
+            c = est - est.mean()
+            spread = float(est.std(ddof=1) / est.mean())
+            rows[label] = {"replicas": n, "mean": float(est.mean()),
+                           "stderr": float(est.std(ddof=1) / math.sqrt(n)),
+                           "relative_spread": spread,
+                           "skewness": float(np.mean(c ** 3) / est.std() ** 3),
+                           "seconds_per_replica": per, "work": spread ** 2 * per}
+            print(f"{name}, {label} score: mean {est.mean():.4g} ± {rows[label]['stderr']:.2g}, "
+                  f"relative spread {spread:.3f}, skewness {rows[label]['skewness']:.2f}, "
+                  f"{per:.4f} s per replica, work {rows[label]['work']:.4f}", flush=True)
+        gain = rows["plain"]["work"] / rows["normalised"]["work"]
+        out["cases"][name] = {"quantity": quantity, "level": level, "rows": rows,
+                              "work_ratio_plain_over_normalised": gain}
+        print(f"  the normalised score needs {gain:.2f} times less work")
+    out["seconds"] = time.perf_counter() - start
+    write("tails_score", out, plot, publish=args.publish)
+
+
+def plot(data, path: Path) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(data["cases"])
+    x = np.arange(len(names))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for k, (label, off) in enumerate((("plain", -0.2), ("normalised", 0.2))):
+        rows = [data["cases"][n]["rows"][label] for n in names]
+        axes[0].bar(x + off, [r["relative_spread"] for r in rows], 0.4, label=f"{label} score")
+        axes[1].bar(x + off, [r["work"] for r in rows], 0.4, label=f"{label} score")
+    axes[0].set_ylabel("one replica's relative spread")
+    axes[1].set_ylabel("work: spread² × seconds per replica")
+    for ax in axes:
+        ax.set_xticks(x, [n.replace(" ", "\n", 1) for n in names], fontsize=7)
+        ax.grid(True, axis="y", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle(f"splitting's score, {data['particles']} particles, one thread", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+if __name__ == "__main__":
+    main()
