@@ -301,6 +301,12 @@ def test_bad_input_is_refused_naming_the_parameter():
         tail(PAPER, "stop_time", [9.0], dt=-1)
     with pytest.raises(ValueError, match="quantity"):
         tail(crandall.Scene(mu=0.0, h=1.0, t0=2.0, times=[1.0]), "stop_time", [3.0])
+    # Sample i's streams start at i * 2^40: at most 2^23 - 1 samples in a run (refused before
+    # any path runs; the largest allowed passes the check).
+    with pytest.raises(ValueError, match="max_samples: min_samples . max_samples come to more than 8388607 replicas"):
+        tail(PAPER, "stop_time", [9.0], max_samples=2 ** 23 - 20)
+    with pytest.raises(ValueError, match="max_samples: .* batches of particles = 10 paths.*or more particles"):
+        tail(PAPER, "stop_time", [9.0], method="importance", particles=10, max_samples=10 ** 8)
     assert set(TAIL_QUANTITIES) >= {"stop_time", "velocity", "speed", "distance_at_stop",
                                     "residual_displacement", "dissipated_energy_at_stop"}
 

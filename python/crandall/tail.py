@@ -50,6 +50,8 @@ _schedule = lazy_module("crandall.analytic.schedule")
 TAIL_METHODS = ("splitting", "importance")
 #: A replica's path streams: replica r uses streams r * 2^40 + 0, 1, ...
 _REPLICA_STREAMS = 1 << 40
+#: The most samples (replicas or batches) of one run: their streams' first numbers fit in int64.
+_MAX_SAMPLES = 1 << 23
 #: Thresholds of an importance-sampling run's degeneracy (docs/methods/tails.md): fewer
 #: effective samples among the paths past a level, or a single path carrying more of its weight.
 MIN_EFFECTIVE_SAMPLES = 30.0
@@ -1059,6 +1061,14 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     check_client(client)
     min_samples = check_int("min_samples", min_samples if min_samples is not None else (20 if splitting else 1000), 2, 10 ** 12)
     max_samples = check_int("max_samples", max_samples if max_samples is not None else (100_000 if splitting else 10 ** 8), min_samples, 10 ** 12)
+    # Sample i continues its paths with the streams i * 2^40 + 0, 1, ... (signed 64-bit in the
+    # core's call): at most 2^23 samples, pilot and second stage together.
+    per = 1 if splitting else particles
+    if -(-min_samples // per) + max(2, -(-max_samples // per)) > _MAX_SAMPLES - 1:
+        what = "replicas" if splitting else f"batches of particles = {particles} paths"
+        raise ParameterError("max_samples", f"max_samples: min_samples + max_samples come to more than "
+                             f"{_MAX_SAMPLES - 1} {what} (their random streams are numbered in "
+                             f"blocks of 2^40); give fewer" + ("" if splitting else " or more particles"))
     key = _streams.tail_key(seed)
     unit = "" if scene.units == "scaled" else TAIL_QUANTITIES[quantity].unit
     spec = {"scene": scene.to_dict(), **problem.describe(), "levels": lv.tolist(),
