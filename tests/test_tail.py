@@ -230,6 +230,12 @@ def test_the_normalised_score_ends_at_the_quantity_and_starts_where_paths_differ
         for lv in np.quantile(q, [0.1, 0.5, 0.9]):
             assert np.array_equal(q > lv, xi[:, -1] > problem.split_threshold(lv, 0.3))
         assert problem.split_threshold(0.3, 0.3) == 0.0
+    # An intensity whose sigma^6 overflows keeps the plain score, silently (no overflow
+    # warning: the suite turns warnings into errors).
+    wild = crandall.Scene(mu=0.3, h=1e60, t0=1.0, times=[1.0])
+    assert not T._Problem(wild, "distance_at_stop", None, 0.01).normalisable()
+    assert T._Problem(CALM_START, "distance_at_stop", None, 0.01).normalisable()
+    assert not T._Problem(CALM_START, "stop_time", None, 0.01).normalisable()
 
 
 def test_a_piecewise_scene_and_an_initial_state():

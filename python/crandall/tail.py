@@ -187,15 +187,18 @@ class _Problem:
         rest of the excitation adds at the stationary speed, sum of sigma^6 dt / (2 c^4) over
         the steps after it; and each point's step length."""
         if self._normal is None:
-            c = self.scene.drift
-            points = np.concatenate([[0.0], np.cumsum(self.lengths)])
-            w = self.noises ** 2 * self.lengths
-            mid = self.step_starts + self.lengths / 2
-            cum = [np.concatenate([[0.0], np.cumsum(w * mid ** k)]) for k in range(3)]
-            stat = self.noises ** 6 * self.lengths / (2 * c ** 4)
-            stationary = np.concatenate([np.cumsum(stat[::-1])[::-1], [0.0]])
-            step = np.concatenate([self.lengths, self.lengths[-1:]])
-            self._normal = (points, cum, stationary, step)
+            # Overflow to inf (an intensity far outside a physical range) is what
+            # normalisable() looks for.
+            with np.errstate(over="ignore", invalid="ignore"):
+                c = self.scene.drift
+                points = np.concatenate([[0.0], np.cumsum(self.lengths)])
+                w = self.noises ** 2 * self.lengths
+                mid = self.step_starts + self.lengths / 2
+                cum = [np.concatenate([[0.0], np.cumsum(w * mid ** k)]) for k in range(3)]
+                stat = self.noises ** 6 * self.lengths / (2 * c ** 4)
+                stationary = np.concatenate([np.cumsum(stat[::-1])[::-1], [0.0]])
+                step = np.concatenate([self.lengths, self.lengths[-1:]])
+                self._normal = (points, cum, stationary, step)
         return self._normal
 
     #: The quantities whose splitting score is normalised by the spread still to come (when a
@@ -237,6 +240,17 @@ class _Problem:
     def _scale(self) -> float:
         """The quantity's unit over the distance's (the energy: m mu g)."""
         return self.scene.mass * self.scene.drift if self.q.name == "dissipated_energy_at_stop" else 1.0
+
+    def normalisable(self) -> bool:
+        """Whether split_score's normalisation is usable: its sums finite and its floor eps^2
+        positive (an intensity far outside a physical range can overflow sigma^6 or underflow
+        it to 0; such a run keeps the plain score)."""
+        if self.q.name not in self.NORMALISED:
+            return False
+        points, cum, stationary, step = self._normaliser()
+        f = self.floor2()
+        return (math.isfinite(f) and f > 0 and all(np.all(np.isfinite(x)) for x in cum)
+                and bool(np.all(np.isfinite(stationary))))
 
     def floor2(self) -> float:
         """eps^2 of split_score: a millionth of the stationary variance to come at the start."""
@@ -342,8 +356,7 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     _extend(problem, states, np.arange(n), np.zeros(n), base + np.arange(n), key, threads)
     branches = n
     steps = n * problem.steps
-    top = (float(levels[0]) if normalise and len(levels) == 1 and problem.q.name in problem.NORMALISED
-           else None)
+    top = float(levels[0]) if normalise and len(levels) == 1 and problem.normalisable() else None
     first = problem.first_random_point() if top is not None else 0
     thresholds = (np.array([problem.split_threshold(float(x), top) for x in levels])
                   if top is not None else levels)
