@@ -12,8 +12,9 @@ crandall.tail's two stages on them: a pilot of 20 replicas drawn from the pool, 
 stage as many replicas as max(1.3, (n - 1) / chi2_(1-conf)(n - 1)) times the pilot's variance
 asks for a 10 % relative error (at least the pilot's 20), drawn from the pool too, and the
 relative error that run would report (its replicas' standard error over their mean). Reported
-per level: the share of runs above the target and the mean replicas (pilot included) over
-those the pool's own variance needs. The replicas are crandall.tail's own (read back from a
+per level: the share of runs above the target, the mean replicas (pilot included) over
+those the pool's own variance needs, and how often the run's 95 % interval covers the pool's
+mean (the mean of the law the replay draws from). The replicas are crandall.tail's own (read back from a
 checkpoint of one long run).
 
 Writes bench/out/tails_pilot.{json,png} (bench/results/ with --publish).
@@ -36,6 +37,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import brentq
 from scipy.stats import chi2
+from scipy.stats import norm, t as student
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -72,15 +74,21 @@ def replay(pool, runs, rng):
     rows = []
     for conf in CONFIDENCE:
         factor = max(SAFETY, (PILOT - 1) / chi2.ppf(1 - conf, PILOT - 1))
-        above, cost = 0, 0.0
+        above, cost, covered = 0, 0.0, 0
         for _ in range(runs):
             pilot = rng.choice(pool, PILOT)
             n = max(PILOT, math.ceil(factor * pilot.var(ddof=1) / (REL * pilot.mean()) ** 2))
             s = rng.choice(pool, n)
-            above += s.std(ddof=1) / math.sqrt(n) / s.mean() > REL
+            se = s.std(ddof=1) / math.sqrt(n)
+            above += se / s.mean() > REL
             cost += n + PILOT
+            # The run's 95 % interval (TailResult.interval's: Student's t below 200 samples,
+            # normal above) against the mean of the law the replay draws from, the pool's.
+            q = student.ppf(0.975, n - 1) if n < 200 else norm.ppf(0.975)
+            covered += abs(s.mean() - pool.mean()) <= q * se
         rows.append({"confidence": conf, "factor": factor, "share_above_target": above / runs,
-                     "replicas_over_needed": cost / runs / need})
+                     "replicas_over_needed": cost / runs / need,
+                     "coverage_95": covered / runs})
     return need, rows
 
 
@@ -118,7 +126,8 @@ def main() -> None:
         for r in rows:
             print(f"  {100 * r['confidence']:.1f} % bound (x{r['factor']:.2f}): "
                   f"{100 * r['share_above_target']:.1f} % of runs above the target, "
-                  f"{r['replicas_over_needed']:.2f} x the replicas needed", flush=True)
+                  f"{r['replicas_over_needed']:.2f} x the replicas needed, the 95 % interval "
+                  f"covers in {100 * r['coverage_95']:.1f} %", flush=True)
     out["seconds"] = time.perf_counter() - start
     write("tails_pilot", out, plot, publish=args.publish)
 
