@@ -180,6 +180,7 @@ def test_splitting_agrees_with_plain_monte_carlo_at_1e_3_and_1e_4(name, levels):
     mc, mc_se = plain(scene, name, levels, 400_000, 21, 0.05)
     assert 5e-4 < mc[0] < 3e-3 and 5e-5 < mc[1] < 3e-4
     r = tail(scene, name, levels, seed=22, dt=0.05, rel_error=0.1, threads=2)
+    assert r.diagnostics["score"] == "plain"
     for i in range(2):
         assert abs(r.probability[i] - mc[i]) <= Z * math.hypot(r.stderr[i], mc_se[i])
     # One level per run: splitting ranks the paths by the score normalised towards that level
@@ -206,6 +207,7 @@ def test_the_normalised_score_after_a_calm_start_against_plain_monte_carlo(name,
     mc, mc_se = plain(CALM_START, mc_name, [mc_level], 200_000, 41, 0.01)
     assert 3e-4 < mc[0] < 3e-3
     r = tail(CALM_START, name, [level], seed=42, dt=0.01, rel_error=0.1, threads=2)
+    assert r.diagnostics["score"] == "normalised"
     assert abs(r.probability[0] - mc[0]) <= Z * math.hypot(r.stderr[0], mc_se[0])
 
 

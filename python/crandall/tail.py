@@ -334,6 +334,12 @@ def _extend(problem: _Problem, states, rows, starts, streams, key, threads, law=
 # -- splitting ------------------------------------------------------------------------------
 
 
+def _normalised_top(problem: _Problem, levels: np.ndarray) -> Optional[float]:
+    """The level splitting's score is normalised towards: the one level of a run of one level
+    of a NORMALISED quantity (None: the plain score)."""
+    return float(levels[0]) if len(levels) == 1 and problem.normalisable() else None
+
+
 def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, kill: int,
                        key: int, replica: int, threads: int, max_iterations: int,
                        normalise: bool = True):
@@ -356,7 +362,7 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     _extend(problem, states, np.arange(n), np.zeros(n), base + np.arange(n), key, threads)
     branches = n
     steps = n * problem.steps
-    top = float(levels[0]) if normalise and len(levels) == 1 and problem.normalisable() else None
+    top = _normalised_top(problem, levels) if normalise else None
     first = problem.first_random_point() if top is not None else 0
     thresholds = (np.array([problem.split_threshold(float(x), top) for x in levels])
                   if top is not None else levels)
@@ -752,7 +758,8 @@ class TailResult:
     seconds, steps : float, int
         Wall time and exact steps simulated (the cost).
     diagnostics : dict
-        Splitting: iterations per replica and particles. Importance sampling: the proposal, and
+        Splitting: iterations per replica, particles, and the score ("normalised" towards the
+        one level, or "plain"; docs/methods/tails.md). Importance sampling: the proposal, and
         per level the effective sample size of the paths past it and the largest weight share.
     reliable : ndarray of bool
         False where the diagnostics show a degenerate estimate (importance sampling with too few
@@ -1100,7 +1107,9 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     diagnostics: Dict[str, Any] = {}
     window = drift = slow = 0.0
     if splitting:
-        diagnostics.update(particles=particles, killed_per_iteration=max(1, particles // 10))
+        diagnostics.update(particles=particles, killed_per_iteration=max(1, particles // 10),
+                           score=("plain" if _normalised_top(problem, lv) is None
+                                  else "normalised"))
     else:
         # The displacement's proposals hit less often in their pilot (a few per cent at 1e-9):
         # more pilot paths, so that the best of them shows its 20 hits.
