@@ -43,7 +43,7 @@ from ._resources import available_memory
 from .checkpoint import json_state, read_json_state
 from .driver import Estimator, Progress, Task, drive
 from .quantities import VELOCITY, DISTANCE, core_flags, names_for, quantity
-from .model import EXACT_STEP, ISOMETRY, ITO_DISTANCE, ZERO_FRICTION, holds, ito_constant
+from .model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds, isometry_applies, ito_constant
 from .results import AccuracyResult, StatisticsWarning
 from .scene import Scene
 from .streams import level_key
@@ -159,9 +159,7 @@ def _targets(scene: Scene, statistics: Optional[set] = None) -> List[_Target]:
                          or (q.factor(scene) == 0.0 and holds(scene, ZERO_FRICTION)))
                 ito = (stat == "mean" and q.variable == DISTANCE and scene.drift > 0
                        and holds(scene, ITO_DISTANCE))
-                isometry = (stat == "var" and q.variable == DISTANCE and q.at_stop
-                            and q.power == 1 and not q.magnitude and scene.drift > 0
-                            and holds(scene, ISOMETRY))
+                isometry = stat == "var" and isometry_applies(q, scene)
                 # The isometry's integral is the samples' slot after the stop's.
                 out.append(_Target(name, n_times + 1 if isometry else slot, ti, stat,
                                    q.variable, q.power, exact or ito, ito, q.magnitude,

@@ -35,7 +35,11 @@ same paths, paired by index) on the envelope with twice the pieces, compared on 
 coupled grid (the two schedules' grid biases nearly cancel there). The piece error is first
 order in the piece length (on Amin & Ang's envelope the differences between n and 2n pieces
 fall by 2.2 to 2.9 per halving), so the error of n pieces is estimated as twice the
-difference (twice its bound where it is not resolved); grid and piece errors add.
+difference (twice its bound where it is not resolved); grid and piece errors add. The
+variance at the stop of the distance (and the energy) takes its difference through Ito's
+isometry (crandall.model.ISOMETRY): Var S(t_s) = E int sigma^2 V^2 dt / c^2 on either schedule,
+so the difference is one of means of an integral the coupled runs then record, far less spread
+than the squares' (docs/scenes.md).
 """
 
 from __future__ import annotations
@@ -51,8 +55,8 @@ from . import _core
 from . import engine, results
 from ._resources import available_memory
 from .driver import Estimator, Progress, Task, drive
-from .model import ENVELOPE, exact_in_law
-from .quantities import quantity
+from .model import ENVELOPE, exact_in_law, isometry_applies
+from .quantities import VELOCITY, core_flags, quantity
 from .spec import RunSpec
 from .streams import bias_key
 
@@ -86,16 +90,18 @@ class _CoupledRun(Estimator):
 
     name = "bias"
 
-    def __init__(self, spec, paths: int, threads: int) -> None:
+    def __init__(self, spec, paths: int, threads: int, quadratic: bool = False) -> None:
         # The run's own options (every field of its spec), on coupled grids that include the
-        # run's grid, with a stream of its own.
+        # run's grid, with a stream of its own; with ``quadratic`` also the isometry's integral
+        # int sigma^2 V^2 dt, in a slot after the stop's (it changes no other value).
         scene = spec.scene
         o = engine.plan_options(spec, histograms=False)
         o.method = "richardson"
         o.refinement = REFINEMENT[spec.method]
         o.seed = bias_key(spec.seed)
+        o.quadratic_variation = quadratic
         # At most BIAS_BYTES of per-path values (3 grids x 3 variables per output slot).
-        slots = len(scene.times) + (1 if "stop" in scene.observe else 0)
+        slots = len(scene.times) + (1 if "stop" in scene.observe else 0) + (1 if quadratic else 0)
         n = int(min(paths, BIAS_PATHS, max(2, BIAS_BYTES // (8 * 9 * slots))))
         o.paths = n
         self.plan = _core.Plan(o)
@@ -135,9 +141,20 @@ class _CoupledRun(Estimator):
         return self.samples
 
 
-def _samples(spec, paths: int, threads: int) -> np.ndarray:
+def _samples(spec, paths: int, threads: int, quadratic: bool = False) -> np.ndarray:
     """The coupled run's per-path values, (paths, slots, 3 grids, 3 variables)."""
-    return drive(_CoupledRun(spec, paths, threads))[0]
+    return drive(_CoupledRun(spec, paths, threads, quadratic))[0]
+
+
+def _isometry_names(scene, names) -> set:
+    """The quantities of ``names`` whose piece error of the variance is taken through Ito's
+    isometry (crandall.model.ISOMETRY): the coupled runs then record int sigma^2 V^2 dt, which
+    the core does with the stop and an integral observed and no peaks."""
+    flags = core_flags(scene.observe)
+    if not (flags["stop"] and (flags["displacement"] or flags["distance"])
+            and not flags.get("peaks")):
+        return set()
+    return {n for n in names if isometry_applies(quantity(n), scene)}
 
 
 def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray, bool]]:
@@ -150,7 +167,8 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
     coupled = result.paths >= 2 and method in ("exact", "richardson", "richardson2")
     needs_run = coupled and (envelope or any(
         not exact_in_law(n, result.scene) and not quantity(n).peak for n in names))
-    samples = _samples(result.spec, result.paths, threads) if needs_run else None
+    quadratic = envelope and bool(_isometry_names(result.scene, names))
+    samples = _samples(result.spec, result.paths, threads, quadratic) if needs_run else None
     pieces = (_piece_errors(result.spec, result.names, samples, threads)
               if needs_run and envelope else {})
     w3 = np.array(_core.richardson_weights("richardson"))
@@ -222,14 +240,19 @@ def piece_errors(scene, names, *, seed: int, paths: int = BIAS_PATHS,
     if ENVELOPE not in scene.effects or paths < 2:
         return {}
     spec = RunSpec.create(scene, paths=min(paths, BIAS_PATHS), seed=seed, method="richardson")
-    return _piece_errors(spec, names, _samples(spec, spec.paths, threads), threads)
+    quadratic = bool(_isometry_names(scene, names))
+    return _piece_errors(spec, names, _samples(spec, spec.paths, threads, quadratic), threads)
 
 
 def _piece_errors(spec, names, samples: np.ndarray, threads: int):
     scene = spec.scene
-    fine = _samples(dataclasses.replace(spec, scene=_refined(scene)), len(samples), threads)
-    n = len(samples)
     n_times = len(scene.times)
+    # The samples hold the isometry's integral when they have a slot after the stop's.
+    quadratic = samples.shape[1] > n_times + (1 if "stop" in scene.observe else 0)
+    isometry = _isometry_names(scene, names) if quadratic else set()
+    fine = _samples(dataclasses.replace(spec, scene=_refined(scene)), len(samples), threads,
+                    quadratic)
+    n = len(samples)
     out: Dict[Tuple[str, str], Tuple[np.ndarray, bool]] = {}
     for name in names:
         q = quantity(name)
@@ -245,6 +268,13 @@ def _piece_errors(spec, names, samples: np.ndarray, threads: int):
                 b = np.abs(b) if q.magnitude else b ** q.power
                 if stat == "mean":
                     phi = a - b
+                elif name in isometry:
+                    # Var S(t_s) = E int sigma^2 V^2 dt / c^2 on either schedule: the
+                    # difference of the variances is a difference of means, of per-path values
+                    # far less spread than the squares' (docs/methods/adaptive.md).
+                    c2 = scene.drift * scene.drift
+                    phi = (samples[:, n_times + 1, 0, VELOCITY]
+                           - fine[:, n_times + 1, 0, VELOCITY]) / c2
                 else:
                     ca = a - _sum(a, threads) / n
                     cb = b - _sum(b, threads) / n

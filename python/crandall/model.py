@@ -22,10 +22,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import FrozenSet
 
-from .quantities import VELOCITY, quantity
+from .quantities import DISTANCE, VELOCITY, quantity
 
 __all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ISOMETRY", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
-           "holds", "check_simulated", "exact_in_law"]
+           "holds", "isometry_applies", "check_simulated", "exact_in_law"]
 
 
 #: The body starts with a velocity v0 or a displacement u0 (Scene(v0=, u0=)).
@@ -91,6 +91,14 @@ ANALYTIC = Identity("analytic", "the closed forms of crandall.analytic (the pape
 #: The effects the core simulates: a start from any state, and a piecewise intensity (no step
 #: straddles a piece's end), also as an envelope's pieces.
 SIMULATED: FrozenSet[str] = frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE})
+
+
+def isometry_applies(q, scene) -> bool:
+    """Whether the variance of quantity ``q`` may be taken through :data:`ISOMETRY`: the
+    distance at the stop or a constant times it (the dissipated energy), on a scene with
+    friction whose effects the isometry supports."""
+    return (q.variable == DISTANCE and q.at_stop and q.power == 1 and not q.magnitude
+            and scene.drift > 0 and holds(scene, ISOMETRY))
 
 
 def holds(scene, identity: Identity) -> bool:
