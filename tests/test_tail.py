@@ -238,6 +238,18 @@ def test_the_normalised_score_ends_at_the_quantity_and_starts_where_paths_differ
     assert not T._Problem(wild, "distance_at_stop", None, 0.01).normalisable()
     assert T._Problem(CALM_START, "distance_at_stop", None, 0.01).normalisable()
     assert not T._Problem(CALM_START, "stop_time", None, 0.01).normalisable()
+    # Only one intensity over one stretch takes the normalised score (docs/methods/tails.md):
+    # calm before or after it, or the same intensity in two pieces, do not change that.
+    for h, t0, one in (([1.0, 0.0, 0.5], [1.0, 5.0, 6.0], False),
+                       ([1.0, 0.0, 1.0], [1.0, 2.0, 3.0], False),
+                       ([0.3, 0.6, 1.0], [1.0, 2.0, 3.0], False),
+                       ([1.0, 0.5], [1.0, 2.0], False),
+                       ([0.0, 1.0, 0.0], [1.0, 2.0, 3.0], True),
+                       ([1.0, 1.0], [1.0, 2.0], True)):
+        sc = crandall.Scene(mu=0.3, h=h, t0=t0, times=[1.0])
+        problem = T._Problem(sc, "distance_at_stop", None, 0.01)
+        assert problem.one_intensity() == one == problem.normalisable(), h
+        assert problem.normalisable(schedule=False)
 
 
 def test_a_piecewise_scene_and_an_initial_state():
@@ -248,6 +260,7 @@ def test_a_piecewise_scene_and_an_initial_state():
     mc, mc_se = plain(scene, "distance_at_stop", [1.6], 200_000, 31, dt)
     assert 2e-4 < mc[0] < 5e-3
     r = tail(scene, "distance_at_stop", [1.6], seed=32, dt=dt, rel_error=0.1, threads=2)
+    assert r.diagnostics["score"] == "plain"  # three pieces
     assert abs(r.probability[0] - mc[0]) <= Z * math.hypot(r.stderr[0], mc_se[0])
     # A crate sliding in at 2 m/s with no shaking: the stop is deterministic, at
     # v0 / (mu g) = 0.408 s (after t0 = 0.2, so t_s = t0 + |V(t0)| / (mu g) is that time).

@@ -241,16 +241,31 @@ class _Problem:
         """The quantity's unit over the distance's (the energy: m mu g)."""
         return self.scene.mass * self.scene.drift if self.q.name == "dissipated_energy_at_stop" else 1.0
 
-    def normalisable(self) -> bool:
-        """Whether split_score's normalisation is usable: its sums finite and its floor eps^2
-        positive (an intensity far outside a physical range can overflow sigma^6 or underflow
-        it to 0; such a run keeps the plain score)."""
-        if self.q.name not in self.NORMALISED:
+    def normalisable(self, schedule: bool = True) -> bool:
+        """Whether split_score's normalisation serves: a NORMALISED quantity, one intensity
+        (unless ``schedule`` is False: bench/tails_score.py measures the others), its
+        sums finite and its floor eps^2 positive (an intensity far outside a physical range can
+        overflow sigma^6 or underflow it to 0; such a run keeps the plain score)."""
+        if self.q.name not in self.NORMALISED or (schedule and not self.one_intensity()):
             return False
         points, cum, stationary, step = self._normaliser()
         f = self.floor2()
         return (math.isfinite(f) and f > 0 and all(np.all(np.isfinite(x)) for x in cum)
                 and bool(np.all(np.isfinite(stationary))))
+
+    def one_intensity(self) -> bool:
+        """Whether the noise acts with one intensity over one stretch of time (calm before or
+        after it allowed): the scenes where the normalised score is measured to help. On a
+        build-up, two pieces or an envelope it was as often worse as better (0.6 to 1.2 times
+        the plain score's work between 1e-3 and 1e-5), and across a lull followed by more
+        shaking (a pause, an aftershock) far worse (30 to 40 times the work): its spread to
+        come shrinks faster than the quantity's true tail there, the score drops for every
+        path, and the path maxima stop measuring progress (docs/methods/tails.md)."""
+        noisy = np.flatnonzero(self.noises > 0)
+        if len(noisy) == 0:
+            return False
+        stretch = self.noises[noisy[0]:noisy[-1] + 1]
+        return bool(np.all(stretch == stretch[0]))
 
     def floor2(self) -> float:
         """eps^2 of split_score: a millionth of the stationary variance to come at the start."""
@@ -334,15 +349,16 @@ def _extend(problem: _Problem, states, rows, starts, streams, key, threads, law=
 # -- splitting ------------------------------------------------------------------------------
 
 
-def _normalised_top(problem: _Problem, levels: np.ndarray) -> Optional[float]:
+def _normalised_top(problem: _Problem, levels: np.ndarray, schedule: bool = True) -> Optional[float]:
     """The level splitting's score is normalised towards: the one level of a run of one level
-    of a NORMALISED quantity (None: the plain score)."""
-    return float(levels[0]) if len(levels) == 1 and problem.normalisable() else None
+    of a NORMALISED quantity under one intensity (None: the plain score). ``schedule=False``
+    drops the schedule's condition (bench/tails_score.py)."""
+    return float(levels[0]) if len(levels) == 1 and problem.normalisable(schedule) else None
 
 
 def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, kill: int,
                        key: int, replica: int, threads: int, max_iterations: int,
-                       normalise: bool = True):
+                       normalise: Optional[bool] = None):
     """One run of adaptive multilevel splitting: an unbiased estimate of P(Q > L) for each L.
 
     The estimate for L is taken at the first iteration whose kill level z (the kill-th smallest
@@ -353,7 +369,8 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     A run of one level of a NORMALISED quantity ranks the paths by the normalised score
     (_Problem.split_score) over the points from the first random one on (the points before are
     every path's, so a maximum there would tie them all); the level is then its threshold.
-    ``normalise=False`` keeps the plain score (bench/tails_score.py compares the two).
+    ``normalise``: None, the rule above (crandall.tail's); False, the plain score; True, the
+    normalised one whatever the schedule (bench/tails_score.py compares them).
     """
     n = particles
     rng = np.random.default_rng([key, replica, 1])
@@ -362,7 +379,7 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     _extend(problem, states, np.arange(n), np.zeros(n), base + np.arange(n), key, threads)
     branches = n
     steps = n * problem.steps
-    top = _normalised_top(problem, levels) if normalise else None
+    top = None if normalise is False else _normalised_top(problem, levels, normalise is None)
     first = problem.first_random_point() if top is not None else 0
     thresholds = (np.array([problem.split_threshold(float(x), top) for x in levels])
                   if top is not None else levels)
