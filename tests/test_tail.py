@@ -346,6 +346,25 @@ def test_coverage_of_the_interval():
     assert abs(hits / 100 - 0.95) <= 3 * math.sqrt(0.95 * 0.05 / 100), hits
 
 
+def test_coverage_of_the_interval_with_the_normalised_score():
+    # 100 seeds of the distance at the stop near 1e-3 (one level under one intensity: the
+    # normalised score), against plain Monte Carlo of the same grid quantity (10^6 paths: a
+    # relative standard error of 3 %, a tenth of the runs' 30 %). Coverage within 3 binomial
+    # standard deviations of 95 %, widened by the reference's own error: a reference off by
+    # one of its standard errors moves the coverage by about 0.5 % here. Measured: 94 of 100.
+    scene = crandall.Scene.scaled(tau0=5, times=[5], observe=["distance", "stop"])
+    mc, mc_se = plain(scene, "distance_at_stop", [10.5], 1_000_000, 51, 0.1)
+    assert 5e-4 < mc[0] < 3e-3
+    hits = 0
+    for seed in range(100):
+        r = tail(PAPER, "distance_at_stop", [10.5], seed=2000 + seed, dt=0.1, rel_error=0.3,
+                 particles=50, threads=1)
+        assert r.diagnostics["score"] == "normalised"
+        lo, hi = r.interval()
+        hits += lo[0] <= mc[0] <= hi[0]
+    assert abs(hits / 100 - 0.95) <= 3 * math.sqrt(0.95 * 0.05 / 100) + 0.01, hits
+
+
 def test_the_transition_density_integrates_to_one_and_chains():
     s = math.sqrt(2.0)
     # From rest with the paper's friction: the closed form of the paper's velocity law.
