@@ -272,6 +272,18 @@ def test_a_piecewise_scene_and_an_initial_state():
     assert r.probability.tolist() == [1.0, 0.0]  # v0^2 / (2 mu g) = 0.4077 m
 
 
+def test_a_level_below_every_path_is_flagged_not_reported_as_certain():
+    # The distance at the stop on the paper's scene is below 0.5 for a small share of paths:
+    # every particle of every replica starts above it, each replica gives 1, and their spread
+    # (0) is no standard error. Flagged, with a warning naming the case; a level of the same
+    # run that paths do cross is not.
+    with pytest.warns(StatisticsWarning, match="every path exceeded it"):
+        r = tail(PAPER, "distance_at_stop", [0.5, 6.0], seed=3, dt=0.1, threads=1)
+    assert r.probability[0] == 1.0 and r.stderr[0] == 0.0
+    assert r.reliable.tolist() == [False, True]
+    assert r.diagnostics["all_replicas_one"] == [True, False]
+
+
 def test_the_result_does_not_depend_on_threads_and_a_checkpoint_resumes_bitwise(tmp_path):
     args = dict(seed=5, dt=0.25, rel_error=0.3)
     one = tail(PAPER, "stop_time", [12.0], threads=1, **args)

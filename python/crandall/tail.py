@@ -780,8 +780,9 @@ class TailResult:
         per level the effective sample size of the paths past it and the largest weight share.
     reliable : ndarray of bool
         False where the diagnostics show a degenerate estimate (importance sampling with too few
-        effective samples or one dominant weight; a level no replica reached): its number is not
-        a clean estimate.
+        effective samples or one dominant weight; a level no replica reached; a level every
+        replica's every particle exceeded, ``all_replicas_one``, where P is only known to be
+        within about 3 / (replicas x particles) of 1): its number is not a clean estimate.
     spec : dict
         What was run (scene, quantity, time, dt, method, seed, ...).
     """
@@ -1164,8 +1165,14 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     reliable = mean > 0
     if splitting:
         arr = np.array([c["estimates"] for c in used])
+        # A replica gives exactly 1 only when all its particles start above the level: if every
+        # replica does, the spread between them (0) says nothing, and 1 - P is only known to be
+        # below about 3 / (replicas x particles) (the rule of three, 95 %).
+        ones = np.all(arr == 1.0, axis=0)
         diagnostics.update(replicas=n, iterations_mean=float(np.mean([c["iterations"] for c in used])),
-                           zero_replicas=np.sum(arr == 0, axis=0).tolist())
+                           zero_replicas=np.sum(arr == 0, axis=0).tolist(),
+                           all_replicas_one=ones.tolist())
+        reliable &= ~ones
     else:
         s1 = np.sum([c["sum"] for c in used], axis=0)
         s2 = np.sum([c["sum2"] for c in used], axis=0)
@@ -1188,7 +1195,8 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     if not np.all(reliable):
         bad = ", ".join(f"{x:g}" for x in lv[~reliable])
         warnings.warn(f"tail: the estimates at levels {bad} are not reliable (importance "
-                      f"sampling degenerate, or no sample reached the level): see "
+                      f"sampling degenerate, no sample reached the level, or every path "
+                      f"exceeded it, so that P is only known to be near 1): see "
                       f"TailResult.diagnostics", StatisticsWarning, stacklevel=2)
     elif np.any(rel > rel_error):
         why = (f"max_seconds ({max_seconds:g} s)" if stopped_early else
