@@ -182,7 +182,7 @@ class _Problem:
 
     def _normaliser(self):
         """What the normalised splitting score needs, per grid point (docs/methods/tails.md,
-        "The score"): the point's time, the cumulative sums of sigma^2 dt, sigma^2 dt r and
+        "The score splitting ranks by, for one level"): the point's time, the cumulative sums of sigma^2 dt, sigma^2 dt r and
         sigma^2 dt r^2 over the steps before it (r: a step's midpoint), and the variance the
         rest of the excitation adds at the stationary speed, sum of sigma^6 dt / (2 c^4) over
         the steps after it; and each point's step length."""
@@ -228,9 +228,10 @@ class _Problem:
         end = points + q  # when the speed would reach zero without noise
         # The grid point at or after it, counted in the steps of the point's own piece (the
         # pieces' steps differ a little; a score needs no more than that).
-        e = np.minimum(np.arange(self.steps + 1) + np.ceil(np.minimum(q / step, self.steps)).astype(np.int64),
-                       self.steps)
-        var = end * end * (cum[0][e] - cum[0]) - 2 * end * (cum[1][e] - cum[1]) + (cum[2][e] - cum[2])
+        ahead = np.ceil(np.minimum(q / step, self.steps)).astype(np.int64)
+        e = np.minimum(np.arange(self.steps + 1) + ahead, self.steps)
+        var = (end * end * (cum[0][e] - cum[0]) - 2 * end * (cum[1][e] - cum[1])
+               + (cum[2][e] - cum[2]))
         np.maximum(var, 0.0, out=var)
         var += stationary
         var[..., -1] = 0.0
@@ -256,9 +257,9 @@ class _Problem:
     def one_intensity(self) -> bool:
         """Whether the noise acts with one intensity over one stretch of time (calm before or
         after it allowed): the scenes where the normalised score is measured to help. On a
-        build-up, two pieces or an envelope it was as often worse as better (0.6 to 1.2 times
-        the plain score's work between 1e-3 and 1e-5), and across a lull followed by more
-        shaking (a pause, an aftershock) far worse (30 to 40 times the work): its spread to
+        build-up, two pieces or an envelope it was as often worse as better (1/0.6 to 1/1.24
+        times the plain score's work between 1e-3 and 1e-5), and across a lull followed by more
+        shaking (a pause, an aftershock) far worse (25 to 50 times the work): its spread to
         come shrinks faster than the quantity's true tail there, the score drops for every
         path, and the path maxima stop measuring progress (docs/methods/tails.md)."""
         noisy = np.flatnonzero(self.noises > 0)
@@ -366,9 +367,10 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     with Q > L, K_j the number killed at iteration j (every particle at or below z, so ties are
     killed together: Bréhier et al. 2016). If every particle sits at z the estimate is 0.
 
-    A run of one level of a NORMALISED quantity ranks the paths by the normalised score
-    (_Problem.split_score) over the points from the first random one on (the points before are
-    every path's, so a maximum there would tie them all); the level is then its threshold.
+    A run of one level of a NORMALISED quantity under one intensity ranks the paths by the
+    normalised score (_Problem.split_score) over the points from the first random one on (the
+    points before are every path's, so a maximum there would tie them all); the level is then
+    its threshold.
     ``normalise``: None, the rule above (crandall.tail's); False, the plain score; True, the
     normalised one whatever the schedule (bench/tails_score.py compares them).
     """
