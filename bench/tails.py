@@ -10,7 +10,7 @@ Measured, one thread, in one run:
    stop time's estimate against the closed form (z with the reported standard error).
 2. Plain Monte Carlo of the same quantities (crandall.simulate, method exact, the same step):
    its measured time per path; its time to 10 % at p is 100 / p paths times that.
-3. The residual displacement |U(t_s)| of scenes/crate.toml (SI), from 1 down to 1e-9 in one
+3. The residual displacement |U(t_s)| of the shipped scene crate (SI), from 1 down to 1e-9 in one
    splitting run, with its 95 % band, joined to plain Monte Carlo where that is informative;
    and its last level by importance sampling (the excursions' signs re-drawn) and by
    splitting of that level alone (the score normalised towards it), to the same relative
@@ -97,7 +97,7 @@ def main() -> None:
         print(f"  {name}: plain Monte Carlo would take {mc_seconds:.3g} s "
               f"({e['speedup']:.3g} times longer)")
     # The crate's residual displacement, 1 down to 1e-9 (or 1e-6 quick): one splitting run.
-    crate = crandall.Scene.from_toml(str(HERE.parent / "scenes" / "crate.toml"))
+    crate = crandall.Scene.from_toml("crate")
     crate = crandall.Scene.from_dict({**crate.to_dict(), "observe": ["displacement", "distance", "stop", "residual"],
                                       "distributions": ["residual_displacement"]})
     t = time.perf_counter()

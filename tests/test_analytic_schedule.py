@@ -55,7 +55,7 @@ def test_no_noise_is_the_deterministic_coast():
 
 
 def test_against_simulation_aftershock_and_a_start_in_motion():
-    scene = crandall.Scene.from_toml("scenes/aftershock.toml")
+    scene = crandall.Scene.from_toml("aftershock")
     sim_scene = crandall.Scene.from_dict({**scene.to_dict(), "distributions": ["stop_time"]})
     r = crandall.simulate(sim_scene, paths=200_000, seed=41)
     pieces = [(e, n) for e, n in scene.pieces]

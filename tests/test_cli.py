@@ -18,7 +18,7 @@ import crandall
 from crandall import analytic, cli
 from conftest import same_result
 
-SCENES = pathlib.Path(__file__).resolve().parent.parent / "scenes"
+SCENES = pathlib.Path(__file__).resolve().parent.parent / "python" / "crandall" / "scenes"
 SMALL = """
 title = "small"
 [scene]
@@ -50,7 +50,8 @@ def test_console_script_is_declared():
     assert any(ep.name == "crandall" and ep.value == "crandall.cli:main" for ep in eps)
 
 
-@pytest.mark.parametrize("args", [["--help"], ["run", "--help"], ["analytic", "--help"], ["tail", "--help"]])
+@pytest.mark.parametrize("args", [["--help"], ["run", "--help"], ["analytic", "--help"], ["tail", "--help"],
+                                  ["scenes", "--help"]])
 def test_help_everywhere(args):
     proc = crandall_cmd(*args)
     assert proc.returncode == 0, proc.stderr
@@ -173,6 +174,23 @@ def test_analytic_command(capsys):
     expected = analytic.physical("distance_mean", 1.0, mu=0.3, h=1.0, t0=2.0)
     assert f"{expected:.8g}" in out and "[m]" in out
     assert cli.main(["analytic", str(SCENES / "crate.toml"), "--tau0", "1"]) == 2
+
+
+def test_scenes_lists_the_shipped_scenes_and_run_takes_a_name(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)  # an empty folder: the names need no file here
+    assert cli.main(["scenes"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [l.split()[0] for l in lines] == sorted(p.stem for p in SCENES.glob("*.toml"))
+    assert any(l.startswith("crate ") and "truck bed" in l for l in lines)
+    assert cli.main(["analytic", "crate"]) == 0
+    by_name = capsys.readouterr().out
+    assert cli.main(["analytic", str(SCENES / "crate.toml")]) == 0
+    assert capsys.readouterr().out == by_name
+    assert cli.main(["run", "vibrating_table", "--paths", "2000", "--seed", "1",
+                     "--no-files"]) == 0
+    assert "Scene(mu=0.15, h=0.5, t0=0.5, g=9.81, mass=0.02" in capsys.readouterr().out
+    assert cli.main(["run", "no_such_scene", "--no-files"]) == 2
+    assert "crandall scenes" in capsys.readouterr().err
 
 
 # -- output folder, checkpoint and bad input: exit 2 with one line, before simulating -------

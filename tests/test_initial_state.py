@@ -123,7 +123,7 @@ def test_the_closed_forms_of_a_start_agree_with_the_paper_at_rest():
 def test_the_shipped_scene_of_a_crate_sliding_in(tmp_path, capsys):
     import pathlib
     from crandall import cli
-    path = pathlib.Path(__file__).resolve().parent.parent / "scenes" / "crate_sliding_in.toml"
+    path = pathlib.Path(__file__).resolve().parent.parent / "python" / "crandall" / "scenes" / "crate_sliding_in.toml"
     sc = crandall.Scene.from_toml(path)
     assert sc.v0 == 0.8 and sc.effects == {model.INITIAL_STATE}
     r = crandall.simulate(sc, paths=20_000, seed=4)

@@ -176,7 +176,7 @@ def test_scaled_pieces_and_scene_files(tmp_path):
 @pytest.mark.parametrize("name", ["cabinet_amin_ang.toml", "aftershock.toml"])
 def test_the_shipped_piecewise_scenes_keep_the_energy_law(name):
     import pathlib
-    path = pathlib.Path(__file__).resolve().parent.parent / "scenes" / name
+    path = pathlib.Path(__file__).resolve().parent.parent / "python" / "crandall" / "scenes" / name
     sc = crandall.Scene.from_toml(path)
     assert model.PIECEWISE_INTENSITY in sc.effects
     r = crandall.simulate(sc, paths=4000, seed=6)

@@ -1,5 +1,5 @@
-"""The README's Python examples, from "## Use" to the bias section, run in order, twice, in a
-fresh folder (the scene files beside them): every call a reader copies works and can be run
+"""The README's Python examples, from "## Use" to the bias section, run in order, twice, in an
+empty folder (the shipped scenes read by name): every call a reader copies works and can be run
 again. Path counts and targets are made smaller so that the suite stays short, and the Dask
 example gets a local cluster instead of the README's scheduler address: each substitution is
 listed in SHRINK and must match the README (so an edited example is never silently skipped)."""
@@ -9,7 +9,6 @@ from __future__ import annotations
 import os
 import pathlib
 import re
-import shutil
 
 import pytest
 
@@ -45,7 +44,6 @@ def test_the_readme_examples_run_twice_in_order(tmp_path, monkeypatch):
     pytest.importorskip("matplotlib")
     pytest.importorskip("distributed")
     pytest.importorskip("boost_histogram")
-    shutil.copytree(ROOT / "scenes", tmp_path / "scenes")
     monkeypatch.chdir(tmp_path)
     code = "from distributed import LocalCluster\n" + _examples()
     for run in range(2):

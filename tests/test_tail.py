@@ -253,9 +253,9 @@ def test_the_normalised_score_ends_at_the_quantity_and_starts_where_paths_differ
 
 
 def test_a_piecewise_scene_and_an_initial_state():
-    # The main shock, pause and aftershock of scenes/aftershock.toml: the stop after the
+    # The main shock, pause and aftershock of the shipped scene aftershock: the stop after the
     # aftershock, against plain Monte Carlo of the fixed-step core on the same grid.
-    scene = crandall.Scene.from_toml("scenes/aftershock.toml")
+    scene = crandall.Scene.from_toml("aftershock")
     dt = 0.02
     mc, mc_se = plain(scene, "distance_at_stop", [1.6], 200_000, 31, dt)
     assert 2e-4 < mc[0] < 5e-3

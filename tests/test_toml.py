@@ -9,7 +9,7 @@ import pytest
 import crandall
 from crandall.paper import default_scene
 
-SCENES = pathlib.Path(__file__).resolve().parent.parent / "scenes"
+SCENES = pathlib.Path(__file__).resolve().parent.parent / "python" / "crandall" / "scenes"
 
 
 def write(tmp_path, text, name="scene.toml"):
@@ -177,3 +177,33 @@ def test_file_key_comes_from_the_error_not_its_wording(tmp_path):
                     "observe = ['stop', 'heat']\n")
     with pytest.raises(ValueError, match=r"s\.toml: scene\.observe: observe: unknown"):
         crandall.Scene.from_toml(path)
+
+
+def test_shipped_scenes_are_listed_by_name_with_their_titles():
+    listed = crandall.Scene.shipped()
+    # Every file of the repository's folder of shipped scenes, by its stem.
+    assert sorted(listed) == sorted(p.stem for p in SCENES.glob("*.toml"))
+    assert listed["crate"] == "A 100 kg crate on a truck bed, mu = 0.3"
+
+
+def test_a_shipped_scene_is_read_by_name_from_any_folder(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert crandall.Scene.from_toml("crate") == crandall.Scene.from_toml(SCENES / "crate.toml")
+    assert crandall.Scene.from_toml("crate.toml").run_settings == {"paths": 200000, "seed": 7}
+
+
+def test_a_file_here_comes_before_a_shipped_scene_of_the_same_name(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write(tmp_path, '[scene]\nunits = "scaled"\ntau0 = 2.0\ntimes = [1.0]\n', name="crate")
+    assert crandall.Scene.from_toml("crate").units == "scaled"
+
+
+def test_an_unknown_name_lists_the_shipped_scenes(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(ValueError, match="cratee: cannot read the scene file.*not the name of a "
+                                         "shipped scene.*crate, crate_sliding_in"):
+        crandall.Scene.from_toml("cratee")
+    # A path with a folder is never taken for a name.
+    with pytest.raises(ValueError, match="cannot read the scene file: No such file") as info:
+        crandall.Scene.from_toml(tmp_path / "crate.toml")
+    assert "shipped" not in str(info.value)

@@ -51,3 +51,9 @@ def test_the_manylinux_wheel_installs_alone_and_gives_the_source_bits(tmp_path):
                                      text=True, check=True).stdout.strip().splitlines()[-1])
     ours.pop("file")
     assert theirs == ours
+    # The shipped scenes are package data: read by name in an empty folder.
+    assert "crandall/scenes/crate.toml" in listing
+    out = subprocess.run([py, "-I", "-c", "import crandall; print(crandall.Scene.from_toml("
+                          "'crate').run_settings, len(crandall.Scene.shipped()))"],
+                         capture_output=True, text=True, check=True, cwd=tmp_path, env=clean)
+    assert out.stdout.split() == ["{'paths':", "200000,", "'seed':", "7}", "6"]

@@ -1,4 +1,5 @@
-"""The ``crandall`` command line: ``crandall run [SCENE]`` and ``crandall analytic [SCENE]``.
+"""The ``crandall`` command line: ``crandall run [SCENE]``, ``crandall tail [SCENE]``,
+``crandall analytic [SCENE]`` and ``crandall scenes`` (the shipped scenes, by name).
 
 ``crandall run`` without a scene file simulates the paper's setting (``crandall.paper``) and
 prints it beside the analytic layer; ``python -m crandall`` does the same.
@@ -95,7 +96,8 @@ def _parser() -> argparse.ArgumentParser:
                     "values), and write result.nc (netCDF), result.csv and the figures (PNG) to "
                     "the output folder. Options override the scene file's [run] table.")
     run.add_argument("scene", nargs="?", metavar="SCENE",
-                     help="scene file (TOML, see scenes/); default: the paper's scene")
+                     help="scene file (TOML), or the name of a shipped scene (crandall scenes lists "
+                          "them); default: the paper's scene")
     run.add_argument("--paths", type=_positive_int, metavar="N",
                      help=f"paths (default: the file's, else {DEFAULT_FILE_PATHS:,}; "
                           f"{paper.DEFAULT_PATHS:,} for the paper's scene)")
@@ -150,7 +152,8 @@ def _parser() -> argparse.ArgumentParser:
                     "exceedance curve tail.png: from P = 0.9 down to the largest level, with its 95 %% "
                     "band, joined to plain Monte Carlo where that is informative.")
     tl.add_argument("scene", nargs="?", metavar="SCENE",
-                    help="scene file (TOML, see scenes/); default: the paper's scene")
+                    help="scene file (TOML), or the name of a shipped scene (crandall scenes lists "
+                          "them); default: the paper's scene")
     tl.add_argument("--quantity", required=True, metavar="Q",
                     help="stop_time, velocity, speed (with --time), distance_at_stop, "
                          "dissipated_energy_at_stop, displacement_at_stop, residual_displacement, "
@@ -181,6 +184,12 @@ def _parser() -> argparse.ArgumentParser:
     tl.add_argument("--dpi", type=_positive_int, default=150, metavar="N",
                     help="the resolution of a png figure (default: 150)")
     _progress_options(tl)
+
+    sub.add_parser(
+        "scenes", help="list the scenes shipped with crandall",
+        description="List the scenes shipped with crandall, by name and title. Give a name "
+                    "where a scene file goes: crandall run crate, crandall tail crate ..., "
+                    "crandall.Scene.from_toml(\"crate\").")
 
     an = sub.add_parser(
         "analytic", help="print the analytic curves",
@@ -601,6 +610,15 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
     return 0
 
 
+def scenes_command() -> int:
+    """``crandall scenes``: the shipped scenes, a name and its title a line."""
+    listed = Scene.shipped()
+    width = max(map(len, listed), default=0)
+    for name, title in listed.items():
+        print(f"{name:<{width}}  {title}")
+    return 0
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``crandall`` console script; returns the exit status."""
     args = _parser().parse_args(argv)
@@ -626,6 +644,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                                 mc_paths=args.mc_paths, out=args.out, overwrite=args.overwrite,
                                 files=not args.no_files, progress=args.progress,
                                 figure_format=args.figure_format, dpi=args.dpi)
+        if args.command == "scenes":
+            return scenes_command()
         return analytic_command(args.scene, tau0=args.tau0, times=args.times)
     except ValueError as exc:
         print(f"crandall: error: {exc}", file=sys.stderr)

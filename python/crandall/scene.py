@@ -549,7 +549,9 @@ class Scene:
         Parameters
         ----------
         path : str or os.PathLike
-            The TOML file.
+            The TOML file, or the name of a scene shipped with crandall (``"crate"``,
+            ``"cabinet_amin_ang"``, ...: :meth:`Scene.shipped` lists them), used when no file
+            of that name exists here.
 
         Returns
         -------
@@ -562,13 +564,19 @@ class Scene:
             If the file cannot be read or parsed, or a key is missing, unknown or has a bad
             value: the message names the file, the key and what is wrong.
         """
-        parsed = scene_file.read(path)
+        parsed = scene_file.read(scene_file.locate(path))
         try:
             scene = cls(**parsed.kwargs) if parsed.units == "SI" else cls.scaled(**parsed.kwargs)
         except ValueError as exc:
             raise parsed.error_of(exc) from None
         scene.run_settings = parsed.run_settings()
         return scene
+
+    @staticmethod
+    def shipped() -> Dict[str, str]:
+        """The scenes shipped with crandall: name -> title, for :meth:`from_toml` (and
+        ``crandall run NAME``)."""
+        return {name: scene_file.title(path) for name, path in scene_file.shipped().items()}
 
     @property
     def time_name(self) -> str:

@@ -16,7 +16,7 @@ import numpy as np
 
 from .methods import METHODS
 
-__all__ = ["read", "SceneFile", "RUN_SETTINGS", "MAX_RANGE_TIMES", "SI_KEYS", "SCALED_KEYS",
+__all__ = ["read", "locate", "shipped", "title", "SHIPPED_FOLDER", "SceneFile", "RUN_SETTINGS", "MAX_RANGE_TIMES", "SI_KEYS", "SCALED_KEYS",
            "COMMON_KEYS"]
 
 if sys.version_info >= (3, 11):
@@ -38,6 +38,53 @@ SCALED_KEYS = ("tau0", "h")
 #: scene's units), the output times and what to observe.
 COMMON_KEYS = ("v0", "u0", "times", "observe", "distributions", "bins")
 _RANGE_KEYS = ("start", "stop", "num", "step")
+
+
+#: The scene files shipped with crandall (package data), each reachable by its name (the
+#: file's stem): ``Scene.from_toml("crate")``, ``crandall run crate``; ``crandall scenes``
+#: lists them.
+SHIPPED_FOLDER = os.path.join(os.path.dirname(os.path.abspath(__file__)), "scenes")
+
+
+def shipped() -> Dict[str, str]:
+    """The shipped scene files: name -> path, sorted by name."""
+    try:
+        names = os.listdir(SHIPPED_FOLDER)
+    except OSError:  # pragma: no cover - an installation without its package data
+        return {}
+    return {n[:-5]: os.path.join(SHIPPED_FOLDER, n) for n in sorted(names) if n.endswith(".toml")}
+
+
+def locate(path) -> str:
+    """The scene file that ``path`` names: the file itself when it exists; else, for a bare
+    name (no folder; ``.toml`` optional), the shipped scene of that name. A path that is
+    neither is returned as it is (reading it then fails naming it)."""
+    text = os.fspath(path)
+    if os.path.isfile(text) or os.path.dirname(text):
+        return text
+    name = text[:-5] if text.endswith(".toml") else text
+    return shipped().get(name, text)
+
+
+def title(path) -> str:
+    """A scene file's ``title`` ("" if it has none), read as :func:`read` reads the file."""
+    value = _load(path).get("title", "")
+    return value if isinstance(value, str) else ""
+
+
+def _load(path) -> Dict[str, Any]:
+    try:
+        with open(path, "rb") as f:
+            return _toml.load(f)
+    except OSError as exc:
+        hint = ""
+        if not os.path.dirname(os.fspath(path)):
+            hint = ("; it is not the name of a shipped scene either (shipped: "
+                    f"{', '.join(shipped()) or 'none'}; `crandall scenes` lists them)")
+        raise ValueError(f"{os.fspath(path)}: cannot read the scene file: {exc.strerror}"
+                         f"{hint}") from None
+    except _toml.TOMLDecodeError as exc:
+        raise ValueError(f"{os.fspath(path)}: not valid TOML: {exc}") from None
 
 
 def _file_error(path, key: str, what: str) -> ValueError:
@@ -148,13 +195,7 @@ def read(path) -> SceneFile:
         If the file cannot be read or parsed, or a key is missing, unknown or has a bad
         value: the message names the file, the key and what is wrong.
     """
-    try:
-        with open(path, "rb") as f:
-            data = _toml.load(f)
-    except OSError as exc:
-        raise ValueError(f"{os.fspath(path)}: cannot read the scene file: {exc.strerror}") from None
-    except _toml.TOMLDecodeError as exc:
-        raise ValueError(f"{os.fspath(path)}: not valid TOML: {exc}") from None
+    data = _load(path)
     unknown = sorted(set(data) - {"title", "description", "scene", "run"})
     if unknown:
         raise _file_error(path, unknown[0], "unknown key; a scene file has title, description, "
