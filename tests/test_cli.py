@@ -434,6 +434,30 @@ def test_tail_command_prints_writes_and_draws_the_curve(tmp_path, capsys):
     assert cli.main(args + ["--overwrite"]) == 0
 
 
+def test_run_and_tail_keep_to_their_own_files(scene_file, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    # Their own default folders.
+    assert cli.main(["run", str(scene_file), "--paths", "500", "--no-figures"]) == 0
+    tail = ["tail", str(scene_file), "--quantity", "stop_time", "--levels", "2.0", "--seed", "1",
+            "--rel-error", "0.5", "--mc-paths", "500", "--no-progress"]
+    assert cli.main(tail) == 0
+    assert sorted(p.name for p in (tmp_path / cli.DEFAULT_OUT).iterdir()) == [
+        cli.MANIFEST, "result.csv", "result.nc"]
+    assert (tmp_path / cli.DEFAULT_TAIL_OUT / "tail.csv").exists()
+    # One folder for both: neither is refused for the other's files, and neither's
+    # --overwrite removes them.
+    shared = ["--out", str(tmp_path / "shared")]
+    assert cli.main(["run", str(scene_file), "--paths", "500", "--no-figures"] + shared) == 0
+    assert cli.main(tail + shared) == 0
+    assert cli.main(tail + shared + ["--overwrite"]) == 0
+    assert (tmp_path / "shared" / "result.nc").exists()
+    assert (tmp_path / "shared" / "result.csv").exists()
+    assert cli.main(["run", str(scene_file), "--paths", "500", "--no-figures", "--overwrite"]
+                    + shared) == 0
+    assert (tmp_path / "shared" / "tail.csv").exists()
+    capsys.readouterr()
+
+
 def test_tail_command_refuses_bad_options(capsys):
     assert cli.main(["tail", "--quantity", "height", "--levels", "1", "--no-files"]) == 2
     assert "quantity" in capsys.readouterr().err

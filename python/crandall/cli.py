@@ -13,7 +13,8 @@ import math
 import os
 import sys
 import time
-from typing import List, Optional, Sequence
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -27,26 +28,41 @@ from .scene import Scene
 from .simulate import simulate
 from .tail import TAIL_QUANTITIES, tail
 
-__all__ = ["main", "run", "PAPER_SEED", "DEFAULT_OUT"]
+__all__ = ["main", "run", "PAPER_SEED", "DEFAULT_OUT", "DEFAULT_TAIL_OUT"]
 
 #: Seed of the main job (the paper's scene), so that every run prints the same table.
 PAPER_SEED = 20261121
 #: Paths for a scene file without ``[run] paths``.
 DEFAULT_FILE_PATHS = 100_000
-#: Where ``crandall run`` writes results and figures.
+#: Where ``crandall run`` writes results and figures, and ``crandall tail`` its table and curve:
+#: folders of their own, so that neither's ``--overwrite`` can reach the other's files.
 DEFAULT_OUT = "crandall-out"
+DEFAULT_TAIL_OUT = "crandall-tail-out"
 #: The list of files a run wrote into its output folder (JSON), so that a later run with
-#: ``--overwrite`` removes exactly those and nothing of the user's.
+#: ``--overwrite`` removes exactly those and nothing of the user's; ``crandall tail`` keeps its
+#: own list, so that it never removes what ``crandall run`` wrote into the same folder.
 MANIFEST = ".crandall-files.json"
-# Names crandall writes into an output folder: a folder holding any of them (without a
-# manifest, e.g. a run that was killed while writing) holds another run's files.
-_OUTPUT_NAMES = (("result.nc", "result.csv", MANIFEST)
-                 + tuple(f"{stem}.{ext}" for ext in plots.FORMATS
-                         for stem in ([c.figure for c in paper.CURVES]
-                                      + ["velocity_density", "stop_time_density"]
-                                      + [f"{n}_distribution"
-                                         for n in plots.STOP_DISTRIBUTIONS[1:]]
-                                      + ["tail"])) + ("tail.csv",))
+TAIL_MANIFEST = ".crandall-tail-files.json"
+
+
+@dataclass(frozen=True)
+class _Outputs:
+    """What one command writes into an output folder: its manifest and the names it may write
+    (a folder holding any of them without a manifest, e.g. after a run killed while writing,
+    holds an earlier run's files)."""
+
+    manifest: str
+    names: Tuple[str, ...]
+
+
+_RUN_OUTPUTS = _Outputs(MANIFEST, ("result.nc", "result.csv", MANIFEST)
+                        + tuple(f"{stem}.{ext}" for ext in plots.FORMATS
+                                for stem in ([c.figure for c in paper.CURVES]
+                                             + ["velocity_density", "stop_time_density"]
+                                             + [f"{n}_distribution"
+                                                for n in plots.STOP_DISTRIBUTIONS[1:]])))
+_TAIL_OUTPUTS = _Outputs(TAIL_MANIFEST, ("tail.csv", TAIL_MANIFEST)
+                         + tuple(f"tail.{ext}" for ext in plots.FORMATS))
 #: The probabilities whose quantiles ``crandall run`` prints for the stop quantities.
 QUANTILES = (0.5, 0.9, 0.99, 0.999)
 
@@ -174,10 +190,12 @@ def _parser() -> argparse.ArgumentParser:
                     help="keep finished samples in PATH; rerunning the same command resumes")
     tl.add_argument("--mc-paths", type=_positive_int, default=20_000, metavar="N",
                     help="paths of the plain Monte Carlo part of the curve (default 20000)")
-    tl.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
-                    help=f"output folder (default: ./{DEFAULT_OUT})")
+    tl.add_argument("--out", default=DEFAULT_TAIL_OUT, metavar="DIR",
+                    help=f"output folder (default: ./{DEFAULT_TAIL_OUT}); one that holds an "
+                         "earlier tail run's files is refused unless --overwrite")
     tl.add_argument("--overwrite", "--force", dest="overwrite", action="store_true",
-                    help="replace the files an earlier run wrote in --out")
+                    help="replace the files an earlier crandall tail wrote in --out (only "
+                         "those: crandall run's results and other files are kept)")
     tl.add_argument("--no-files", action="store_true", help="print only")
     tl.add_argument("--format", dest="figure_format", choices=plots.FORMATS, default="png",
                     help="the figure's file format (default: png)")
@@ -226,10 +244,11 @@ def _load_scene(path: Optional[str]):
     return scene, dict(scene.run_settings), is_paper
 
 
-def _earlier_files(out: str) -> List[str]:
-    """The files an earlier run wrote in ``out``: its manifest's list, and crandall's names."""
+def _earlier_files(out: str, kind: _Outputs) -> List[str]:
+    """The files an earlier run of this kind wrote in ``out``: its manifest's list, and the
+    names this kind writes."""
     names = set()
-    manifest = os.path.join(out, MANIFEST)
+    manifest = os.path.join(out, kind.manifest)
     if os.path.isfile(manifest):
         try:
             with open(manifest, encoding="utf-8") as f:
@@ -240,19 +259,20 @@ def _earlier_files(out: str) -> List[str]:
             # Bare names only: a manifest cannot point outside its folder.
             names.update(n for n in listed if isinstance(n, str) and n == os.path.basename(n)
                          and n not in ("", ".", ".."))
-    names.update(_OUTPUT_NAMES)
+    names.update(kind.names)
     return sorted(n for n in names if os.path.isfile(os.path.join(out, n)))
 
 
-def _check_out(out: str, overwrite: bool) -> List[str]:
-    """Before the run: ``out`` is (or can become) a writable folder, and holds no other run's
-    files unless ``overwrite``. Returns the earlier run's files (to remove before writing)."""
+def _check_out(out: str, overwrite: bool, kind: _Outputs = _RUN_OUTPUTS) -> List[str]:
+    """Before the run: ``out`` is (or can become) a writable folder, and holds no earlier
+    files of this kind of run unless ``overwrite``. Returns those files (to remove before
+    writing)."""
     check_folder_writable(out, "--out")
     if not os.path.isdir(out):
         return []
-    earlier = _earlier_files(out)
+    earlier = _earlier_files(out, kind)
     if earlier and not overwrite:
-        shown = ", ".join(n for n in earlier if n != MANIFEST) or MANIFEST
+        shown = ", ".join(n for n in earlier if n != kind.manifest) or kind.manifest
         raise ValueError(f"--out: {out} holds the files of an earlier run ({shown}); give "
                          "--overwrite to replace them, or another --out")
     return earlier
@@ -532,14 +552,14 @@ _TAIL_REFERENCE = {
 def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, time=None,
                  method: str = "splitting", rel_error: float = 0.1, seed=None, dt=None,
                  threads=None, max_seconds: float = 3600.0, checkpoint=None,
-                 mc_paths: int = 20_000, out: str = DEFAULT_OUT, overwrite: bool = False,
+                 mc_paths: int = 20_000, out: str = DEFAULT_TAIL_OUT, overwrite: bool = False,
                  files: bool = True, progress=None, figure_format: str = "png",
                  dpi: int = 150) -> int:
     """``crandall tail``: the table at the given levels, tail.csv, and the curve (tail.png)."""
     scene, settings, _ = _load_scene(scene_path)
     if quantity not in TAIL_QUANTITIES:
         raise ValueError(f"--quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
-    earlier = _check_out(out, overwrite) if files else []
+    earlier = _check_out(out, overwrite, _TAIL_OUTPUTS) if files else []
     if seed is None:
         seed = int(np.random.SeedSequence().entropy % (1 << 63))
         print(f"seed: {seed}")
@@ -604,7 +624,7 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
             written.append(path)
     finally:
         names = json.dumps([os.path.basename(p) for p in written], indent=1).encode()
-        write_atomic(os.path.join(out, MANIFEST), lambda f: f.write(names))
+        write_atomic(os.path.join(out, TAIL_MANIFEST), lambda f: f.write(names))
     for p in written:
         print(f"wrote {p}")
     return 0
