@@ -472,15 +472,20 @@ def test_cli_error(tmp_path, capsys):
     assert "error <= 0.05" in text and "distance_at_stop" in text
     import pandas as pd
     df = pd.read_csv(out / "result.csv")
-    # The fixed-step run's columns, units included; every statistic within the target.
-    fixed = crandall.simulate(crandall.Scene.from_toml(scene), paths=100, seed=3).to_pandas()
-    assert list(df.columns) == list(fixed.columns) and "units" in df.columns
-    assert (df[["error_mean", "error_var"]] <= 0.05).all().all()
+    # The fixed-step run's tidy columns, units included; every statistic within the target.
+    fixed = crandall.simulate(crandall.Scene.from_toml(scene), paths=100, seed=3)
+    assert list(df.columns) == list(fixed.to_pandas(tidy=True).columns)
     # The run's file loads back, bit for bit.
     back = crandall.load(out / "result.nc")
     assert isinstance(back, crandall.Result)
-    np.testing.assert_allclose(back.to_pandas()[COLUMNS].to_numpy(), df[COLUMNS].to_numpy(),
-                               rtol=1e-15)  # the CSV's decimal text
+    wide = back.to_pandas()
+    errors = df[df["statistic"].isin(["error_mean", "error_var"])]["value"]
+    assert len(errors) == 2 * len(wide) and (errors <= 0.05).all()
+    for _, row in df.iterrows():
+        mine = wide[(wide["quantity"] == row["quantity"])
+                    & ((wide["tau"] == row["time"]) | (wide["tau"].isna() & np.isnan(row["time"])))]
+        np.testing.assert_allclose(mine[row["statistic"]].to_numpy(), [row["value"]],
+                                   rtol=1e-15)  # the CSV's decimal text
     assert cli.main(["run", str(scene), "--error", "0.05", "--paths", "10", "--no-files"]) == 2
     assert "--paths: not with --error" in capsys.readouterr().err
     assert cli.main(["run", str(scene), "--error", "0.05", "--checkpoint", str(tmp_path / "c"),

@@ -78,9 +78,10 @@ def test_run_scene_file_prints_and_writes_everything(scene_file, tmp_path):
     assert sorted(json.loads((out / cli.MANIFEST).read_text())) == outputs
     assert same_result(crandall.load(out / "result.nc"), direct)
     csv = (out / "result.csv").read_text().splitlines()
-    assert csv[0] == ("quantity,tau,units,mean,var,std,stderr,var_stderr,"
-                      "bias_mean,error_mean,bias_var,error_var")
-    assert len(csv) == 1 + 5 * 4 + 4
+    # Tidy: one row per quantity, time and statistic (9 of them), each with its own unit.
+    assert csv[0] == "quantity,time,time_units,statistic,value,units"
+    assert len(csv) == 1 + (5 * 4 + 4) * 9
+    assert csv[1].startswith("velocity,0.5,1,mean,") and csv[1].endswith(",1")
     for png in out.glob("*.png"):
         assert png.stat().st_size > 10_000
 

@@ -169,7 +169,8 @@ def _scene_attr(**change):
 
 
 def _times(ds):
-    return ds.assign_coords(time=ds["time"].values * 2)
+    name = "tau" if "tau" in ds.coords else "time"  # a scaled file's time is tau
+    return ds.assign_coords({name: ds[name].values * 2})
 
 
 class Raw:
@@ -332,3 +333,60 @@ def test_a_sweep_as_one_dataset():
     other = crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=[1.0, 3.0])
     with pytest.raises(ValueError, match="same quantities at the same output times"):
         crandall.simulate_many(scenes + [other], paths=100, seed=1, dataset=True)
+
+
+def _cf_failures(path):
+    """compliance-checker's CF 1.10 findings on a file: {priority: [(section, messages)]}."""
+    import pathlib
+    import subprocess
+    import sys
+    pytest.importorskip("compliance_checker")
+    # Its console script, installed beside this Python (make test installs it).
+    script = pathlib.Path(sys.executable).parent / "compliance-checker"
+    out = subprocess.run([str(script), "--test=cf:1.10", "-f", "json", "-o", "-", str(path)],
+                         capture_output=True, text=True).stdout
+    report = json.loads(out)["cf:1.10"]
+    return {p: [(c["name"], c["msgs"]) for c in report[f"{p}_priorities"]
+                if c["value"][0] < c["value"][1]] for p in ("high", "medium", "low")}
+
+
+@pytest.mark.parametrize("kind", ["SI", "scaled", "accuracy"])
+def test_saved_files_have_no_cf_error(physical_result, tmp_path, kind):
+    if kind == "SI":
+        scene = crandall.Scene.from_dict({**physical_result.scene.to_dict(),
+                                          "distributions": ["distance"]})
+        r = crandall.simulate(scene, paths=2000, seed=3, dt=0.05)
+    elif kind == "scaled":
+        r = crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[0.5, 2.0],
+                                                    distributions=True), paths=2000, seed=1)
+    else:
+        r = crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[0.5, 2.0],
+                                                    observe=["distance", "stop"]),
+                              error=0.05, seed=1)
+    r.save(tmp_path / "r.nc")
+    found = _cf_failures(tmp_path / "r.nc")
+    assert found["high"] == [], found["high"]
+    # The only medium finding left: CF recommends the time dimension rightmost, while a
+    # histogram's bins follow its time (kept: the arrays are one histogram per row).
+    assert {name for name, _ in found["medium"]} <= {"§2.4 Dimensions"}, found["medium"]
+    back = crandall.load(tmp_path / "r.nc")
+    assert back.to_pandas().equals(r.to_pandas())
+    ds = xr.open_dataset(tmp_path / "r.nc", decode_times=False)
+    assert ds.attrs["history"].startswith(f"crandall {crandall.__version__}: simulate(scene, ")
+    if kind != "accuracy":  # the fixed-step runs' accumulators: counts in units of 1
+        assert ds["counts"].attrs["units"] == "1"
+    assert ("tau" in ds.coords) == (kind != "SI") and ("time" in ds.coords) == (kind == "SI")
+    ds.close()
+
+
+def test_tidy_table_has_one_row_per_statistic_with_its_unit(physical_result):
+    df = physical_result.to_pandas(tidy=True)
+    assert list(df.columns) == ["quantity", "time", "time_units", "statistic", "value", "units"]
+    row = df[(df.quantity == "velocity") & (df.time == 1.0) & (df.statistic == "var")]
+    assert row["value"].item() == physical_result.var("velocity")[1]
+    assert row["units"].item() == "m2 s-2" and row["time_units"].item() == "s"
+    stop = df[(df.quantity == "stop_time") & (df.statistic == "stderr")]
+    assert np.isnan(stop["time"].item()) and stop["units"].item() == "s"
+    assert stop["value"].item() == physical_result.stderr("stop_time")
+    wide = physical_result.to_pandas()
+    assert len(df) == len(wide) * 9

@@ -107,13 +107,17 @@ def to_xarray(result):
     data_vars = {}
     coords = {
         "variable": ("variable", list(VARIABLES)),
-        "monomial": ("monomial", np.arange(len(exps), dtype=np.int32)),
+        "monomial": ("monomial", np.arange(len(exps), dtype=np.int32),
+                     {"long_name": "index of a central sum (its powers: exponents)",
+                      "units": "1"}),
         "exponents": (("monomial", "variable"), np.array(exps, dtype=np.int32),
                       {"long_name": "powers of (velocity, displacement, distance) of each "
                                     "central sum"}),
     }
-    time_attrs = {"long_name": "scaled time tau" if sc.units == "scaled" else "time",
-                  "units": "1" if sc.units == "scaled" else "s"}
+    # CF: a time coordinate in SI is the standard name "time" on axis T; scaled time is a
+    # dimensionless number, not a time CF knows, so it is only named.
+    time_attrs = ({"long_name": "scaled time tau", "units": "1"} if sc.units == "scaled" else
+                  {"long_name": "time", "standard_name": "time", "units": "s", "axis": "T"})
     if time_names:
         coords["time"] = ("time", np.asarray(result.times, dtype=float), time_attrs)
     # One variable per quantity and statistic, with its own units (CF: UDUNITS strings).
@@ -143,7 +147,8 @@ def to_xarray(result):
     for prefix, acc, dim in accs:
         if acc.slots == 0:
             continue
-        data_vars[prefix + "counts"] = ((dim,), acc.counts, {"long_name": "paths per slot"})
+        data_vars[prefix + "counts"] = ((dim,), acc.counts, {"long_name": "paths per slot",
+                                                             "units": "1"})
         data_vars[prefix + "means"] = ((dim, "variable"), acc.means,
                                        {"long_name": "means of (velocity, displacement, "
                                                      "distance), SI or scaled as the scene"})
@@ -171,6 +176,8 @@ def to_xarray(result):
         # here comes back in load's Result.spec; the attributes above repeat the usual ones
         # for netCDF tools.
         "run_spec": json.dumps({k: v for k, v in spec.to_dict().items() if k != "scene"}),
+        "history": (f"crandall {__version__}: simulate(scene, paths={spec.paths}, "
+                    f"seed={spec.seed}, method={spec.method!r}, dt={spec.dt!r})"),
     }
     if result.cost["wall_time"] is not None:
         attrs["wall_time"] = float(result.cost["wall_time"])
@@ -236,7 +243,11 @@ def _accuracy_attrs(result) -> Dict[str, Any]:
                              else float(result.rel_error_target)),
         "levels": json.dumps(result.levels), "path_steps": str(result.cost["path_steps"]),
         "rounds": _count_attr(result.cost["rounds"]),
-        "random_stream": int(result.random_stream), "slots": int(result.scene.times.size)})
+        "random_stream": int(result.random_stream), "slots": int(result.scene.times.size),
+        "history": (f"crandall {__version__}: simulate(scene, "
+                    + (f"error={result.error_target!r}" if result.error_target is not None
+                       else f"rel_error={result.rel_error_target!r}")
+                    + f", seed={result.seed})")})
     if result.cost["wall_time"] is not None:
         attrs["wall_time"] = float(result.cost["wall_time"])
     return attrs
@@ -331,8 +342,7 @@ def _histogram_vars(result, hist: Histograms, data_vars) -> None:
         for i, (_, e, c) in enumerate(items):
             edges[i, :e.size] = e
             counts[i, :c.size] = np.asarray(c, dtype=np.float64)
-        unit = ("1" if result.scene.units == "scaled"
-                else result.scene.units_of(name) or "1")
+        unit = _units(result.scene.units_of(name), 1)
         note = " (time from the switch-off)" if name == "stop_time" else ""
         at_stop = name.endswith("_at_stop") or name == "stop_time"
         dims_e = (f"{name}_edge",) if at_stop else ("time", f"{name}_edge")
@@ -343,7 +353,7 @@ def _histogram_vars(result, hist: Histograms, data_vars) -> None:
         data_vars[f"histogram_{name}_counts"] = (
             dims_c, counts[0] if at_stop else counts,
             {"long_name": f"paths per cell of {name}: underflow, one per bin [e_j, e_j+1), "
-                          "overflow, NaN; NaN-padded"})
+                          "overflow, NaN; NaN-padded", "units": "1"})
 
 
 def _read_histograms(ds, scene, where: str, paths: int) -> Optional[Histograms]:
@@ -424,11 +434,23 @@ def sweep(results):
     return ds
 
 
-def to_pandas(result):
+def to_pandas(result, tidy: bool = False):
     """The result as a ``pandas.DataFrame``; see :meth:`crandall.Result.to_pandas`."""
     pd = _require("pandas")
     rows = []
     sc = result.scene
+    if tidy:
+        time_units = _units("s" if sc.units == "SI" else "", 1)
+        for name in result.names:
+            table = np.concatenate([_stats(result, name), _accuracy(result, name)], axis=-1)
+            times = [math.nan] if quantity(name).at_stop else result.times
+            unit = sc.units_of(name)
+            for t, values in zip(times, np.reshape(table, (len(times), -1))):
+                for stat, value in zip(STATISTICS + ACCURACY, values.tolist()):
+                    rows.append((name, float(t), time_units, stat, value,
+                                 _units(unit, _STATISTIC_TEXT[stat][1])))
+        return pd.DataFrame(rows, columns=["quantity", "time", "time_units", "statistic",
+                                           "value", "units"])
     for name in result.names:
         table = np.concatenate([_stats(result, name), _accuracy(result, name)], axis=-1)
         if quantity(name).at_stop:
@@ -442,8 +464,44 @@ def to_pandas(result):
 
 def save(result, path: Union[str, "os.PathLike[str]"]) -> None:
     """Write a result to a netCDF file, replaced atomically; see :meth:`crandall.Result.save`."""
-    data = bytes(to_xarray(result).to_netcdf(engine="scipy", format="NETCDF3_64BIT"))
+    ds = _cf_file(to_xarray(result), result.scene)
+    # CF: a coordinate variable has no fill value (xarray gives floats one by default).
+    encoding = {name: {"_FillValue": None} for name in ds.coords
+                if ds[name].dims == (name,) and ds[name].dtype.kind == "f"}
+    data = bytes(ds.to_netcdf(engine="scipy", format="NETCDF3_64BIT", encoding=encoding))
     write_atomic(path, lambda f: f.write(data))
+
+
+#: The nominal reference date of a saved SI file's time coordinate: CF gives a time coordinate
+#: units "<unit> since <date>", while crandall's time counts from the start of the shaking.
+NOMINAL_EPOCH = "1970-01-01 00:00:00"
+
+
+def _cf_file(ds, scene):
+    """The dataset as a file holds it, CF 1.10: in SI the time coordinate's units are seconds
+    since a nominal date (the start of the shaking); in scaled units the coordinate is
+    ``tau``, a dimensionless number that CF must not take for a time. :func:`read` undoes
+    both."""
+    if "time" not in ds.coords:
+        return ds
+    if scene.units == "scaled":
+        return ds.rename({"time": "tau"})
+    ds = ds.copy()
+    ds["time"].attrs.update(units=f"s since {NOMINAL_EPOCH}", calendar="proleptic_gregorian",
+                            long_name="time since the shaking starts (the reference date "
+                                      "is nominal)")
+    return ds
+
+
+def _plain_file(ds):
+    """A read file's time coordinate as :func:`to_xarray` gives it (see :func:`_cf_file`)."""
+    if "tau" in ds.coords:
+        ds = ds.rename({"tau": "time"})
+        ds["time"].attrs.update(long_name="scaled time tau", units="1")
+    elif "time" in ds.coords and "since" in str(ds["time"].attrs.get("units", "")):
+        ds["time"].attrs.update(long_name="time", units="s")
+        ds["time"].attrs.pop("calendar", None)
+    return ds
 
 
 class _Invalid(ValueError):
@@ -561,8 +619,9 @@ def read(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
     name = os.fspath(path)
     try:
         # The file object is ours, so that a damaged file cannot leave it open.
-        with open(path, "rb") as f, xr.open_dataset(f, engine="scipy") as opened:
-            ds = opened.load()
+        with open(path, "rb") as f, xr.open_dataset(f, engine="scipy",
+                                                    decode_times=False) as opened:
+            ds = _plain_file(opened.load())
     except MemoryError:  # pragma: no cover
         raise
     except Exception as exc:  # noqa: BLE001 - whatever a damaged file makes the reader raise

@@ -294,7 +294,7 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = (),
             result.save(path)
             written.append(path)
             path = os.path.join(out, "result.csv")
-            result.to_pandas().to_csv(path, index=False)
+            result.to_pandas(tidy=True).to_csv(path, index=False)
             written.append(path)
         except ImportError as exc:
             notes.append(f"results not written ({exc})")

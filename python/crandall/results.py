@@ -790,17 +790,26 @@ class Result:
         """
         return _dataset.to_xarray(self)
 
-    def to_pandas(self) -> Any:
+    def to_pandas(self, *, tidy: bool = False) -> Any:
         """The statistics as a ``pandas.DataFrame``, one row per quantity and time.
+
+        Parameters
+        ----------
+        tidy : bool, default False
+            One row per quantity, time and statistic instead (the form ``crandall run``
+            writes to result.csv), each value with its own unit.
 
         Returns
         -------
         pandas.DataFrame
             Columns ``quantity``, the time (``t`` or ``tau``; NaN for stop quantities),
-            ``units``, ``mean``, ``var``, ``std``, ``stderr``, ``var_stderr`` (NaN for the
-            kinetic energy).
+            ``units`` (the mean's), ``mean``, ``var``, ``std``, ``stderr``, ``var_stderr``
+            (NaN for the kinetic energy), ``bias_mean``, ``error_mean``, ``bias_var``,
+            ``error_var``. With ``tidy``: ``quantity``, ``time`` (NaN for stop quantities),
+            ``time_units``, ``statistic``, ``value`` and ``units``, units as UDUNITS strings
+            (``m s-1``, ``m2``; ``1`` in scaled units).
         """
-        return _dataset.to_pandas(self)
+        return _dataset.to_pandas(self, tidy=tidy)
 
     def save(self, path) -> None:
         """Write the result to a netCDF file (replaced atomically); read it with
