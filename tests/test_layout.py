@@ -137,3 +137,21 @@ def test_import_crandall_leaves_the_heavy_parts_for_later():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True)
     assert done.stdout.strip() == "", done.stdout
+
+
+def test_the_lazy_subpackages_are_reachable_after_a_plain_import():
+    # The README writes crandall.envelopes.amin_ang(...) and messages crandall.analytic.physical
+    # after a plain `import crandall`: both are attributes of the package, imported (with
+    # scipy) when first read, not before.
+    import subprocess
+    import sys
+    code = ("import sys, crandall; before = 'scipy' in sys.modules or 'crandall.envelopes' in "
+            "sys.modules; env = crandall.envelopes.amin_ang(0.6, t1=2.0, t2=8.0, c=0.4); "
+            "import crandall.envelopes as e; from crandall import analytic; "
+            "print(before, env.pieces, crandall.envelopes is e, "
+            "analytic is sys.modules['crandall.analytic'], callable(analytic.physical))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.stdout.split() == ["False", "32", "True", "True", "True"], done.stderr
+    code = "import crandall; crandall.nonesuch"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert "AttributeError: module 'crandall' has no attribute 'nonesuch'" in done.stderr

@@ -12,6 +12,7 @@ Berezin & Zayats (see ``crandall.analytic``).
 
 from ._version import __version__
 from . import bias as _bias  # installs the results' bias estimator
+from ._lazy import lazy_submodules as _lazy_submodules
 from .io import load
 from .results import Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene
@@ -21,3 +22,7 @@ from .units import Scaling
 
 __all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS",
            "StatisticsWarning", "tail", "TailResult"]
+
+# The analytic layer and the envelopes need scipy: imported when first read
+# (crandall.envelopes.amin_ang(...), crandall.analytic.physical(...)), not by `import crandall`.
+__getattr__ = _lazy_submodules(__name__, ("analytic", "envelopes"))
