@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import crandall
 from crandall import cli, envelopes, model, paper
@@ -120,3 +122,26 @@ def test_the_figures_draw_the_envelope_and_no_analytic_curve():
     assert [line.get_label() for line in strip.get_lines()] == [
         "pieces", "envelope (function, 1 pieces)"]
     assert "analytic" not in [line.get_label() for line in main.get_lines()]
+
+
+@given(pieces=st.integers(1, 8), shaken=st.integers(0, 8), level=st.floats(0.1, 3.0),
+       wobble=st.floats(0.0, 0.9), v0=st.sampled_from([0.0, 0.4]))
+@settings(derandomize=True, deadline=None, max_examples=40)
+def test_every_envelope_scene_is_an_envelope(pieces, shaken, level, wobble, v0):
+    # From 1 to 8 pieces, shaken up to the end of piece `shaken` (0: never; beyond the last:
+    # throughout), the rest a pause: whatever is left shaken, the scene is the envelope's.
+    end = 4.0
+    cut = end * min(shaken, pieces) / pieces
+
+    def h(t):
+        return level * (1.0 + wobble * math.sin(3.0 * t)) if t < cut else 0.0
+
+    if shaken == 0:
+        with pytest.warns(envelopes.EnvelopeWarning, match="the envelope is 0"):
+            env = envelopes.from_function(h, end, pieces=pieces)
+    else:
+        env = envelopes.from_function(h, end, pieces=pieces)
+    sc = crandall.Scene(mu=0.3, envelope=env, v0=v0, times=[1.0, 5.0])
+    assert model.ENVELOPE in sc.effects
+    assert not any(model.exact(q.name, sc) for q in QUANTITIES)
+    assert not model.holds(sc, model.ANALYTIC) and not model.holds(sc, model.SCHEDULE)
