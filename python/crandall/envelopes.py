@@ -213,8 +213,23 @@ def from_function(h: Callable[[float], float], end: float, pieces: int = 32,
     """The envelope of an intensity function h(t) >= 0 on [0, end]: ``pieces`` equal pieces
     (and a piece end at each of ``breaks``, where h changes form), each with the root mean
     square of h over it. A function is not plain data: a scene saved with it keeps its pieces
-    only. Raises ValueError for a bad argument or an h that is negative or not finite
-    somewhere."""
+    only.
+
+    h is known only where it is evaluated: at 17 evenly spaced points of [0, end], then on
+    each piece at the points of an adaptive Gauss-Kronrod quadrature (21 at first, more where
+    its error estimate asks). A feature of h narrower than the spacing of those points (a
+    pulse of a millisecond in a piece of a second) can fall between all of them and be
+    missed: give its start and end in ``breaks`` (each becomes a piece end, so the feature
+    fills pieces of its own), or more pieces. Where h was 0 at every point evaluated, or is
+    positive at one of the 17 points in a piece that came out 0, an :class:`EnvelopeWarning`
+    says so. A scene given the envelope (``Scene(envelope=...)``) stays an envelope scene
+    however few of its pieces are shaken (one, or none): its piece error is estimated and
+    nothing of it is reported exact.
+
+    Raises ParameterError (a ValueError) naming ``h`` for an h that is not a function, or
+    that returns at a point it is evaluated at anything but a real number (None, a complex
+    number, a string, a bool), NaN, an infinity or a negative value; naming ``end``,
+    ``pieces`` for a bad argument."""
     if not callable(h):
         raise ParameterError("h", f"h must be a function of t, got {h!r}")
     return Envelope("function", {"end": end}, pieces, h, tuple(breaks))
