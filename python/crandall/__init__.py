@@ -10,6 +10,8 @@ Berezin & Zayats (see ``crandall.analytic``).
 (2,)
 """
 
+from typing import TYPE_CHECKING
+
 from ._version import __version__
 from . import bias as _bias  # installs the results' bias estimator
 from ._lazy import lazy_submodules as _lazy_submodules
@@ -25,4 +27,9 @@ __all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt",
 
 # The analytic layer and the envelopes need scipy: imported when first read
 # (crandall.envelopes.amin_ang(...), crandall.analytic.physical(...)), not by `import crandall`.
-__getattr__ = _lazy_submodules(__name__, ("analytic", "envelopes"))
+# Type checkers see the modules themselves (and no __getattr__, which would let them accept
+# any misspelt crandall.name).
+if TYPE_CHECKING:
+    from . import analytic, envelopes
+else:
+    __getattr__ = _lazy_submodules(__name__, ("analytic", "envelopes"))
