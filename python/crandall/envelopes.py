@@ -79,18 +79,20 @@ def _ends(end: float, pieces: int, breaks: Sequence[float] = (),
 
 def _intensity(h: Callable[[float], float], t: float) -> float:
     """h(t), checked: a real number (not a bool), finite and >= 0; ParameterError naming h
-    and t otherwise."""
+    and t otherwise. (A float takes the short way: the quadrature calls this for every point
+    of every piece.)"""
     v = h(t)
-    if isinstance(v, np.ndarray) and v.ndim == 0:
-        v = v[()]
-    if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
-        kind = ("None" if v is None else "a bool" if isinstance(v, (bool, np.bool_)) else
-                "a complex number" if isinstance(v, numbers.Complex) else
-                f"a {type(v).__name__}")
-        raise ParameterError("h", f"h({t:g}) = {v!r}: an intensity is a real number, finite "
-                                  f"and >= 0 (h returned {kind})")
-    v = float(v)
-    if not (math.isfinite(v) and v >= 0):
+    if type(v) is not float:
+        if isinstance(v, np.ndarray) and v.ndim == 0:
+            v = v[()]
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+            kind = ("None" if v is None else "a bool" if isinstance(v, (bool, np.bool_)) else
+                    "a complex number" if isinstance(v, numbers.Complex) else
+                    f"a {type(v).__name__}")
+            raise ParameterError("h", f"h({t:g}) = {v!r}: an intensity is a real number, "
+                                      f"finite and >= 0 (h returned {kind})")
+        v = float(v)
+    if not 0.0 <= v < math.inf:  # NaN fails too
         raise ParameterError("h", f"h({t:g}) = {v!r}: an intensity is finite and >= 0")
     return v
 
