@@ -145,3 +145,15 @@ def test_every_envelope_scene_is_an_envelope(pieces, shaken, level, wobble, v0):
     assert model.ENVELOPE in sc.effects
     assert not any(model.exact(q.name, sc) for q in QUANTITIES)
     assert not model.holds(sc, model.ANALYTIC) and not model.holds(sc, model.SCHEDULE)
+
+
+def test_a_tail_of_a_collapsed_envelope_is_its_pieces_tail():
+    # crandall.tail reports the probabilities of an envelope's pieces, for any number of them
+    # (docs/methods/tails.md: the piece error is not estimated for tails), and labels nothing
+    # exact: a collapsed envelope's tail is its one piece's, bitwise.
+    env = _ramp(1)
+    runs = [crandall.tail(sc, "stop_time", [2.3], rel_error=0.5, seed=1, threads=1,
+                          progress=False)
+            for sc in (crandall.Scene(envelope=env, **KW),
+                       crandall.Scene(h=env.h, t0=env.t0, **KW))]
+    assert runs[0].probability.tobytes() == runs[1].probability.tobytes()
