@@ -136,3 +136,12 @@ def test_a_function_with_energy_does_not_warn():
         warnings.simplefilter("error")
         envelopes.from_function(lambda t: 1.0 if t < 1.0 else 0.0, 3.0, pieces=3)
         envelopes.amin_ang(0.0, t1=1.0, t2=2.0, c=1.0)  # zero by construction, not missed
+
+
+def test_a_step_at_a_piece_end_does_not_warn():
+    # h(1) = 1 at the checked point 1.0, which ends the piece [0, 1] and starts the pause
+    # [1, 2]: the point is on a piece end, where h may step, not a missed pulse.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        h, _ = envelopes.from_function(lambda t: 1.0 if t <= 1.0 else 0.0, 2.0, pieces=2)
+    assert h == [1.0, 0.0]

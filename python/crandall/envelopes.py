@@ -138,20 +138,23 @@ def _function_schedule(h: Callable[[float], float], end: float, pieces: int = 32
               "end), or more pieces")
     if not warn:
         return out, ends
-    if not any(out):
-        if not any(v for _, v in checked):
-            warnings.warn(f"h: the envelope is 0: h(t) was 0 at every one of the "
-                          f"{count[0] + CHECK_POINTS} points it was sampled at on "
-                          f"[0, {end:g}], and a pulse between them is not seen; if h is not 0, "
-                          f"{advice}", EnvelopeWarning, stacklevel=4)
+    if not any(out) and not any(v for _, v in checked):
+        warnings.warn(f"h: the envelope is 0: h(t) was 0 at every one of the "
+                      f"{count[0] + CHECK_POINTS} points it was sampled at on [0, {end:g}], "
+                      f"and a pulse between them is not seen; if h is not 0, {advice}",
+                      EnvelopeWarning, stacklevel=4)
+    # A checked point inside a piece (not on its ends, where h may step) where h > 0 and the
+    # piece came out 0: the quadrature stepped over what the point saw.
+    bounds = set(ends) | {0.0}
     for t, v in checked:
-        i = int(np.searchsorted(ends, t, side="right")) if t < end else len(ends) - 1
-        if v > 0 and out[i] == 0 and not (t == ends[i] or (i and t == ends[i - 1])):
-            lo = ends[i - 1] if i else 0.0
-            warnings.warn(f"h: h({t:g}) = {v!r} but its piece [{lo:g}, {ends[i]:g}] has "
-                          f"intensity 0: the quadrature's points there all missed it (a "
-                          f"narrow pulse); {advice}", EnvelopeWarning, stacklevel=4)
-            break
+        if v > 0 and t not in bounds:
+            i = int(np.searchsorted(ends, t))  # ends[i - 1] < t < ends[i]
+            if out[i] == 0:
+                lo = ends[i - 1] if i else 0.0
+                warnings.warn(f"h: h({t:g}) = {v!r} but its piece [{lo:g}, {ends[i]:g}] has "
+                              f"intensity 0: the quadrature's points there all missed it (a "
+                              f"narrow pulse); {advice}", EnvelopeWarning, stacklevel=4)
+                break
     return out, ends
 
 
