@@ -223,7 +223,8 @@ class Scene:
         ``jennings``, ``shinozuka_sato``, ``from_function``, or a named one's plain data
         ``{"kind": ..., its parameters, "pieces": n}``). The scene is simulated exactly on its
         pieces, and the error of the pieces against the envelope (estimated with twice the
-        pieces) is in ``Result.bias`` for every statistic (docs/scenes.md).
+        pieces) is in ``Result.bias`` for every statistic (docs/scenes.md), however few of
+        its pieces are shaken (one, or none: ``Scene.effects`` keeps ``"envelope"``).
     g : float, default 9.81
         Acceleration of gravity, m s^-2, > 0.
     mass : float, default 1.0
