@@ -4,6 +4,7 @@ piece (so the noise's energy), and the intensity from a power spectral density."
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -71,3 +72,76 @@ def test_intensity_from_psd_conventions():
     assert envelopes.intensity_from_psd(0.01) ** 2 == pytest.approx(2 * math.pi * 0.01)
     assert envelopes.intensity_from_psd(0.02, sided="one") == pytest.approx(
         envelopes.intensity_from_psd(0.01, sided="two"), rel=1e-15)
+
+
+# -- what from_function refuses and what it warns about (issue 30, findings 8 and 9) ---------
+
+def _negative_between_the_checked_points(t):
+    # Negative on (0.26, 0.30) of [0, 1]: between the 17 evenly spaced points checked, where
+    # the quadrature's first rule has a point (0.2833).
+    return -1.0 if 0.26 < t < 0.30 else 1.0
+
+
+@pytest.mark.parametrize("h, match", [
+    (lambda t: 1j, r"h\(0\) = 1j: an intensity is a real number.*complex"),
+    (lambda t: None, r"h\(0\) = None: an intensity is a real number"),
+    (lambda t: "1", r"h\(0\) = '1': an intensity is a real number.*str"),
+    (lambda t: t < 1, r"h\(0\) = True: an intensity is a real number.*bool"),
+    (lambda t: math.nan, r"h\(0\) = nan: an intensity is finite and >= 0"),
+    (lambda t: math.inf if t > 0.5 else 1.0, r"h\(0.5625\) = inf"),
+    (_negative_between_the_checked_points, r"h\(0.2833\d*\) = -1.0"),
+    (lambda t: 1e200, "h: its square does not integrate to a finite value"),
+])
+def test_a_bad_function_is_refused_naming_h(h, match):
+    with pytest.raises(crandall.scene.ParameterError, match=match) as info:
+        envelopes.from_function(h, 1.0, pieces=1)
+    assert info.value.name == "h"
+
+
+def test_intensity_from_psd_does_not_overflow():
+    # h = sqrt(2 pi S0) is a double for every finite S0 (at most 3.4e154): 2 pi S0 itself
+    # overflows for S0 > 2.9e307, which gave inf.
+    assert envelopes.intensity_from_psd(1e308) == pytest.approx(math.sqrt(2 * math.pi) * 1e154,
+                                                                rel=1e-15)
+    top = envelopes.intensity_from_psd(1.7976931348623157e308, sided="one")
+    assert math.isfinite(top) and top == pytest.approx(math.sqrt(math.pi / 4 * 1.7976931348623157e308) * 2, rel=1e-15)
+
+
+def _pulse(t):
+    # 1 ms of shaking at 0.5 s: between the points from_function samples with 4 pieces on
+    # [0, 2] (the nearest, 0.5011, is the first rule's on [0.5, 1]).
+    return 1.0 if 0.5 < t < 0.501 else 0.0
+
+
+def test_a_missed_pulse_warns_and_breaks_find_it():
+    with pytest.warns(envelopes.EnvelopeWarning, match=r"0 at every one of the \d+ points"
+                      r".*breaks=") as record:
+        env = envelopes.from_function(_pulse, 2.0, pieces=4)
+    assert len(record) == 1 and env.h == [0.0] * 4
+    # Its start and end as breaks: a piece of its own, with its energy.
+    h, t0 = envelopes.from_function(_pulse, 2.0, pieces=4, breaks=[0.5, 0.501])
+    assert _energy(h, t0) == pytest.approx(1e-3, rel=1e-9)
+
+
+def test_a_pulse_seen_at_a_checked_point_but_missed_by_its_piece_warns():
+    # h(0.125) = 1 (one of the 17 points checked) on a 0.2 ms pulse that the quadrature of
+    # its piece [0, 0.5] steps over: the piece would be 0 with the function plainly not.
+    with pytest.warns(envelopes.EnvelopeWarning, match=r"h\(0.125\) = 1.0 .*\[0, 0.5\]"):
+        envelopes.from_function(lambda t: 1.0 if abs(t - 0.125) < 1e-4 else 0.0, 2.0,
+                                pieces=4)
+
+
+def test_a_function_with_energy_does_not_warn():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        envelopes.from_function(lambda t: 1.0 if t < 1.0 else 0.0, 3.0, pieces=3)
+        envelopes.amin_ang(0.0, t1=1.0, t2=2.0, c=1.0)  # zero by construction, not missed
+
+
+def test_a_step_at_a_piece_end_does_not_warn():
+    # h(1) = 1 at the checked point 1.0, which ends the piece [0, 1] and starts the pause
+    # [1, 2]: the point is on a piece end, where h may step, not a missed pulse.
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        h, _ = envelopes.from_function(lambda t: 1.0 if t <= 1.0 else 0.0, 2.0, pieces=2)
+    assert h == [1.0, 0.0]

@@ -3,6 +3,8 @@
 import ast
 import pathlib
 
+import pytest
+
 PACKAGE = pathlib.Path(__file__).resolve().parents[1] / "python" / "crandall"
 # Modules another part of the project owns and still imports lazily.
 ALLOWED_LAZY = {"analytic.physical"}
@@ -137,3 +139,39 @@ def test_import_crandall_leaves_the_heavy_parts_for_later():
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           check=True)
     assert done.stdout.strip() == "", done.stdout
+
+
+def test_the_lazy_subpackages_are_reachable_after_a_plain_import():
+    # The README writes crandall.envelopes.amin_ang(...) and messages crandall.analytic.physical
+    # after a plain `import crandall`: both are attributes of the package, imported (with
+    # scipy) when first read, not before.
+    import subprocess
+    import sys
+    code = ("import sys, crandall; before = 'scipy' in sys.modules or 'crandall.envelopes' in "
+            "sys.modules; env = crandall.envelopes.amin_ang(0.6, t1=2.0, t2=8.0, c=0.4); "
+            "import crandall.envelopes as e; from crandall import analytic; "
+            "print(before, env.pieces, crandall.envelopes is e, "
+            "analytic is sys.modules['crandall.analytic'], callable(analytic.physical))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.stdout.split() == ["False", "32", "True", "True", "True"], done.stderr
+    code = "import crandall; crandall.nonesuch"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert "AttributeError: module 'crandall' has no attribute 'nonesuch'" in done.stderr
+
+
+def test_type_checkers_see_the_lazy_subpackages_and_no_catch_all(tmp_path):
+    # The lazy attributes are a module __getattr__ at run time only: a type checker that saw
+    # it would accept any crandall.<misspelt name> as Any.
+    pytest.importorskip("mypy")
+    import os
+    import subprocess
+    import sys
+    path = tmp_path / "uses.py"
+    path.write_text("import crandall\nenv = crandall.envelopes.amin_ang(0.6, t1=2.0, t2=8.0, "
+                    "c=0.4)\nreveal_type(env)\ncrandall.simulat\n")
+    env = dict(os.environ, MYPYPATH=str(PACKAGE.parent))
+    done = subprocess.run([sys.executable, "-m", "mypy", "--follow-imports=silent",
+                           "--ignore-missing-imports", "--cache-dir", str(tmp_path / "cache"),
+                           str(path)], capture_output=True, text=True, env=env, cwd=tmp_path)
+    assert 'Revealed type is "crandall.envelopes.Envelope"' in done.stdout, done.stdout
+    assert 'Module has no attribute "simulat"' in done.stdout, done.stdout

@@ -10,8 +10,11 @@ Berezin & Zayats (see ``crandall.analytic``).
 (2,)
 """
 
+from typing import TYPE_CHECKING
+
 from ._version import __version__
 from . import bias as _bias  # installs the results' bias estimator
+from ._lazy import lazy_submodules as _lazy_submodules
 from .io import load
 from .results import Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene
@@ -21,3 +24,12 @@ from .units import Scaling
 
 __all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS",
            "StatisticsWarning", "tail", "TailResult"]
+
+# The analytic layer and the envelopes need scipy: imported when first read
+# (crandall.envelopes.amin_ang(...), crandall.analytic.physical(...)), not by `import crandall`.
+# Type checkers see the modules themselves (and no __getattr__, which would let them accept
+# any misspelt crandall.name).
+if TYPE_CHECKING:
+    from . import analytic, envelopes
+else:
+    __getattr__ = _lazy_submodules(__name__, ("analytic", "envelopes"))

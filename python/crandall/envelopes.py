@@ -30,23 +30,33 @@ of the ground acceleration.
 from __future__ import annotations
 
 import math
+import numbers
+import warnings
 from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 from scipy import integrate
 
-__all__ = ["Envelope", "MAX_PIECES", "from_function", "amin_ang", "jennings", "shinozuka_sato",
-           "intensity_from_psd", "KINDS"]
+from .errors import ParameterError
+
+__all__ = ["Envelope", "EnvelopeWarning", "MAX_PIECES", "from_function", "amin_ang", "jennings",
+           "shinozuka_sato", "intensity_from_psd", "KINDS"]
 
 Schedule = Tuple[List[float], List[float]]
 
 
+class EnvelopeWarning(UserWarning):
+    """A function envelope whose pieces may have missed part of it: h(t) was 0 at every
+    point sampled, or positive at a point of a piece whose quadrature saw 0."""
+
+
 def _positive(name: str, value, *, zero: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name} must be a number, got {value!r}")
+        raise ParameterError(name, f"{name} must be a number, got {value!r}")
     value = float(value)
     if not math.isfinite(value) or value < 0 or (value == 0 and not zero):
-        raise ValueError(f"{name} must be finite and {'>= 0' if zero else '> 0'}, got {value!r}")
+        raise ParameterError(name, f"{name} must be finite and {'>= 0' if zero else '> 0'}, "
+                                   f"got {value!r}")
     return value
 
 
@@ -67,28 +77,84 @@ def _ends(end: float, pieces: int, breaks: Sequence[float] = (),
     return sorted(grid)
 
 
+def _intensity(h: Callable[[float], float], t: float) -> float:
+    """h(t), checked: a real number (not a bool), finite and >= 0; ParameterError naming h
+    and t otherwise. (A float takes the short way: the quadrature calls this for every point
+    of every piece.)"""
+    v = h(t)
+    if type(v) is not float:
+        if isinstance(v, np.ndarray) and v.ndim == 0:
+            v = v[()]
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Real):
+            kind = ("None" if v is None else "a bool" if isinstance(v, (bool, np.bool_)) else
+                    "a complex number" if isinstance(v, numbers.Complex) else
+                    f"a {type(v).__name__}")
+            raise ParameterError("h", f"h({t:g}) = {v!r}: an intensity is a real number, "
+                                      f"finite and >= 0 (h returned {kind})")
+        v = float(v)
+    if not 0.0 <= v < math.inf:  # NaN fails too
+        raise ParameterError("h", f"h({t:g}) = {v!r}: an intensity is finite and >= 0")
+    return v
+
+
+#: Points of [0, end] where h is checked before the quadrature (and compared with its pieces).
+CHECK_POINTS = 17
+
+
 def _function_schedule(h: Callable[[float], float], end: float, pieces: int = 32,
-                       breaks: Sequence[float] = (), limit: int = MAX_PIECES) -> Schedule:
+                       breaks: Sequence[float] = (), limit: int = MAX_PIECES,
+                       warn: bool = True) -> Schedule:
     """The schedule of an intensity function h(t) >= 0 on [0, end]: ``pieces`` equal pieces
     (and a piece end at each of ``breaks``, where h changes form), each with the root mean
-    square of h over it. Raises ValueError for a bad argument or an h that is negative or not
-    finite somewhere."""
+    square of h over it. Raises ParameterError for a bad argument or an h that is not a
+    real number, negative or not finite at a point it is evaluated at. With ``warn``, warns
+    (:class:`EnvelopeWarning`) where the pieces may have missed part of h: h sampled 0
+    everywhere, or positive at a checked point of a piece whose quadrature saw 0."""
     end = _positive("end", end)
     if not callable(h):
-        raise ValueError(f"h must be a function of t, got {h!r}")
+        raise ParameterError("h", f"h must be a function of t, got {h!r}")
     ends = _ends(end, pieces, breaks, limit)
+    # h is known only where it is evaluated: CHECK_POINTS evenly spaced points, then on each
+    # piece the points of an adaptive Gauss-Kronrod rule (21 at first, more where its error
+    # estimate asks). Every value is checked as it comes, so a bad value anywhere seen is
+    # refused; a feature between all of those points (a narrow pulse) is not seen.
+    checked = [(t, _intensity(h, t)) for t in np.linspace(0.0, end, CHECK_POINTS).tolist()]
+    count = [0]
+
+    def square(t: float) -> float:
+        count[0] += 1
+        v = _intensity(h, t)
+        return v * v  # inf where it overflows (refused below), not an OverflowError
+
     out, start = [], 0.0
     for e in ends:
-        value, _ = integrate.quad(lambda t: float(h(t)) ** 2, start, e, limit=200)
+        value, _ = integrate.quad(square, start, e, limit=200)
         if not math.isfinite(value) or value < 0:
-            raise ValueError(f"h: its square does not integrate to a finite value >= 0 on "
-                             f"[{start:g}, {e:g}]")
+            raise ParameterError("h", f"h: its square does not integrate to a finite value "
+                                      f">= 0 on [{start:g}, {e:g}]")
         out.append(math.sqrt(value / (e - start)))
         start = e
-    for t in np.linspace(0.0, end, 17):
-        v = float(h(float(t)))
-        if not (math.isfinite(v) and v >= 0):
-            raise ValueError(f"h({t:g}) = {v!r}: an intensity is finite and >= 0")
+    advice = ("give the start and end of what it misses as breaks= (each becomes a piece "
+              "end), or more pieces")
+    if not warn:
+        return out, ends
+    if not any(out) and not any(v for _, v in checked):
+        warnings.warn(f"h: the envelope is 0: h(t) was 0 at every one of the "
+                      f"{count[0] + CHECK_POINTS} points it was sampled at on [0, {end:g}], "
+                      f"and a pulse between them is not seen; if h is not 0, {advice}",
+                      EnvelopeWarning, stacklevel=4)
+    # A checked point inside a piece (not on its ends, where h may step) where h > 0 and the
+    # piece came out 0: the quadrature stepped over what the point saw.
+    bounds = set(ends) | {0.0}
+    for t, v in checked:
+        if v > 0 and t not in bounds:
+            i = int(np.searchsorted(ends, t))  # ends[i - 1] < t < ends[i]
+            if out[i] == 0:
+                lo = ends[i - 1] if i else 0.0
+                warnings.warn(f"h: h({t:g}) = {v!r} but its piece [{lo:g}, {ends[i]:g}] has "
+                              f"intensity 0: the quadrature's points there all missed it (a "
+                              f"narrow pulse); {advice}", EnvelopeWarning, stacklevel=4)
+                break
     return out, ends
 
 
@@ -152,10 +218,25 @@ def from_function(h: Callable[[float], float], end: float, pieces: int = 32,
     """The envelope of an intensity function h(t) >= 0 on [0, end]: ``pieces`` equal pieces
     (and a piece end at each of ``breaks``, where h changes form), each with the root mean
     square of h over it. A function is not plain data: a scene saved with it keeps its pieces
-    only. Raises ValueError for a bad argument or an h that is negative or not finite
-    somewhere."""
+    only.
+
+    h is known only where it is evaluated: at 17 evenly spaced points of [0, end], then on
+    each piece at the points of an adaptive Gauss-Kronrod quadrature (21 at first, more where
+    its error estimate asks). A feature of h narrower than the spacing of those points (a
+    pulse of a millisecond in a piece of a second) can fall between all of them and be
+    missed: give its start and end in ``breaks`` (each becomes a piece end, so the feature
+    fills pieces of its own), or more pieces. Where h was 0 at every point evaluated, or is
+    positive at one of the 17 points in a piece that came out 0, an :class:`EnvelopeWarning`
+    says so. A scene given the envelope (``Scene(envelope=...)``) stays an envelope scene
+    however few of its pieces are shaken (one, or none): its piece error is estimated and
+    nothing of it is reported exact.
+
+    Raises ParameterError (a ValueError) naming ``h`` for an h that is not a function, or
+    that returns at a point it is evaluated at anything but a real number (None, a complex
+    number, a string, a bool), NaN, an infinity or a negative value; naming ``end``,
+    ``pieces`` for a bad argument."""
     if not callable(h):
-        raise ValueError(f"h must be a function of t, got {h!r}")
+        raise ParameterError("h", f"h must be a function of t, got {h!r}")
     return Envelope("function", {"end": end}, pieces, h, tuple(breaks))
 
 
@@ -171,14 +252,15 @@ class Envelope:
 
     def __init__(self, kind: str, params: Mapping[str, Any], pieces: int,
                  function: Callable[[float], float], breaks: Sequence[float] = (),
-                 _limit: int = MAX_PIECES) -> None:
+                 _limit: int = MAX_PIECES, _warn: bool = True) -> None:
         self.kind = kind
         self.params = dict(params)
         self.function = function
         self.breaks = tuple(float(b) for b in breaks)
-        # Checks end, pieces and the function's values.
+        # Checks end, pieces and the function's values; warns where a function's pieces may
+        # have missed part of it (a named envelope's form is known: h = 0 is all of it).
         self.h, self.t0 = _function_schedule(function, self.params["end"], pieces, self.breaks,
-                                             _limit)
+                                             _limit, warn=_warn and kind not in KINDS)
         self.pieces = int(pieces)
         self.params["end"] = float(self.t0[-1])
 
@@ -191,8 +273,9 @@ class Envelope:
             raise ValueError(f"factor must be an integer >= 1, got {factor!r}")
         # Beyond MAX_PIECES only by refining (the piece error of an envelope given the most).
         pieces = self.pieces * int(factor)
+        # Not warned again: the piece error's run refines the envelope the user was warned of.
         return Envelope(self.kind, self.params, pieces, self.function, self.breaks,
-                        max(MAX_PIECES, pieces))
+                        max(MAX_PIECES, pieces), _warn=False)
 
     @property
     def serializable(self) -> bool:
@@ -260,8 +343,9 @@ def intensity_from_psd(psd: float, sided: str = "two") -> float:
     first.
     """
     psd = _positive("psd", psd, zero=True)
+    # The square roots apart: 2 pi psd overflows for psd > 2.9e307, h never does (<= 3.4e154).
     if sided == "two":
-        return math.sqrt(2.0 * math.pi * psd)
+        return math.sqrt(2.0 * math.pi) * math.sqrt(psd)
     if sided == "one":
-        return math.sqrt(math.pi * psd)
-    raise ValueError(f"sided must be 'one' or 'two', got {sided!r}")
+        return math.sqrt(math.pi) * math.sqrt(psd)
+    raise ParameterError("sided", f"sided must be 'one' or 'two', got {sided!r}")

@@ -161,7 +161,7 @@ def _moment_figure(result: Result, c: Curve, units: str = "scene"):
         times = np.asarray(scaled_factors(result)[0] if closed else (
             times if sc.units == "scaled" else sc.scaling.to_tau(times)), dtype=float)
     to_x, to_y, xlabel, _ = _axes_converter(result, units)
-    strip = sc.pieces is not None
+    strip = sc.pieces is not None or sc.envelope is not None
     rows = [1] * strip + [3] + [1] * closed
     fig = _figure(6.4, 4.4 + 0.9 * (len(rows) - 1))
     axes = fig.subplots(len(rows), 1, sharex=True, gridspec_kw={"height_ratios": rows})

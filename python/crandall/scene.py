@@ -223,7 +223,8 @@ class Scene:
         ``jennings``, ``shinozuka_sato``, ``from_function``, or a named one's plain data
         ``{"kind": ..., its parameters, "pieces": n}``). The scene is simulated exactly on its
         pieces, and the error of the pieces against the envelope (estimated with twice the
-        pieces) is in ``Result.bias`` for every statistic (docs/scenes.md).
+        pieces) is in ``Result.bias`` for every statistic (docs/scenes.md), however few of
+        its pieces are shaken (one, or none: ``Scene.effects`` keeps ``"envelope"``).
     g : float, default 9.81
         Acceleration of gravity, m s^-2, > 0.
     mass : float, default 1.0
@@ -406,8 +407,10 @@ class Scene:
             pieces, t0 = _noise_pieces(pieces, noise)
         self.pieces = pieces
         #: The smooth envelope (crandall.envelopes.Envelope) the pieces stand for, or None:
-        #: its piece error is estimated by halving the pieces (Result.bias).
-        self.envelope = envelope if pieces is not None else None
+        #: its piece error is estimated by halving the pieces (Result.bias). Kept whatever its
+        #: pieces came to: an envelope left with one shaken piece (run as the one-intensity
+        #: scene) or none is still approximated by its pieces, not the paper's scene.
+        self.envelope = envelope
         # Without friction a body that moves never stops; one at rest with no noise has
         # stopped.
         silent = noise == 0 and (pieces is None or all(n == 0 for _, n in pieces))
@@ -467,7 +470,9 @@ class Scene:
     def effects(self) -> frozenset:
         """The effects this scene holds beyond the paper's (a body at rest at the origin, one
         constant intensity until t0): ``"initial_state"`` when it starts with a velocity or a
-        displacement. Each identity or closed form that crandall uses lists the effects it
+        displacement, ``"piecewise_intensity"`` when it is shaken by pieces of different
+        intensities (or pauses between them), ``"envelope"`` when it is given as a smooth
+        envelope (``Scene(envelope=...)``, however few pieces remain shaken). Each identity or closed form that crandall uses lists the effects it
         still holds under (:mod:`crandall.model`) and is used only for scenes whose effects it
         supports."""
         out = set()

@@ -457,6 +457,12 @@ def _exact_part(scene: Scene, statistics) -> Optional[Scene]:
             d.pop("bins", None)
     if isinstance(d.get("bins"), dict):
         d["bins"] = {k: v for k, v in d["bins"].items() if k in held or k == "per_octave"}
+    if scene.envelope is not None:
+        # The envelope itself: a function envelope's plain data are its pieces alone, which
+        # would rebuild a plain piecewise scene, reported exact with no piece error.
+        d.pop("h", None)
+        d.pop("t0", None)
+        d["envelope"] = scene.envelope
     return Scene.from_dict(d)
 
 
