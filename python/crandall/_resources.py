@@ -91,9 +91,12 @@ def available_memory() -> int:
 
 
 def _interactive() -> bool:
-    """A person is watching: stderr is a terminal, and not CI or a test run."""
+    """A person is watching: stderr is a terminal or this is a notebook's kernel (Jupyter,
+    whose output is no terminal), and not CI or a test run."""
     if os.environ.get("CI") or "PYTEST_CURRENT_TEST" in os.environ:
         return False
+    if "ipykernel.zmqshell" in sys.modules:  # the test tqdm.auto makes for a notebook
+        return True
     try:
         return sys.stderr.isatty()
     except (AttributeError, ValueError):  # closed or replaced stderr

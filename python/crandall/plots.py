@@ -12,6 +12,8 @@ Needs the ``plots`` extra: ``pip install crandall[plots]`` (matplotlib).
 
 from __future__ import annotations
 
+import functools
+import io
 import math
 import os
 from typing import Dict, List, Optional, Sequence
@@ -58,7 +60,16 @@ def _figure(width: float = 6.4, height: float = 4.4):
 
     fig = Figure(figsize=(width, height), dpi=110, layout="constrained")
     FigureCanvasAgg(fig)
+    # The figure is not pyplot's, so no backend registers a display for it and a notebook
+    # would print its repr: it shows itself as a picture.
+    fig._repr_png_ = functools.partial(_png, fig)
     return fig
+
+
+def _png(fig) -> bytes:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png")
+    return buffer.getvalue()
 
 
 def _curve_grid(tau, tau0):
