@@ -187,3 +187,22 @@ def test_density_panels_show_where_the_mass_is():
     single = np.zeros(10)
     single[7] = 3
     assert plots._shown_range(single) == (7, 8)
+
+
+def test_figures_need_matplotlib_alone(tmp_path, monkeypatch):
+    # pip install 'crandall[plots]' brings matplotlib, not boost-histogram (the hist extra):
+    # the distributions' figures are drawn from the run's counts all the same.
+    scene = crandall.Scene.scaled(tau0=1.0, times=[0.5, 2.0],
+                                  distributions=["velocity", "distance_at_stop"])
+    r = crandall.simulate(scene, paths=3000, seed=2)
+    monkeypatch.setitem(__import__("sys").modules, "boost_histogram", None)
+    with pytest.raises(ImportError, match="boost-histogram"):
+        r.histogram("velocity", 0.5)
+    written = plots.write_figures(r, tmp_path, paths=2000)
+    names = [p.rsplit("/", 1)[-1] for p in written]
+    assert "velocity_density.png" in names and "distance_at_stop_distribution.png" in names
+    for path in written:
+        assert not_blank(path)
+    edges, counts, label = r.histogram_counts("distance_at_stop")
+    assert counts.size == edges.size + 1 and counts.sum() == 3000
+    assert label == "distance_at_stop"

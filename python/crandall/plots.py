@@ -395,9 +395,8 @@ STOP_DISTRIBUTIONS = ("stop_time", "displacement_at_stop", "distance_at_stop",
 
 def _binned(result: Result, name: str, time):
     """Edges, counts per bin, flows and total of the run's histogram of ``name``."""
-    h = result.histogram(name, time)
-    edges = np.asarray(h.axes[0].edges, dtype=float)
-    cells = np.asarray(h.view(flow=True), dtype=float)
+    edges, cells, _ = result.histogram_counts(name, time)
+    cells = np.asarray(cells, dtype=float)
     return edges, cells[1:-1], cells[0], cells[-1], float(cells.sum())
 
 

@@ -513,6 +513,23 @@ class Result:
         ImportError
             boost-histogram is not installed.
         """
+        shown, cells, label = self.histogram_counts(name, time)
+        return distributions.to_boost_histogram(shown, cells[1:-1], int(cells[0]),
+                                                int(cells[-1]), label)
+
+    def histogram_counts(self, name: str, time: Optional[float] = None):
+        """The run's histogram of a quantity as plain arrays (what :meth:`histogram` gives as
+        a ``boost_histogram.Histogram``, which the figures do without).
+
+        Returns
+        -------
+        edges : numpy.ndarray
+            The bins' edges in the quantity's units (as :meth:`histogram`'s axis).
+        counts : numpy.ndarray
+            Paths per cell: the underflow, one per bin, the overflow (``len(edges) + 1``).
+        label : str
+            The quantity, its unit and the time.
+        """
         edges, cells, offset, shown = self._binned(name, time)
         atom = np.flatnonzero(edges == distributions.ATOM)
         if offset and atom.size and shown[atom[0]] == shown[atom[0] - 1]:
@@ -534,8 +551,7 @@ class Result:
         unit = self.scene.units_of(name)
         label = name + (f" [{unit}]" if unit else "") + (
             "" if time is None else f" at {self.scene.time_name} = {float(time):g}")
-        return distributions.to_boost_histogram(shown, cells[1:-2], int(cells[0]), int(cells[-2]),
-                                                label)
+        return shown, np.asarray(cells[:-1]), label
 
     def quantile(self, name: str, q: float, time=None,
                  confidence: float = 0.95) -> distributions.Estimate:
