@@ -206,3 +206,27 @@ def test_figures_need_matplotlib_alone(tmp_path, monkeypatch):
     edges, counts, label = r.histogram_counts("distance_at_stop")
     assert counts.size == edges.size + 1 and counts.sum() == 3000
     assert label == "distance_at_stop"
+
+
+def test_an_si_scene_draws_its_densities_in_seconds_and_metres():
+    scene = crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=[0.5, 1.0, 2.0, 3.0])
+    r = crandall.simulate(scene, paths=2000, seed=1, dt=0.01)
+    s = scene.scaling
+    shown = plots.figures(r, paths=2000)
+    axes = shown["velocity_density"].axes
+    assert [ax.get_title() for ax in axes] == [f"t = {t:.4g} s" for t in (0.5, 1.0, 2.0)]
+    assert all(ax.get_xlabel() == "velocity [m/s]" for ax in axes)
+    # The analytic curve converted: f(y, tau) / v_scale at v = y v_scale.
+    x, y = axes[0].get_lines()[0].get_data()
+    tau = s.to_tau(0.5)
+    np.testing.assert_allclose(y, analytic.velocity_pdf(x / s.velocity_scale, tau)
+                               / s.velocity_scale, rtol=1e-12)
+    ax = shown["stop_time_density"].axes[0]
+    assert ax.get_xlabel() == "stop time [s]" and "t0 = 2 s" in ax.get_title()
+    x, y = ax.get_lines()[0].get_data()
+    assert x[0] == pytest.approx(2.0, rel=1e-12)
+    # A density in 1/s: it integrates to 1 over seconds (the curve reaches 5 sd past the mean).
+    assert np.trapezoid(y, x) == pytest.approx(1.0, abs=0.02)
+    # Scaled units on request, as before.
+    scaled = plots.figures(r, paths=2000, units="scaled")
+    assert scaled["velocity_density"].axes[0].get_title().startswith(r"$\tau$ = ")

@@ -29,6 +29,7 @@ from .quantities import quantity
 from .model import ANALYTIC, holds
 from .results import Result
 from .spec import MAX_SEED, check_int
+from .units import Scaling
 
 __all__ = [
     "distance_mean",
@@ -299,7 +300,7 @@ def _check_samples(paths, seed):
 
 
 def velocity_density(times: Sequence[float] = (0.25, 1.0, 5.0), *, paths: int = 200_000,
-                     seed: int = 0):
+                     seed: int = 0, scaling: Optional[Scaling] = None):
     """The density of the scaled velocity U1(tau) at a few times against histograms.
 
     The analytic density is the paper's f(y, tau) (:func:`crandall.analytic.velocity_pdf`,
@@ -314,6 +315,9 @@ def velocity_density(times: Sequence[float] = (0.25, 1.0, 5.0), *, paths: int = 
         Samples per time, >= 100.
     seed : int
         Seed of the samples.
+    scaling : crandall.Scaling, optional
+        An SI scene's scales: the panels are then drawn in m/s and s (the same samples and
+        curves, converted).
 
     Returns
     -------
@@ -328,25 +332,32 @@ def velocity_density(times: Sequence[float] = (0.25, 1.0, 5.0), *, paths: int = 
         raise ValueError(f"times must hold 1 to 6 finite scaled times > 0, got {times!r}")
     fig = _figure(width=3.2 * len(taus) + 0.6, height=3.8)
     axes = fig.subplots(1, len(taus), squeeze=False)[0]
+    v = 1.0 if scaling is None else scaling.scale("velocity")
     for i, (ax, tau) in enumerate(zip(axes, taus)):
         y = velocity_samples(tau, paths, seed + i)
         # Four standard deviations: all but the far tail (Var U1 <= 1/2 at every tau).
         half = max(4.0 * math.sqrt(float(analytic.velocity_var(tau))), 0.05)
-        ax.hist(y, bins=np.linspace(-half, half, 61), density=True, histtype="stepfilled",
-                color="C1", alpha=0.35, label=f"{paths:,} samples")
+        ax.hist(y * v, bins=np.linspace(-half, half, 61) * v, density=True,
+                histtype="stepfilled", color="C1", alpha=0.35, label=f"{paths:,} samples")
         grid = np.linspace(-half, half, 801)
-        ax.plot(grid, analytic.velocity_pdf(grid, tau), label="analytic f(y, τ)", **_CURVE)
-        ax.set_xlim(-half, half)
-        ax.set_title(rf"$\tau$ = {tau:g}", fontsize=10)
-        ax.set_xlabel(r"scaled velocity $U_1$")
+        ax.plot(grid * v, analytic.velocity_pdf(grid, tau) / v, label="analytic", **_CURVE)
+        ax.set_xlim(-half * v, half * v)
+        if scaling is None:
+            ax.set_title(rf"$\tau$ = {tau:g}", fontsize=10)
+            ax.set_xlabel(r"scaled velocity $U_1$")
+        else:
+            ax.set_title(f"t = {scaling.to_si(tau, 'time'):.4g} s", fontsize=10)
+            ax.set_xlabel("velocity [m/s]")
         ax.grid(alpha=0.3)
-    axes[0].set_ylabel("density")
+    axes[0].set_ylabel("density" + ("" if scaling is None else " [s/m]"))
     axes[0].legend(fontsize=7, loc="upper left")
-    fig.suptitle("Density of the scaled velocity from rest (noise on)", fontsize=10)
+    fig.suptitle(f"Density of the {'scaled ' if scaling is None else ''}velocity from rest "
+                 "(noise on)", fontsize=10)
     return fig
 
 
-def stop_time_density(tau0: float = 5.0, *, paths: int = 200_000, seed: int = 0):
+def stop_time_density(tau0: float = 5.0, *, paths: int = 200_000, seed: int = 0,
+                      scaling: Optional[Scaling] = None):
     """The density of the stop time tau_s = tau0 + |U1(tau0)|/2 (eq14) against a histogram.
 
     Parameters
@@ -357,6 +368,8 @@ def stop_time_density(tau0: float = 5.0, *, paths: int = 200_000, seed: int = 0)
         Samples, >= 100; each U1(tau0) drawn by one exact step from rest.
     seed : int
         Seed of the samples.
+    scaling : crandall.Scaling, optional
+        An SI scene's scales: the panel is then drawn in seconds.
 
     Returns
     -------
@@ -370,18 +383,24 @@ def stop_time_density(tau0: float = 5.0, *, paths: int = 200_000, seed: int = 0)
     stops = tau0 + np.abs(velocity_samples(tau0, paths, seed)) / 2
     mean, sd = float(analytic.stop_time_mean(tau0)), math.sqrt(float(analytic.stop_time_var(tau0)))
     right = mean + 5 * sd
+    t = 1.0 if scaling is None else scaling.scale("time")
     fig = _figure()
     ax = fig.add_subplot()
-    ax.hist(stops, bins=np.linspace(tau0, right, 61), density=True, histtype="stepfilled",
-            alpha=0.3, color="C1", label=f"{paths:,} samples")
+    ax.hist(stops * t, bins=np.linspace(tau0, right, 61) * t, density=True,
+            histtype="stepfilled", alpha=0.3, color="C1", label=f"{paths:,} samples")
     grid = np.linspace(tau0, right, 600)
-    ax.plot(grid, analytic.stop_time_pdf(grid, tau0), color="C0", lw=1.6,
+    ax.plot(grid * t, analytic.stop_time_pdf(grid, tau0) / t, color="C0", lw=1.6,
             label="analytic (eq14)")
-    ax.axvline(mean, color="0.4", ls="--", lw=1, label=rf"mean {mean:.4g}")
-    ax.set_xlim(tau0 - 0.05 * (right - tau0), right)
-    ax.set_xlabel(r"scaled stop time $\tau_s$")
-    ax.set_ylabel("density")
-    ax.set_title(rf"Density of the stop time, $\tau_0$ = {tau0:g}", fontsize=10)
+    ax.axvline(mean * t, color="0.4", ls="--", lw=1, label=rf"mean {mean * t:.4g}")
+    ax.set_xlim((tau0 - 0.05 * (right - tau0)) * t, right * t)
+    if scaling is None:
+        ax.set_xlabel(r"scaled stop time $\tau_s$")
+        ax.set_ylabel("density")
+        ax.set_title(rf"Density of the stop time, $\tau_0$ = {tau0:g}", fontsize=10)
+    else:
+        ax.set_xlabel("stop time [s]")
+        ax.set_ylabel("density [1/s]")
+        ax.set_title(f"Density of the stop time, t0 = {tau0 * t:.4g} s", fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     return fig
@@ -568,6 +587,9 @@ def figures(result: Result, *, paths: int = 200_000, units: str = "scene") -> Di
     if _has_closed_forms(result):
         tau, tau0, *_ = scaled_factors(result)
         seed = result.seed
+        # An SI scene's panels in seconds and metres unless scaled units are asked for.
+        si = (result.scene.scaling if units == "scene" and result.scene.units == "SI"
+              else None)
         on = sorted({float(t) for t in np.atleast_1d(tau) if 0 < t <= tau0})
         if len(on) > 3:
             # The first, the last and the one nearest their geometric mean: the law changes
@@ -580,12 +602,13 @@ def figures(result: Result, *, paths: int = 200_000, units: str = "scene") -> Di
             out["velocity_density"] = distribution(result, "velocity", shown)
         else:
             out["velocity_density"] = velocity_density(on or (0.25, 1.0, 5.0), paths=paths,
-                                                       seed=seed)
+                                                       seed=seed, scaling=si)
         if "stop" in result.scene.observe and tau0 > 0:
             if "stop_time" in held:
                 out["stop_time_density"] = distribution(result, "stop_time")
             else:
-                out["stop_time_density"] = stop_time_density(tau0, paths=paths, seed=seed)
+                out["stop_time_density"] = stop_time_density(tau0, paths=paths, seed=seed,
+                                                             scaling=si)
     elif "stop_time" in held:
         out["stop_time_density"] = distribution(result, "stop_time")
     for name in STOP_DISTRIBUTIONS[1:]:
