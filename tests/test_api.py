@@ -535,3 +535,27 @@ def test_numpy_seeds_map_to_documented_ints():
     assert crandall.simulate(sc, paths=10, seed=g).seed == first
     assert crandall.simulate_many([sc, sc], paths=10, seed=np.random.SeedSequence(1))[1].seed == \
         int(np.random.SeedSequence(1).generate_state(1, np.uint64)[0])
+
+
+def test_printing_a_result_never_runs_paths(monkeypatch):
+    # The bias of a fixed-step run's distance takes a run of its own: printing shows it as not
+    # estimated yet, naming the call that makes it, and runs nothing.
+    r = crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[0.5, 2.0]), paths=2000, seed=1)
+    assert r.bias_pending
+
+    def no_run(result, threads=1):
+        raise AssertionError("the bias estimate ran")
+
+    monkeypatch.setattr(crandall.results, "_bias_estimator", no_run)
+    text = str(r)
+    assert "not estimated yet" in text and "result.estimate_bias()" in text
+    assert "estimate_bias()" in r._repr_html_()
+    monkeypatch.undo()
+    assert r.estimate_bias() is r and not r.bias_pending
+    text = str(r)
+    assert "not estimated yet" not in text and " ? " not in text
+    assert f"{r.bias('distance')[1]:.2g}" in text
+    # A result whose statistics are all exact in law needs no run: nothing is pending.
+    v = crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[0.5], observe=["velocity"]),
+                          paths=2000, seed=1)
+    assert not v.bias_pending and "not estimated yet" not in str(v)

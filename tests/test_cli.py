@@ -69,7 +69,7 @@ def test_run_scene_file_prints_and_writes_everything(scene_file, tmp_path):
     assert proc.stderr == ""  # no progress bar off a terminal
     direct = crandall.simulate(crandall.Scene.from_toml(scene_file), paths=3000, seed=12,
                                dt=0.05)
-    assert direct.summary() in proc.stdout
+    assert direct.estimate_bias().summary() in proc.stdout
     files = sorted(p.name for p in out.iterdir())
     outputs = sorted(["result.nc", "result.csv", "fig2_distance_mean.png",
                       "fig3_velocity_var.png", "fig4_displacement_var.png",
@@ -92,7 +92,7 @@ def test_options_override_the_file(scene_file, tmp_path, capsys):
     out = capsys.readouterr().out
     direct = crandall.simulate(crandall.Scene.from_toml(scene_file), paths=2000, seed=4,
                                dt=0.1, method="euler")
-    assert direct.summary() in out
+    assert direct.estimate_bias().summary() in out
     assert not (tmp_path / cli.DEFAULT_OUT).exists()
 
 

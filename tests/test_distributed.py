@@ -73,7 +73,7 @@ def test_cli_scheduler_option(client, tmp_path, capsys):
     out = capsys.readouterr().out
     assert f"on {address}" in out
     local = crandall.simulate(scene(), paths=70000, seed=5, dt=0.1)
-    assert local.summary() in out
+    assert local.estimate_bias().summary() in out
 
 
 def test_simulate_many_bad_input():

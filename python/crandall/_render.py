@@ -38,21 +38,28 @@ def table_html(result) -> str:
     standard error and bias, the variance with its standard error and bias."""
     sc = result.scene
     rows: List[str] = []
+    # Showing a result never runs paths: a bias that needs a run of its own is shown as not
+    # estimated yet (Result.estimate_bias makes it).
+    pending = result.bias_pending
     for name in result.names:
         stats = np.atleast_2d(_dataset._stats(result, name))
-        acc = np.atleast_2d(_dataset._accuracy(result, name))
+        acc = (np.full((stats.shape[0], len(_dataset.ACCURACY)), np.nan) if pending
+               else np.atleast_2d(_dataset._accuracy(result, name)))
         times = [math.nan] if quantity(name).at_stop else list(result.times)
         unit = sc.units_of(name) or "1"
         for t, s, a in zip(times, stats, acc):
             mean, var, _, se, vse = s
             bias_mean, _, bias_var, _ = a
             when = "stop" if math.isnan(t) else _num(t, ".4g")
+            bm, bv = ("?", "?") if pending else (_num(bias_mean, ".2g"), _num(bias_var, ".2g"))
             rows.append(
                 f"<tr><td>{html.escape(name)}</td><td>{when}</td><td>{html.escape(unit)}</td>"
-                f"<td>{_num(mean)} &plusmn; {_num(se, '.2g')}</td><td>{_num(bias_mean, '.2g')}</td>"
-                f"<td>{_num(var)} &plusmn; {_num(vse, '.2g')}</td><td>{_num(bias_var, '.2g')}</td>"
+                f"<td>{_num(mean)} &plusmn; {_num(se, '.2g')}</td><td>{bm}</td>"
+                f"<td>{_num(var)} &plusmn; {_num(vse, '.2g')}</td><td>{bv}</td>"
                 "</tr>")
     head = (f"<tr><th>quantity</th><th>{html.escape(sc.time_name)}</th><th>units</th>"
             "<th>mean &plusmn; stderr</th><th>bias</th><th>var &plusmn; stderr</th>"
             "<th>bias</th></tr>")
-    return (_header(result) + "<table>" + head + "".join(rows) + "</table>")
+    note = ("<p>bias ?: not estimated yet (a run of its own): "
+            "<code>result.estimate_bias()</code> makes it.</p>" if pending else "")
+    return (_header(result) + "<table>" + head + "".join(rows) + "</table>" + note)

@@ -157,6 +157,14 @@ def _isometry_names(scene, names) -> set:
     return {n for n in names if isometry_applies(quantity(n), scene)}
 
 
+def needs_run_for(result) -> bool:
+    """Whether :func:`estimate` runs paths of its own for this result: coupled grids for a
+    statistic not exact in law (the peaks have none), or an envelope's pieces."""
+    coupled = result.paths >= 2 and result.method in ("exact", "richardson", "richardson2")
+    return coupled and (ENVELOPE in result.scene.effects or any(
+        not exact_in_law(n, result.scene) and not quantity(n).peak for n in result.names))
+
+
 def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray, bool]]:
     """Per (name, stat): the estimated |bias| (array over the output times, or one value at
     the stop) and whether it is a bound (the difference was not resolved)."""
@@ -164,9 +172,7 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
     out: Dict[Tuple[str, str], Tuple[np.ndarray, bool]] = {}
     names = result.names
     envelope = ENVELOPE in result.scene.effects
-    coupled = result.paths >= 2 and method in ("exact", "richardson", "richardson2")
-    needs_run = coupled and (envelope or any(
-        not exact_in_law(n, result.scene) and not quantity(n).peak for n in names))
+    needs_run = needs_run_for(result)
     quadratic = envelope and bool(_isometry_names(result.scene, names))
     samples = _samples(result.spec, result.paths, threads, quadratic) if needs_run else None
     pieces = (_piece_errors(result.spec, result.names, samples, threads)
@@ -313,4 +319,4 @@ def _difference(v: np.ndarray, a: np.ndarray, b: np.ndarray, stat: str, threads:
 
 
 # Results ask this module for their bias through the hook (results never import an engine).
-results.set_bias_estimator(estimate)
+results.set_bias_estimator(estimate, needs_run_for)

@@ -354,6 +354,11 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
         result = simulate(scene, paths=n, seed=settings.get("seed"), dt=settings.get("dt"),
                           method=settings.get("method", DEFAULT_METHOD), threads=threads,
                           checkpoint=checkpoint, client=client, progress=progress)
+        if result.bias_pending:
+            # Part of the run: shown in its progress and counted in its time (printing the
+            # summary would otherwise make it unannounced).
+            print("estimating the bias (coupled grids) ...", flush=True)
+            result.estimate_bias()
     finally:
         if client is not None:
             client.close()

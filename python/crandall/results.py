@@ -93,12 +93,17 @@ def _fold(edges: np.ndarray, cells: np.ndarray, base: str = "velocity",
 #: that module is imported, as ``import crandall`` does): a result asks it on the first call of
 #: :meth:`Result.bias` and keeps the answer, without importing an engine itself.
 _bias_estimator: Optional[Callable] = None
+#: ... and whether that estimate needs a run of its own (``needs_run(result)``): a result whose
+#: bias does is printed without it, saying which call makes it (printing never computes).
+_bias_needs_run: Optional[Callable] = None
 
 
-def set_bias_estimator(estimate: Callable) -> None:
-    """Install the function ``estimate(result, threads)`` that results ask for their bias."""
-    global _bias_estimator
+def set_bias_estimator(estimate: Callable, needs_run: Optional[Callable] = None) -> None:
+    """Install the function ``estimate(result, threads)`` that results ask for their bias, and
+    ``needs_run(result)``, whether it runs paths of its own."""
+    global _bias_estimator, _bias_needs_run
     _bias_estimator = estimate
+    _bias_needs_run = needs_run
 
 
 def _estimate_bias(result):
@@ -675,6 +680,24 @@ class Result:
             self._warn_nan(name, f"the bias of the {stat}", values, why, 3)
         return float(values[0]) if quantity(name).at_stop else values
 
+    @property
+    def bias_pending(self) -> bool:
+        """Whether the bias estimate is still to be made by a run of its own (coupled grids,
+        or an envelope's pieces): :meth:`estimate_bias`, or the first call of :meth:`bias`,
+        makes it. Until then the summary and the HTML table show no bias (printing never
+        runs paths)."""
+        if self.kind == "accuracy" or self._bias_cache is not None:
+            return False
+        return _bias_needs_run is None or bool(_bias_needs_run(self))
+
+    def estimate_bias(self) -> "Result":
+        """Make the bias estimate now (a run of its own, with a progress bar where a person
+        watches; see :meth:`bias`) and keep it; returns the result. Nothing to do when it is
+        made already or needs no run."""
+        if self.kind != "accuracy" and self._bias_cache is None:
+            self._bias_cache = _estimate_bias(self)
+        return self
+
     def bias(self, name: str, stat: str = "mean") -> Stat:
         """The estimated magnitude of the discretisation bias of a statistic (``stat``: "mean"
         or "var"), in the quantity's units (squared for "var").
@@ -743,8 +766,21 @@ class Result:
         ]
         if self.paths < 2:
             lines.append("  (n/a: a variance needs at least 2 paths)")
-        lines.append("  bias: estimated discretisation bias (0: exact in law; "
-                     "Result.bias, docs/methods/adaptive.md)")
+        pending = self.bias_pending
+        if pending:
+            lines.append("  bias: not estimated yet (?): it takes a run of its own; "
+                         "result.estimate_bias() makes it (so does result.bias(name))")
+        else:
+            lines.append("  bias: estimated discretisation bias (0: exact in law; "
+                         "Result.bias, docs/methods/adaptive.md)")
+
+        def bias_of(n, stat):
+            if pending:
+                return np.full(np.shape(self._stats(n)[0]), np.nan)
+            return self._bias(n, stat, False)
+
+        def shown(value, spec):
+            return f"{'?':>{spec.split('.')[0] or 1}}" if pending else _fmt(value, spec)
         time_names = [n for n in self.names if not quantity(n).at_stop]
         if time_names and self.times.size:
             # One block per quantity: time, mean ± standard error, variance, standard deviation.
@@ -755,14 +791,14 @@ class Result:
                              f"{'bias':>9}  {'var':>12}  {'± stderr':>10}  {'var bias':>9}  "
                              f"{'std':>12}")
                 mean, var, cnt = self._stats(n)
-                bm, bv = self._bias(n, "mean", False), self._bias(n, "var", False)
+                bm, bv = bias_of(n, "mean"), bias_of(n, "var")
                 vse = self._var_stderr_quiet(n)
                 for i, t in enumerate(self.times):
                     lines.append(f"    {t:>10.4g}  {mean[i]:>13.6g}  "
                                  f"{_fmt(_sqrt(var[i] / cnt[i]), '10.2g')}  "
-                                 f"{_fmt(bm[i], '9.2g')}  "
+                                 f"{shown(bm[i], '9.2g')}  "
                                  f"{_fmt(var[i], '12.6g')}  {_fmt(vse[i], '10.2g')}  "
-                                 f"{_fmt(bv[i], '9.2g')}  {_fmt(_sqrt(var[i]), '12.6g')}")
+                                 f"{shown(bv[i], '9.2g')}  {_fmt(_sqrt(var[i]), '12.6g')}")
         stop_names = [n for n in self.names if quantity(n).at_stop]
         if stop_names:
             lines.append("  at the stop:")
@@ -770,10 +806,10 @@ class Result:
                 mean, var, cnt = self._stats(n)
                 u = sc.units_of(n)
                 lines.append(f"    {n:<26} mean {mean:.6g} ± {_fmt(_sqrt(var / cnt), '.2g')}"
-                             f" (bias {_fmt(self._bias(n, 'mean', False), '.2g')})"
+                             f" (bias {shown(bias_of(n, 'mean'), '.2g')})"
                              f"   var {_fmt(var, '.6g')}"
                              f" ± {_fmt(self._var_stderr_quiet(n)[0], '.2g')}"
-                             f" (bias {_fmt(self._bias(n, 'var', False), '.2g')})"
+                             f" (bias {shown(bias_of(n, 'var'), '.2g')})"
                              + (f"   [{u}]" if u else ""))
         return "\n".join(lines)
 
