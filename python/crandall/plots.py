@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import io
+import json
 import math
 import os
 from typing import Dict, List, Optional, Sequence
@@ -28,6 +29,7 @@ from .paper import CURVES, Curve, curve, scaled_factors
 from .quantities import quantity
 from .model import ANALYTIC, holds
 from .results import Result
+from .scene import Scene
 from .spec import MAX_SEED, check_int
 from .units import Scaling
 
@@ -42,6 +44,7 @@ __all__ = [
     "STOP_DISTRIBUTIONS",
     "figures",
     "write_figures",
+    "paths",
     "UNITS",
     "FORMATS",
 ]
@@ -125,10 +128,9 @@ def _axes_converter(result: Result, units: str):
     return (s.to_t, lambda v, kind, power: s.to_si(v, kind, power), "time $t$ (s)", "SI")
 
 
-def _schedule_strip(ax, result: Result, right: float, to_x) -> None:
-    """The intensity over time, a step plot (a piecewise scene); ``to_x`` takes the scene's
-    times to the figure's."""
-    sc = result.scene
+def _schedule_strip(ax, sc, right: float, to_x) -> None:
+    """The intensity over time of a scene, a step plot (a piecewise scene); ``to_x`` takes the
+    scene's times to the figure's."""
     pieces = tuple((to_x(e), n) for e, n in (sc.pieces if sc.pieces is not None
                                               else ((sc.t0, sc.noise),)))
     xs, ys, start = [], [], 0.0
@@ -206,7 +208,7 @@ def _moment_figure(result: Result, c: Curve, units: str = "scene"):
     if strip:
         scene_to_x = (sc.scaling.to_tau if units == "scaled" and sc.units == "SI"
                       else (lambda t: t))
-        _schedule_strip(axes[0], result, right * 1.02, scene_to_x)
+        _schedule_strip(axes[0], result.scene, right * 1.02, scene_to_x)
     if closed:
         # The residual: z = (simulated - analytic) / stderr at each output time, with the
         # +-2 band a correct error bar keeps about 95 % of the points in.
@@ -293,6 +295,51 @@ def distance_var(result: Result, units: str = "scene"):
     matplotlib.figure.Figure
     """
     return _moment_figure(result, curve("distance_var"), units)
+
+
+def paths(data):
+    """Sample paths (:func:`crandall.paths`) against time: velocity, displacement and
+    distance, one thin line per path, each path's stop marked; for a piecewise scene (pauses,
+    an envelope's pieces) the intensity above.
+
+    Parameters
+    ----------
+    data : xarray.Dataset
+        What :func:`crandall.paths` returns.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    needed = ("velocity", "displacement", "distance", "stop_time")
+    if not all(hasattr(data, "data_vars") and k in data.data_vars for k in needed) \
+            or "scene" not in getattr(data, "attrs", {}):
+        raise ValueError("data must be what crandall.paths returns (an xarray.Dataset of "
+                         "velocity, displacement, distance and stop_time)")
+    sc = Scene.from_dict(json.loads(data.attrs["scene"]))
+    t = np.asarray(data["time"].values, dtype=float)
+    strip = int(sc.pieces is not None or sc.envelope is not None)
+    rows = [1] * strip + [2, 2, 2]
+    fig = _figure(width=6.4, height=1.3 * strip + 5.6)
+    axes = fig.subplots(len(rows), 1, sharex=True, gridspec_kw={"height_ratios": rows})
+    stops = np.asarray(data["stop_time"].values, dtype=float)
+    time_label = "time (s)" if sc.units == "SI" else r"scaled time $\tau$"
+    for ax, name in zip(axes[strip:], needed[:3]):
+        values = np.asarray(data[name].values, dtype=float)
+        for i, row in enumerate(values):
+            line, = ax.plot(t, row, lw=0.8, alpha=0.8)
+            if np.isfinite(stops[i]) and t[0] <= stops[i] <= t[-1]:
+                ax.plot([stops[i]], [np.interp(stops[i], t, row)], "o", ms=3,
+                        color=line.get_color())
+        unit = data[name].attrs.get("units", "1")
+        ax.set_ylabel(name + ("" if unit == "1" else f" ({unit})"), fontsize=8)
+        ax.grid(alpha=0.3)
+    if strip:
+        _schedule_strip(axes[0], sc, float(t[-1]), lambda x: x)
+    axes[-1].set_xlabel(time_label)
+    axes[strip].set_title(f"{values.shape[0]} sample paths (dots: the stops), seed "
+                          f"{data.attrs.get('seed', '?')}", fontsize=10)
+    return fig
 
 
 def _check_samples(paths, seed):

@@ -13,7 +13,9 @@ only, so chunks, threads, Dask tasks and resumed checkpoints give the same paths
   the same key (the same paths, paired by index, so the piece error's difference has a small
   variance);
 - a tail run (crandall.tail): :func:`tail_key` (seed), the stream 2^20 + 1; within it the
-  core's path index numbers the replicas' and the pilots' paths (tail.py).
+  core's path index numbers the replicas' and the pilots' paths (tail.py);
+- sample paths to draw (crandall.paths): :func:`paths_key` (seed), the stream 2^20 + 2, path i
+  the core's path index i.
 
 Derived keys are splitmix64 of (seed, stream), in the manner of numpy's SeedSequence.spawn:
 each is a pure function of the seed and the stream's number, and distinct streams are
@@ -22,13 +24,16 @@ decorrelated. A new estimator takes a stream number of its own here.
 
 from __future__ import annotations
 
-__all__ = ["key", "level_key", "bias_key", "tail_key", "BIAS_STREAM", "TAIL_STREAM"]
+__all__ = ["key", "level_key", "bias_key", "tail_key", "paths_key", "BIAS_STREAM",
+           "TAIL_STREAM", "PATHS_STREAM"]
 
 _MASK = (1 << 64) - 1
 #: The stream of a fixed-step run's bias estimate (beyond the levels of a run to an accuracy).
 BIAS_STREAM = 1 << 20
 #: The stream of the rare-event estimators' paths.
 TAIL_STREAM = BIAS_STREAM + 1
+#: The stream of crandall.paths' sample paths.
+PATHS_STREAM = BIAS_STREAM + 2
 
 
 def key(seed: int, stream: int) -> int:
@@ -53,3 +58,8 @@ def bias_key(seed: int) -> int:
 def tail_key(seed: int) -> int:
     """The key of a tail run's paths (every replica and pilot path, by path index)."""
     return key(seed, TAIL_STREAM)
+
+
+def paths_key(seed: int) -> int:
+    """The key of crandall.paths' sample paths (path i: the core's path index i)."""
+    return key(seed, PATHS_STREAM)
