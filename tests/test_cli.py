@@ -464,3 +464,21 @@ def test_tail_command_refuses_bad_options(capsys):
     assert "quantity" in capsys.readouterr().err
     assert cli.main(["tail", "--quantity", "speed", "--levels", "1", "--no-files"]) == 2
     assert "time" in capsys.readouterr().err
+
+
+def test_run_to_an_accuracy_drops_the_distributions_with_a_note_and_takes_statistics(
+        tmp_path, capsys):
+    scene = tmp_path / "d.toml"
+    scene.write_text('[scene]\nunits = "scaled"\ntau0 = 1.0\ntimes = [0.5, 2.0]\n'
+                     'distributions = ["distance_at_stop"]\n')
+    args = ["run", str(scene), "--rel-error", "0.05", "--seed", "2", "--no-files"]
+    assert cli.main(args + ["--statistics", "distance:mean", "distance_at_stop:var"]) == 0
+    captured = capsys.readouterr()
+    assert "distributions (distance_at_stop) are left out" in captured.err
+    # Only the asked statistics carry the target: the others are reported, not driven.
+    assert "rel_error <= 0.05" in captured.out and "distance_at_stop" in captured.out
+    assert cli.main(args + ["--statistics", "height:mean"]) == 2
+    assert "statistics" in capsys.readouterr().err
+    assert cli.main(["run", str(scene), "--paths", "100", "--statistics", "distance:mean",
+                     "--no-files"]) == 2
+    assert "--statistics: only with --error or --rel-error" in capsys.readouterr().err

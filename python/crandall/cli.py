@@ -134,6 +134,10 @@ def _parser() -> argparse.ArgumentParser:
                              "result.csv only)")
     target.add_argument("--rel-error", type=_float, metavar="R",
                         help="the same, relative to each statistic's size")
+    run.add_argument("--statistics", nargs="+", metavar="NAME:STAT",
+                     help="with --error / --rel-error: the statistics the target applies to, "
+                          "e.g. distance:mean distance_at_stop:var (default: every mean and "
+                          "variance of the scene)")
     run.add_argument("--max-seconds", type=_float, metavar="S",
                      help="with --error / --rel-error: stop, quoting the estimate, once the "
                           "time spent and the estimated time left pass S (default 3600)")
@@ -318,7 +322,7 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = (),
 def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None, dt=None,
         method=None, out: str = DEFAULT_OUT, checkpoint=None, scheduler=None,
         figures: bool = True, files: bool = True, progress=None, overwrite: bool = False,
-        error=None, rel_error=None, max_seconds=None,
+        error=None, rel_error=None, max_seconds=None, statistics=None,
         figure_options: Optional[dict] = None) -> int:
     """What ``crandall run`` does (arguments as its options); returns the exit status.
 
@@ -338,9 +342,12 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
                              seed=seed, threads=threads, dt=dt, method=method, out=out,
                              checkpoint=checkpoint, scheduler=scheduler, files=files,
                              earlier=earlier, progress=progress, max_seconds=max_seconds,
-                             figures=figures, is_paper=is_paper, figure_options=figure_options)
+                             statistics=statistics, figures=figures, is_paper=is_paper,
+                             figure_options=figure_options)
     if max_seconds is not None:
         raise ValueError("--max-seconds: only with --error or --rel-error")
+    if statistics is not None:
+        raise ValueError("--statistics: only with --error or --rel-error")
     for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method)):
         if value is not None:
             settings[key] = value
@@ -405,7 +412,8 @@ def _client(scheduler: Optional[str]):
 
 def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, threads, dt, method,
                   out, checkpoint, scheduler, files, earlier, progress=None,
-                  max_seconds=None, figures: bool = True, is_paper: bool = False,
+                  max_seconds=None, statistics=None, figures: bool = True,
+                  is_paper: bool = False,
                   figure_options: Optional[dict] = None) -> int:
     """``crandall run --error EPS``: a run to a requested accuracy."""
     for option, value in (("--paths", paths), ("--dt", dt), ("--method", method)):
@@ -417,6 +425,13 @@ def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, thre
         raise ValueError("--checkpoint: give --seed with --error, so that a rerun resumes "
                          "the same run")
     target = f"error <= {error:g}" if error is not None else f"rel_error <= {rel_error:g}"
+    if scene.distributions:
+        # A run to an accuracy estimates means and variances; the histograms are a fixed-step
+        # run's.
+        print(f"crandall: note: a run to an accuracy keeps no histograms, so the scene's "
+              f"distributions ({', '.join(scene.distributions)}) are left out; run with "
+              "--paths for them", file=sys.stderr)
+        scene = Scene.from_dict({**scene.to_dict(), "distributions": None, "bins": None})
     print(f"crandall: {scene!r}")
     where = f" on {scheduler}" if scheduler else ""
     print(f"simulating to {target}{where} ...", flush=True)
@@ -424,7 +439,7 @@ def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, thre
     try:
         result = simulate(scene, error=error, rel_error=rel_error, seed=seed, threads=threads,
                           checkpoint=checkpoint, client=client, progress=progress,
-                          max_seconds=max_seconds)
+                          max_seconds=max_seconds, statistics=statistics)
     finally:
         if client is not None:
             client.close()
@@ -656,7 +671,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                        scheduler=args.scheduler, figures=not args.no_figures,
                        files=not args.no_files, progress=args.progress,
                        overwrite=args.overwrite, error=args.error, rel_error=args.rel_error,
-                       max_seconds=args.max_seconds,
+                       max_seconds=args.max_seconds, statistics=args.statistics,
                        figure_options={"format": args.figure_format, "dpi": args.dpi,
                                        "units": args.figure_units})
         if args.command == "tail":
