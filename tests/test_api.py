@@ -559,3 +559,10 @@ def test_printing_a_result_never_runs_paths(monkeypatch):
     v = crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[0.5], observe=["velocity"]),
                           paths=2000, seed=1)
     assert not v.bias_pending and "not estimated yet" not in str(v)
+
+
+def test_statistics_failure_is_reachable_from_the_package():
+    import sys
+    # crandall.tail is the function, so the tail module's exception is exported beside it.
+    assert crandall.StatisticsFailure is sys.modules["crandall.tail"].StatisticsFailure
+    assert issubclass(crandall.StatisticsFailure, RuntimeError)

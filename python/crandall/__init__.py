@@ -19,12 +19,12 @@ from .io import load
 from .results import Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene
 from .simulate import METHODS, default_dt, simulate, simulate_many
-from .tail import TailResult, tail
+from .tail import StatisticsFailure, TailResult, tail
 from .trajectories import paths
 from .units import Scaling
 
 __all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS",
-           "StatisticsWarning", "tail", "TailResult", "paths"]
+           "StatisticsWarning", "StatisticsFailure", "tail", "TailResult", "paths"]
 
 # The analytic layer and the envelopes need scipy: imported when first read
 # (crandall.envelopes.amin_ang(...), crandall.analytic.physical(...)), not by `import crandall`.
