@@ -30,6 +30,13 @@ def probe(paths: int) -> dict:
             r = crandall.simulate(scene, paths=paths, seed=17, dt=0.05, method=method, threads=1,
                                   progress=False)
             stats[f"{method}/{'+'.join(observe)}"] = hex_statistics(r)
+        # Pauses between shocks, where bodies come to rest: the steps without noise take the
+        # scalar exact step and the coast's integrals (kernel.hpp, step_distance).
+        pauses = crandall.Scene(mu=0.3, h=[1.0, 0.0, 1.0], t0=[0.5, 1.5, 1.75], v0=0.5,
+                                times=[0.25, 1.0, 2.0], observe=OBSERVE[-1])
+        r = crandall.simulate(pauses, paths=paths, seed=17, dt=0.05, method=method, threads=1,
+                              progress=False)
+        stats[f"{method}/pauses"] = hex_statistics(r)
     return {"isa": _core.build_info()["isa"], "available": _core.build_info()["isa_available"],
             "stats": stats}
 

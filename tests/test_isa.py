@@ -50,7 +50,7 @@ def native():
 
 def test_default_is_the_best_variant_and_every_variant_gives_the_same_bits(native):
     assert native["isa"] == BEST
-    assert len(native["stats"]) == 25  # 5 methods x 5 observable sets
+    assert len(native["stats"]) == 30  # 5 methods x (5 observable sets and a scene with pauses)
     for isa in AVAILABLE:
         out = run_probe(isa)
         assert out.returncode == 0, out.stderr

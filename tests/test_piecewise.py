@@ -88,6 +88,65 @@ def test_a_schedule_without_noise_is_the_deterministic_coast():
     assert r.mean("stop_time") == 0.0 and r.mean("velocity")[0] == 0.0
 
 
+def test_a_scalar_intensity_of_zero_is_the_deterministic_coast_too():
+    # issue 30, finding 1: h = 0 given as a number is the schedule h = [0]: no noise ever, so
+    # the noise ends at 0 (Scene.t0), the body coasts from v0 and stops at |v0| / (mu g) after
+    # v0^2 / (2 mu g), in every estimator. It was reported at t0 = 2 s with bias 0 (simulate,
+    # error= and tail), and its displacement came from the trapezoid rule through the kink.
+    c = 0.3 * 9.81
+    kw = dict(mu=0.3, v0=1.0, u0=0.05, times=[0.1, 1.0])
+    scalar = crandall.Scene(h=0.0, t0=2.0, **kw)
+    listed = crandall.Scene(h=[0.0], t0=[2.0], **kw)
+    assert scalar.t0 == 0.0 and scalar.to_dict()["t0"] == 2.0  # the schedule as given is kept
+    stop, travel = 1.0 / c, 1.0 / (2 * c)
+    a = crandall.simulate(scalar, paths=300, seed=1)
+    b = crandall.simulate(listed, paths=300, seed=1)
+    for name in b.names:
+        assert np.asarray(a.mean(name)).tobytes() == np.asarray(b.mean(name)).tobytes(), name
+    assert a.mean("stop_time") == pytest.approx(stop, rel=1e-14) and a.bias("stop_time") == 0
+    assert a.mean("distance_at_stop") == pytest.approx(travel, rel=1e-14)
+    assert a.mean("displacement_at_stop") == pytest.approx(0.05 + travel, rel=1e-14)
+    assert a.mean("distance")[1] == pytest.approx(travel, rel=1e-14)
+    # Everything after t = 0 is the closed-form coast: the grids agree to rounding.
+    assert np.all(np.abs(a.bias("displacement")) <= 1e-14 * travel) and a.var("stop_time") == 0
+    e = crandall.simulate(scalar, error=0.01, seed=1, threads=1)
+    assert e.mean("stop_time") == pytest.approx(stop, rel=1e-14)
+    assert e.mean("displacement")[1] == pytest.approx(0.05 + travel, rel=1e-14)
+    assert e.mean("displacement_at_stop") == pytest.approx(0.05 + travel, rel=1e-14)
+    t = crandall.tail(scalar, "stop_time", [0.9 * stop, 1.1 * stop, 1.5], seed=1)
+    assert t.probability.tolist() == [1.0, 0.0, 0.0]
+    assert t.diagnostics.get("deterministic")
+    lo, hi = t.interval()  # a deterministic answer: its interval is the point itself
+    assert lo.tolist() == hi.tolist() == t.probability.tolist()
+    t = crandall.tail(scalar, "distance_at_stop", [0.999 * travel, 1.001 * travel], seed=1)
+    assert t.probability.tolist() == [1.0, 0.0]
+
+
+@pytest.mark.parametrize("method", ["exact", "richardson", "richardson2", "refine"])
+def test_a_stop_inside_a_pause_has_the_exact_coast_on_every_path(method):
+    # issue 30, finding 1: a body that comes to rest inside a pause (no noise) covers exactly
+    # V^2 / (2 mu g) from where the pause starts, on every path and on each of the method's
+    # grids. The trapezoid rule is exact on the pause's steps where the speed falls linearly
+    # but not in the step where it reaches 0 (the kink): at dt = 0.01 it was off by up to
+    # c dt^2 / 8 = 3.7e-5 m per path. Per-path values of the core's path loop (run_samples,
+    # what a run to an accuracy reads; the fixed-step run sums the same values).
+    from crandall import _core, engine
+    from crandall.spec import RunSpec
+
+    c = 0.3 * 9.81
+    sc = crandall.Scene(mu=0.3, h=[1.0, 0.0, 1.0], t0=[0.5, 3.0, 3.2], v0=3.0, u0=0.1,
+                        times=[0.5, 2.5], observe=["velocity", "displacement", "distance", "stop"])
+    spec = RunSpec.create(sc, paths=2000, seed=3, dt=0.01, method=method)
+    v = _core.run_samples(engine.make_plan(spec), 0, 2000)  # path, slot, grid, variable
+    x, u, s = v[:, 0, :, 0], v[:, 0, :, 1], v[:, 0, :, 2]
+    assert np.all(np.abs(x) < 2.5 * c)  # every body comes to rest before 2.5 s
+    assert np.all(v[:, 1, :, 0] == 0.0)
+    travel = x * x / (2 * c)
+    np.testing.assert_allclose(v[:, 1, :, 2], s + travel, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(v[:, 1, :, 1], u + np.sign(x) * travel, rtol=1e-12,
+                               atol=1e-12 * np.max(np.abs(u)))
+
+
 def test_the_energy_law_holds_for_any_schedule():
     # E[mu g S(t_s)] = v0^2 / 2 + int h^2 dt / 2: here 1 * 1 + 0 + 0.36 * 1 plus a start at
     # 0.4 m/s.

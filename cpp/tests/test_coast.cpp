@@ -1,6 +1,7 @@
 // Closed-form coast after switch-off against direct integration of the deterministic ODE.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "crandall/coast.hpp"
@@ -48,6 +49,21 @@ TEST(Coast, NoFrictionNeverStops) {
   EXPECT_EQ(st.velocity, -2.0);
   EXPECT_EQ(st.displacement, -6.0);
   EXPECT_EQ(st.distance, 6.0);
+}
+
+// A step without noise covers what the coast covers over it: the trapezoid while the speed
+// falls linearly, the stopping distance where the body comes to rest inside the step (where the
+// trapezoid, 0.5 step a0, is not: the speed's kink).
+TEST(Coast, AQuietStepCoversWhatTheCoastCovers) {
+  const double c = 2.0, step = 0.5;
+  for (double a0 : {3.0, 1.0, 0.4, 0.0}) {
+    const double a1 = std::max(a0 - c * step, 0.0);
+    const auto st = crandall::coast({a0, 0.0, 0.0}, c, step);
+    EXPECT_EQ(std::abs(st.velocity), a1);
+    EXPECT_NEAR(crandall::quiet_distance(step, c, a0, a1), st.distance, 1e-15) << a0;
+  }
+  EXPECT_DOUBLE_EQ(crandall::quiet_distance(step, c, 0.4, 0.0), 0.04);  // 0.4^2 / 4, not 0.1
+  EXPECT_EQ(crandall::quiet_distance(step, 0.0, 2.0, 2.0), 1.0);  // no friction: never stops
 }
 
 }  // namespace

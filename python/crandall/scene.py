@@ -216,8 +216,8 @@ class Scene:
         Time the excitation is switched off, s, >= 0; ``math.inf`` for never. A sequence: the
         pieces' ends, > 0 and strictly increasing (finite). Pauses after the last shaken piece
         are the coast after the switch-off: the scene's ``t0`` attribute is the end of the last
-        piece with ``h[i] > 0`` (0 if none), and a body that stops in a final pause is located
-        there.
+        piece with ``h[i] > 0`` (0 if none, and for ``h = 0``), and a body that stops in a
+        final pause is located there.
     envelope : crandall.envelopes.Envelope or dict, optional
         In place of ``h`` and ``t0``: a smooth intensity envelope (``envelopes.amin_ang``,
         ``jennings``, ``shinozuka_sato``, ``from_function``, or a named one's plain data
@@ -405,6 +405,11 @@ class Scene:
         if pieces is not None:
             noise = max(n for _, n in pieces) if units == "SI" else noise
             pieces, t0 = _noise_pieces(pieces, noise)
+        elif noise == 0:
+            # One intensity of 0 is the schedule h = [0]: no noise ever, so the noise ends at
+            # 0 and the body coasts from its start (the stop located where its speed runs
+            # out, not at the given t0); the plain data keep the t0 given.
+            t0 = 0.0
         self.pieces = pieces
         #: The smooth envelope (crandall.envelopes.Envelope) the pieces stand for, or None:
         #: its piece error is estimated by halving the pieces (Result.bias). Kept whatever its

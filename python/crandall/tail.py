@@ -805,11 +805,14 @@ class TailResult:
 
     def interval(self, level: float = 0.95):
         """The two-sided confidence interval (lower, upper) of each probability at ``level``,
-        normal on the mean of the independent samples, clipped at 0."""
+        normal on the mean of the independent samples, clipped at 0; a deterministic answer
+        (no noise before the quantity is read: one sample, no error) is its own interval."""
         from scipy.stats import norm, t as student
 
         if not (0 < level < 1):
             raise ParameterError("level", f"level must be in (0, 1), got {level}")
+        if self.diagnostics.get("deterministic"):
+            return self.probability.copy(), self.probability.copy()
         q = (student.ppf(0.5 + level / 2, self.samples - 1) if self.samples < 200
              else norm.ppf(0.5 + level / 2))
         return (np.maximum(self.probability - q * self.stderr, 0.0),

@@ -29,6 +29,17 @@ inline State coast(const State& s0, double drift, double elapsed) {
           s0.distance + travelled};
 }
 
+// The distance covered over a step of length `step` without noise (a pause, or the coast),
+// from speed a0 to the step's end speed a1 = max(a0 - c step, 0) (the exact step's map without
+// noise): the trapezoid rule while the speed falls linearly over the whole step (exact there,
+// the grid's own rule), and the stopping distance a0^2 / (2c), rounded as coast() rounds it,
+// where the body comes to rest inside the step: the speed's kink, where the trapezoid is not
+// exact (it is off by up to c step^2 / 8). Used by every path loop that integrates on a grid
+// (kernel.hpp: every grid of the exact, Richardson and refine methods).
+inline double quiet_distance(double step, double drift, double a0, double a1) {
+  return a1 == 0.0 && drift > 0.0 ? 0.5 * a0 * a0 / drift : 0.5 * step * (a0 + a1);
+}
+
 // Time from switch-off to the stop; +inf without friction unless already at rest.
 inline double time_to_stop(double velocity, double drift) {
   const double speed = std::abs(velocity);

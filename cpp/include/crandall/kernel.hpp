@@ -92,6 +92,21 @@ constexpr std::uint64_t kPollSteps = 1u << 14;
 // (docs/integrals.md): how every method integrates displacement and distance on its grid.
 inline double trapezoid(double step, double a, double b) { return 0.5 * step * (a + b); }
 
+// The integrals over one step from velocity x0 to x1: the trapezoid rule, or in a step without
+// noise (`quiet`: a pause) the deterministic coast's exact integrals (coast.hpp,
+// quiet_distance), which differ from the trapezoid only in the step where the body comes to
+// rest. In a quiet step x1 keeps x0's sign (or is 0), so the displacement is the distance with
+// that sign: where the trapezoid holds, these are its bits.
+inline double step_displacement(bool quiet, double step, double drift, double x0, double x1) {
+  if (!quiet) return trapezoid(step, x0, x1);
+  const double d = quiet_distance(step, drift, std::abs(x0), std::abs(x1));
+  return x0 < 0.0 ? -d : d;
+}
+inline double step_distance(bool quiet, double step, double drift, double x0, double x1) {
+  return quiet ? quiet_distance(step, drift, std::abs(x0), std::abs(x1))
+               : trapezoid(step, std::abs(x0), std::abs(x1));
+}
+
 // The refine method (docs/methods/refine.md): a step of length `step` that starts with
 // |x| < kRefineWithin * noise * sqrt(step) is taken as kRefineSubsteps exact substeps, whose
 // noise comes from the path's refinement stream (path index with the top bit set; one Philox
@@ -365,6 +380,9 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
     double cached_step = -1.0, cached_noise = -1.0, near = 0.0, noise = 0.0;
     StepConstants c{};
     bool all_regular = false;
+    // A segment without noise (a pause): deterministic steps, whose integrals are the coast's
+    // (step_displacement, step_distance).
+    bool quiet = false;
     // For the observer: sqrt(step), and the segment's start time.
     [[maybe_unused]] double root_step = 0.0, start = 0.0;
     for (const Segment& seg : plan.segments()) {
@@ -372,6 +390,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
       if (step != cached_step || seg.noise != cached_noise) {
         cached_step = step;
         cached_noise = noise = seg.noise;
+        quiet = noise == 0.0;
         near = kRefineWithin * noise * std::sqrt(step);
         if constexpr (Observer::kActive) root_step = std::sqrt(step);
         c = step_constants(step, drift, noise);
@@ -435,8 +454,8 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
               x1 = xa;
             } else {
               x1 = exact_step(x0, step, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
-              if constexpr (kDisp) u[l] += trapezoid(step, x0, x1);
-              if constexpr (kDist) s[l] += trapezoid(step, std::abs(x0), std::abs(x1));
+              if constexpr (kDisp) u[l] += step_displacement(quiet, step, drift, x0, x1);
+              if constexpr (kDist) s[l] += step_distance(quiet, step, drift, x0, x1);
             }
             x[l] = x1;
           }
@@ -463,7 +482,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
 #pragma omp simd reduction(| : irregular)
             for (int l = 0; l < kLanes; ++l) irregular |= !step_regular(root[l]);
           }
-          if (irregular == 0) {
+          if (irregular == 0 && !quiet) {
 #pragma omp simd
             for (int l = 0; l < kLanes; ++l) {
               const double x0 = x[l];
@@ -473,14 +492,16 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
               if constexpr (kDist) s[l] += trapezoid(step, std::abs(x0), std::abs(x1[l]));
             }
           } else {
-            // A step far outside the usual range in some lane (over- or underflow of d^2 + q):
-            // exact_step, which takes its scaled form there and gives the vector loop's bits
-            // elsewhere; the integrals as above.
+            // A step far outside the usual range in some lane (over- or underflow of d^2 + q),
+            // or a step without noise (a pause, whose integrals are the coast's in the step
+            // where the body comes to rest): exact_step, which takes its scaled form out of
+            // range and gives the vector loop's bits elsewhere; the integrals as above, or the
+            // coast's.
             for (int l = 0; l < kLanes; ++l) {
               const double x0 = x[l];
               x1[l] = exact_step(x0, step, drift, noise, zn[l], ze[l], zc[l] != 0.0).velocity;
-              if constexpr (kDisp) u[l] += trapezoid(step, x0, x1[l]);
-              if constexpr (kDist) s[l] += trapezoid(step, std::abs(x0), std::abs(x1[l]));
+              if constexpr (kDisp) u[l] += step_displacement(quiet, step, drift, x0, x1[l]);
+              if constexpr (kDist) s[l] += step_distance(quiet, step, drift, x0, x1[l]);
             }
           }
           if constexpr (kQuad) add_squares(qv, x, x1, 0.5 * step * (noise * noise));
@@ -493,10 +514,20 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
                 for (int l = 0; l < kLanes; ++l) xc[g][l] = x[l];
               if ((k & mask) == mask) {
                 const double coarse_half = 0.5 * step * static_cast<double>(mask + 1);
+                if (quiet) {
+                  // The coarse step's own exact integrals: without noise the motion over it is
+                  // the coast from xc, which ends at x1.
+                  const double coarse = step * static_cast<double>(mask + 1);
+                  for (int l = 0; l < kLanes; ++l) {
+                    if constexpr (kDisp) uc[g][l] += step_displacement(true, coarse, drift, xc[g][l], x1[l]);
+                    if constexpr (kDist) sc[g][l] += step_distance(true, coarse, drift, xc[g][l], x1[l]);
+                  }
+                } else {
 #pragma omp simd
-                for (int l = 0; l < kLanes; ++l) {
-                  if constexpr (kDisp) uc[g][l] += coarse_half * (xc[g][l] + x1[l]);
-                  if constexpr (kDist) sc[g][l] += coarse_half * (std::abs(xc[g][l]) + std::abs(x1[l]));
+                  for (int l = 0; l < kLanes; ++l) {
+                    if constexpr (kDisp) uc[g][l] += coarse_half * (xc[g][l] + x1[l]);
+                    if constexpr (kDist) sc[g][l] += coarse_half * (std::abs(xc[g][l]) + std::abs(x1[l]));
+                  }
                 }
                 if constexpr (kQuad) add_squares(qc[g], xc[g], x1, coarse_half * (noise * noise));
               }
