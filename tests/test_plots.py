@@ -37,6 +37,27 @@ def test_write_figures_writes_every_figure(result, tmp_path):
         assert not_blank(path)
 
 
+def test_a_figure_that_cannot_be_written_names_its_file(result, tmp_path, monkeypatch):
+    """A full disk while a figure is written: the error names the figure's file (matplotlib's
+    write error named none), and no torn or temporary file is left."""
+    import errno
+    import os
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    def no_space(self, f, *args, **kwargs):
+        f.write(b"\x89PNG partial")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(FigureCanvasAgg, "print_png", no_space)
+    with pytest.raises(OSError, match="No space left") as info:
+        plots.write_figures(result, tmp_path, paths=2000)
+    path = str(info.value.filename)
+    assert os.path.dirname(path) == str(tmp_path) and path.endswith(".png")
+    assert path in str(info.value)
+    assert list(tmp_path.iterdir()) == []
+
+
 @pytest.mark.parametrize("func, name, kind, ref", [
     (plots.distance_mean, "distance", "mean", analytic.distance_mean),
     (plots.velocity_var, "velocity", "var", analytic.velocity_var),

@@ -249,6 +249,18 @@ def _check_out(out: str, overwrite: bool) -> List[str]:
     return earlier
 
 
+def _write_manifest(out: str, written: Sequence[str], failing: bool) -> None:
+    """List the files written in ``out`` (so that a later --overwrite removes them). When
+    the writing already failed (``failing``: a full disk, say), a failure here is dropped:
+    the first error, naming the file it could not write, is the one to show."""
+    names = json.dumps([os.path.basename(p) for p in written], indent=1).encode()
+    try:
+        write_atomic(os.path.join(out, MANIFEST), lambda f: f.write(names))
+    except OSError:
+        if not failing:
+            raise
+
+
 def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = (),
                    figure_options: Optional[dict] = None) -> List[str]:
     check_folder_writable(out, "--out", create=True)
@@ -259,13 +271,16 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = (),
         except FileNotFoundError:
             pass
     written, notes = [], []
+    failing = True
     try:
         try:
             path = os.path.join(out, "result.nc")
             result.save(path)
             written.append(path)
             path = os.path.join(out, "result.csv")
-            result.to_pandas().to_csv(path, index=False)
+            table = result.to_pandas()
+            # Atomically, as result.nc: a full disk leaves no torn table and names the file.
+            write_atomic(path, lambda f: f.write(table.to_csv(index=False).encode()))
             written.append(path)
         except ImportError as exc:
             notes.append(f"results not written ({exc})")
@@ -276,11 +291,11 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = (),
                 notes.append(f"figures not drawn ({exc})")
             except ValueError as exc:  # --units scaled for a scene without scaled units
                 notes.append(f"figures not drawn: {exc}")
+        failing = False
     finally:
         # Even after a failure midway: what was written is listed, so a later --overwrite
         # removes it.
-        names = json.dumps([os.path.basename(p) for p in written], indent=1).encode()
-        write_atomic(os.path.join(out, MANIFEST), lambda f: f.write(names))
+        _write_manifest(out, written, failing)
     for note in notes:
         print(f"crandall: note: {note}", file=sys.stderr)
     return written
@@ -569,6 +584,7 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
         except FileNotFoundError:
             pass
     written = []
+    failing = True
     try:
         rows = ["level,units,probability,stderr,rel_error,lower_95,upper_95,reliable\n"]
         rows += [",".join([repr(float(result.levels[i])), result.units,
@@ -590,12 +606,14 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
             result.plot(ax=ax, reference=reference)
             path = os.path.join(out, f"tail.{figure_format}")
             fig.tight_layout()
-            fig.savefig(path, dpi=dpi)
-            plt.close(fig)
+            try:
+                write_atomic(path, lambda f: fig.savefig(f, dpi=dpi, format=figure_format))
+            finally:
+                plt.close(fig)
             written.append(path)
+        failing = False
     finally:
-        names = json.dumps([os.path.basename(p) for p in written], indent=1).encode()
-        write_atomic(os.path.join(out, MANIFEST), lambda f: f.write(names))
+        _write_manifest(out, written, failing)
     for p in written:
         print(f"wrote {p}")
     return 0

@@ -20,6 +20,7 @@ import numpy as np
 from scipy.stats import beta
 
 from . import analytic, distributions
+from ._files import write_atomic
 from .engine import velocity_samples
 from . import paper
 from .paper import CURVES, Curve, curve, scaled_factors
@@ -615,6 +616,8 @@ def write_figures(result: Result, folder, *, paths: int = 200_000, units: str = 
     written = []
     for stem, fig in figures(result, paths=paths, units=units).items():
         path = os.path.join(folder, f"{stem}.{format}")
-        fig.savefig(path, dpi=dpi, format=format)
+        # Replaced atomically, as results and checkpoints are: a full disk leaves no torn
+        # figure and its error names the file.
+        write_atomic(path, lambda f, fig=fig: fig.savefig(f, dpi=dpi, format=format))
         written.append(path)
     return written
