@@ -122,9 +122,11 @@ def test_scenes_without_closed_forms_are_drawn_without_them(tmp_path):
     xs, ys = strip.get_lines()[0].get_data()
     assert max(ys) == 1.0 and 0.0 in ys
     # At t = 3, 0.5 s after the noise, every one of the 2000 paths is at rest: the velocity's
-    # variance there has no error bar (tests/test_few_paths.py).
-    with pytest.warns(crandall.StatisticsWarning, match="t = 3 \\(none\\)"):
-        figs = plots.figures(r)
+    # variance there is drawn hollow, without an error bar (tests/test_few_paths.py).
+    figs = plots.figures(r)
+    hollow = [ln for ln in figs["fig3_velocity_var"].axes[1].get_lines()
+              if ln.get_markerfacecolor() == "none"]
+    assert [list(ln.get_xdata()) for ln in hollow] == [[3.0]]
     assert "velocity_density" not in figs and "distance_at_stop_distribution" in figs
     for fmt in plots.FORMATS:
         written = plots.write_figures(r, tmp_path / fmt, format=fmt, dpi=80)
@@ -194,14 +196,10 @@ def test_unobserved_quantity_and_unscalable_scene():
                           paths=100, seed=1)
     with pytest.raises(ValueError, match="distance"):
         plots.distance_mean(r)
-    # 100 paths: about 21 carry the velocity's spread at tau = 1, fewer than MIN_CARRIERS, so
-    # its variance has no error bar (and the frictionless run's distance, 27, neither).
-    with pytest.warns(crandall.StatisticsWarning, match="carried by fewer than 30 paths"):
-        assert sorted(plots.figures(r, paths=200)) == ["fig3_velocity_var", "velocity_density"]
+    assert sorted(plots.figures(r, paths=200)) == ["fig3_velocity_var", "velocity_density"]
     free = crandall.simulate(crandall.Scene(mu=0.0, h=1.0, t0=1.0, times=[1.0]), paths=100, seed=1)
     # A frictionless scene has no scaled units: drawn in its own, without closed forms.
-    with pytest.warns(crandall.StatisticsWarning, match="variance of distance"):
-        figs = plots.figures(free)
+    figs = plots.figures(free)
     assert "no closed form" in figs["fig3_velocity_var"].axes[0].get_title()
     with pytest.raises(ValueError, match="mu > 0"):
         plots.figures(free, units="scaled")

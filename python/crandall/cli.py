@@ -344,18 +344,21 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
         if client is not None:
             client.close()
     elapsed = time.perf_counter() - start
-    print(result.summary())
-    if is_paper:
-        print()
-        print(paper.comparison(result))
-    table = quantile_table(result)
-    if table:
-        print()
-        print(table)
-    print(f"\n{result.paths:,} paths x {result.steps_per_path} steps in {elapsed:.1f} s "
-          f"(seed {result.seed})")
-    if files:
-        _write_and_tell(result, out, figures, earlier, figure_options)
+    # The summary says which statistics are not numbers and why (n/a, n/a* with a note): what
+    # follows shows the same statistics without warning of them again.
+    with result._table():
+        print(result.summary())
+        if is_paper:
+            print()
+            print(paper.comparison(result))
+        table = quantile_table(result)
+        if table:
+            print()
+            print(table)
+        print(f"\n{result.paths:,} paths x {result.steps_per_path} steps in {elapsed:.1f} s "
+              f"(seed {result.seed})")
+        if files:
+            _write_and_tell(result, out, figures, earlier, figure_options)
     return 0
 
 
@@ -409,15 +412,16 @@ def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, thre
     finally:
         if client is not None:
             client.close()
-    print(result.summary())
-    if is_paper:
-        print()
-        print(paper.comparison(result))
-    c = result.cost
-    print(f"\n{c['path_steps']:.3g} path-steps in {c['wall_time']:.1f} s "
-          f"(levels {len(c['paths'])}, paths per level {c['paths']}, seed {result.seed})")
-    if files:
-        _write_and_tell(result, out, figures, earlier, figure_options)
+    with result._table():  # as in run: the summary says what is not a number
+        print(result.summary())
+        if is_paper:
+            print()
+            print(paper.comparison(result))
+        c = result.cost
+        print(f"\n{c['path_steps']:.3g} path-steps in {c['wall_time']:.1f} s "
+              f"(levels {len(c['paths'])}, paths per level {c['paths']}, seed {result.seed})")
+        if files:
+            _write_and_tell(result, out, figures, earlier, figure_options)
     return 0
 
 

@@ -157,7 +157,9 @@ def _moment_figure(result: Result, c: Curve, units: str = "scene"):
     kind = quantity(c.quantity).kind
     power = 1 if c.statistic == "mean" else 2
     closed = _has_closed_forms(result)
-    sim, se = c.simulated(result)
+    with result._table():
+        # The figure marks what is not a number (a hollow point, below) instead of warning.
+        sim, se = c.simulated(result)
     times = np.asarray(result.times, dtype=float)
     if units == "scaled":
         sim, se = (paper.to_scaled(result, x, kind, power) for x in (sim, se))

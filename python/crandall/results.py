@@ -905,8 +905,8 @@ class Result:
         if not marked:
             return ""
         return (f"{FEW_MARK}: fewer than {MIN_CARRIERS} paths carry the spread "
-                f"(Result.carriers), so the standard error is not estimated: "
-                + "; ".join(marked))
+                f"(Result.carriers), so the standard error is not estimated (more paths "
+                "would give it): " + "; ".join(marked))
 
     def __str__(self) -> str:
         return self.summary()
