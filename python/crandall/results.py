@@ -13,7 +13,7 @@ import numpy as np
 
 from . import _core, _dataset, _render, distributions
 from .bins import Histograms
-from .model import exact as model_exact, noise_energy
+from .model import exact as model_exact
 from .quantities import core_flags, find, names_for, quantity
 from .scene import Scene
 from .spec import RunSpec
@@ -36,10 +36,12 @@ class StatisticsWarning(UserWarning):
 #: The fewest paths that must carry a quantity's spread (:meth:`Result.carriers`) for the
 #: standard errors that rest on its fourth moment (a variance's; the kinetic energy's mean's)
 #: to be reported. Fewer, and the few paths far from the mean decide the fourth moment: the
-#: interval +- 1.96 standard errors of a variance covered 83-90 % of the law's value with 5
-#: to 30 carrying paths and 58 % with fewer than 2, for sparse, normal and Laplace samples
-#: alike (bench/few_carriers.py), and the crate at 2.75 s, where about 2 of 10^6 paths still
-#: move, could show z = -70. 30 carrying paths need about 100 paths of a normal quantity.
+#: interval +- 1.96 standard errors of a variance covered 77-91 % of the law's value with 5
+#: to 30 carrying paths and 49-75 % with fewer than 2, for sparse, normal and Laplace samples
+#: alike, and 17 % on the simulated velocity after the switch-off where fewer than 2 carried
+#: it, with z down to -78 870 (bench/few_carriers.py, docs/accumulators.md); from 30 on,
+#: 90-96 %. 30 carrying
+#: paths need about 100 paths of a normal quantity, a few hundred of a heavier-tailed one.
 MIN_CARRIERS = 30
 
 #: Exponents (velocity, displacement, distance) of the accumulators' moments, in their order.
@@ -60,6 +62,19 @@ def _fmt(x: float, spec: str, few: bool = False) -> str:
 
 
 FEW_MARK = _render.FEW_MARK
+
+
+def _shaken_before(scene, until: float) -> bool:
+    """Whether the noise has acted before ``until``: model.noise_energy(scene, until) > 0,
+    asked without squaring the intensity (which overflows for h near 1e300)."""
+    if scene.pieces is None:
+        return scene.noise > 0 and until > 0
+    start = 0.0
+    for end, noise in scene.pieces:
+        if noise > 0 and until > start:
+            return True
+        start = end
+    return False
 
 
 def _e(v: int, power: int) -> int:
@@ -301,6 +316,9 @@ class Result:
             return float(mean[slot]), float(var[slot]), float(n[slot])
         return mean, var, n
 
+    #: Per output time, whether noise has acted by then (:meth:`_shaken`, computed once).
+    _shaken_times: Optional[np.ndarray] = None
+
     #: Set while a table computes its statistics (:meth:`_table`): NaNs are shown there as
     #: "n/a", and the warning is kept for the first call that returns them.
     _quiet = False
@@ -396,9 +414,11 @@ class Result:
         quantity's exact law, and its standard error 0 is right."""
         sc = self.scene
         if quantity(name).at_stop:
-            return np.array([noise_energy(sc, sc.t0) > 0])
-        return np.array([noise_energy(sc, min(float(t), sc.t0)) > 0 for t in self.times],
-                        dtype=bool)
+            return np.array([_shaken_before(sc, sc.t0)])
+        if self._shaken_times is None:  # once: a table asks for every quantity
+            self._shaken_times = np.array(
+                [_shaken_before(sc, min(float(t), sc.t0)) for t in self.times], dtype=bool)
+        return self._shaken_times
 
     def _few(self, name: str, stat: str) -> np.ndarray:
         """Per slot of ``name``: whether the standard error of ``stat`` rests on the fourth
