@@ -59,13 +59,20 @@ def test_against_simulation_aftershock_and_a_start_in_motion():
     sim_scene = crandall.Scene.from_dict({**scene.to_dict(), "distributions": ["stop_time"]})
     r = crandall.simulate(sim_scene, paths=200_000, seed=41)
     pieces = [(e, n) for e, n in scene.pieces]
+    # In the pause every body of the run is at rest (the law's last 1e-17 of moving mass is
+    # below what 2e5 paths can see): no path carries the velocity's spread there, and its
+    # variance has no standard error (Result.carriers; it was 0).
+    with pytest.warns(crandall.StatisticsWarning, match=r"t = 6 \(none\), 10 \(none\)"):
+        ses = r.var_stderr("velocity")
     for i, t in enumerate(scene.times):
         law = velocity_law(pieces, scene.drift, float(t), scene.v0)
         # The velocity is symmetric: its variance is E V^2 (exact in law: no bias).
-        sim, se = float(r.var("velocity")[i]), float(r.var_stderr("velocity")[i])
-        # (+ 1e-12: in the pause nearly every body is at rest, and the law's last 1e-17 of
-        # moving mass is below what 2e5 paths can see.)
-        assert abs(sim - law.moment(2)) <= Z * se + 1e-12, (t, sim, law.moment(2), se)
+        sim, se = float(r.var("velocity")[i]), float(ses[i])
+        if math.isnan(se):
+            assert r.carriers("velocity")[i] == 0 and sim == 0.0, (t, sim)
+            assert law.moment(2) < 1e-12, (t, law.moment(2))
+        else:
+            assert abs(sim - law.moment(2)) <= Z * se, (t, sim, law.moment(2), se)
         d = distance_mean(pieces, scene.drift, float(t), scene.v0)
         sim, se, bias = (float(r.mean("distance")[i]), float(r.stderr("distance")[i]),
                          float(np.abs(r.bias("distance")[i])))

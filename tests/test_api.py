@@ -127,7 +127,14 @@ def test_result_shapes_and_names(paper_scene):
         assert r.mean(name).shape == (5,)
         assert r.var(name).shape == (5,)
         assert np.all(r.var(name) >= 0)
-        assert np.all(np.isfinite(r.stderr(name)))
+        if name != "kinetic_energy":
+            assert np.all(np.isfinite(r.stderr(name)))
+    # The kinetic energy's standard error rests on the velocity's fourth moment: after the
+    # switch-off (tau 1.5 and 3) fewer than 30 of these 1000 paths carry it, and it is
+    # withheld (tests/test_few_paths.py); it was 0 at tau = 3, where every path was at rest.
+    with pytest.warns(crandall.StatisticsWarning, match="carried by fewer than 30 paths"):
+        se = r.stderr("kinetic_energy")
+    assert np.isfinite(se[:3]).all() and np.isnan(se[3:]).all()
     for name in ("stop_time", "displacement_at_stop", "distance_at_stop",
                  "dissipated_energy_at_stop"):
         assert isinstance(r.mean(name), float)

@@ -1,5 +1,6 @@
 """Checkpoints: resume bitwise, refuse another run's file, survive SIGKILL at any moment."""
 
+import errno
 import json
 import os
 import signal
@@ -539,6 +540,94 @@ def test_atomic_writes_respect_the_umask(tmp_path):
             assert path.stat().st_mode & 0o777 == mode, (oct(mask), oct(path.stat().st_mode))
     finally:
         os.umask(old)
+
+
+def test_atomic_writes_are_never_more_permissive_than_open_would_make_them(tmp_path,
+                                                                         monkeypatch):
+    """The file gets the mode open() would give (0666 less the umask) and is never more
+    permissive on the way, and the process's umask is never changed, even for an instant: it
+    was set to 0o022 and back to be read, so a file another thread created meanwhile got 0644
+    under a umask of 0o077 (and this one's mode was computed, not the kernel's)."""
+    from crandall import _files
+
+    created, masks = [], []
+    real_open, real_umask = os.open, os.umask
+
+    def spy_open(path, flags, *args, **kwargs):
+        fd = real_open(path, flags, *args, **kwargs)
+        if flags & os.O_CREAT:
+            created.append(os.fstat(fd).st_mode & 0o777)
+        return fd
+
+    def spy_umask(mask):
+        masks.append(mask)
+        return real_umask(mask)
+
+    old = os.umask(0o022)
+    try:
+        monkeypatch.setattr(os, "open", spy_open)
+        monkeypatch.setattr(os, "umask", spy_umask)
+        for mask, mode in ((0o277, 0o400), (0o077, 0o600), (0o027, 0o640), (0o002, 0o664)):
+            real_umask(mask)
+            created.clear()
+            masks.clear()
+            path = tmp_path / f"f{mask:o}"
+            _files.write_atomic(path, lambda f: f.write(b"x"))
+            assert path.stat().st_mode & 0o777 == mode, (oct(mask), oct(path.stat().st_mode))
+            assert created and all(m & ~mode == 0 for m in created), (
+                oct(mask), [oct(m) for m in created])
+            assert all(m == mask for m in masks), (oct(mask), [oct(m) for m in masks])
+            assert path.read_bytes() == b"x"
+    finally:
+        real_umask(old)
+
+
+def _no_space(*args, **kwargs):
+    # What a full disk raises from a write or an fsync: no file name (it has only a descriptor).
+    raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+
+@pytest.mark.parametrize("where", ["write", "fsync", "replace"])
+def test_a_failed_atomic_write_names_the_file(tmp_path, monkeypatch, where):
+    """A disk-full error while saving names the file being saved (it named none: the write and
+    the fsync know only a descriptor, the rename the temporary file). The old file stays, and
+    no temporary file is left."""
+    from crandall import _files
+
+    path = tmp_path / "result.nc"
+    path.write_bytes(b"old")
+    write = lambda f: f.write(b"new")  # noqa: E731
+    if where == "write":
+        write = _no_space
+    elif where == "fsync":
+        monkeypatch.setattr(os, "fsync", _no_space)
+    else:
+        def no_rename(src, dst):
+            raise OSError(errno.EIO, os.strerror(errno.EIO), src, dst)
+        monkeypatch.setattr(os, "replace", no_rename)
+    with pytest.raises(OSError) as info:
+        _files.write_atomic(path, write)
+    exc = info.value
+    assert exc.errno == (errno.EIO if where == "replace" else errno.ENOSPC)
+    assert exc.filename == str(path) and str(path) in str(exc), str(exc)
+    assert exc.strerror in str(exc)
+    assert [p.name for p in tmp_path.iterdir()] == ["result.nc"]
+    assert path.read_bytes() == b"old"
+
+
+def test_a_full_disk_names_the_result_and_the_checkpoint(tmp_path, monkeypatch):
+    """Result.save and a checkpoint's write name their file when the disk is full."""
+    from crandall import checkpoint
+
+    r = crandall.simulate(scene(), paths=100, seed=1)
+    monkeypatch.setattr(os, "fsync", _no_space)
+    for path, save in ((tmp_path / "r.nc", r.save),
+                       (tmp_path / "run.ckpt", lambda p: checkpoint.write(
+                           p, {"format": 1}, {"x": np.zeros(2)}))):
+        with pytest.raises(OSError, match="No space left") as info:
+            save(path)
+        assert info.value.filename == str(path) and str(path) in str(info.value)
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("how", [

@@ -337,6 +337,35 @@ def test_failed_write_after_the_run_is_one_line_not_a_traceback(scene_file, tmp_
     _one_line_error(capsys, "result.nc", os.strerror(errno.ENOSPC))
 
 
+def test_a_full_disk_while_saving_is_one_line_naming_the_file(scene_file, tmp_path,
+                                                               monkeypatch, capsys):
+    """A disk that fills after the checks: the error names result.nc (it said only "No space
+    left on device": the write and the fsync know a descriptor, not a name)."""
+    def no_space(fd):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(os, "fsync", no_space)
+    out = tmp_path / "o"
+    assert cli.main(["run", str(scene_file), "--out", str(out), "--no-figures"]) == 2
+    _one_line_error(capsys, str(out / "result.nc") + ": ", os.strerror(errno.ENOSPC))
+
+
+def test_a_full_disk_while_writing_the_table_names_it(scene_file, tmp_path, monkeypatch,
+                                                      capsys):
+    """result.csv is written atomically too: a failure names it (pandas' write error named
+    no file) and leaves no torn table."""
+    import pandas
+
+    def no_space(*args, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(pandas.DataFrame, "to_csv", no_space)
+    out = tmp_path / "o"
+    assert cli.main(["run", str(scene_file), "--out", str(out), "--no-figures"]) == 2
+    _one_line_error(capsys, str(out / "result.csv") + ": ", os.strerror(errno.ENOSPC))
+    assert sorted(p.name for p in out.iterdir()) == [".crandall-files.json", "result.nc"]
+
+
 @pytest.mark.parametrize("where, words", [
     ("", ["checkpoint must be a file path"]),
     ("missing/run.ckpt", ["checkpoint:", "does not exist"]),

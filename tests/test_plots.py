@@ -15,8 +15,11 @@ from matplotlib.image import imread  # noqa: E402
 
 @pytest.fixture(scope="module")
 def result():
+    # 20 000 paths: at tau = 3, a scaled time after the switch-off, about 70 carry the
+    # velocity's spread (Result.carriers; 4000 gave 10, fewer than MIN_CARRIERS, and no error
+    # bar there: tests/test_few_paths.py draws such points).
     scene = crandall.Scene.scaled(tau0=2.0, times=[0.25, 0.5, 1.0, 2.0, 2.5, 3.0])
-    return crandall.simulate(scene, paths=4000, seed=9, dt=0.05)
+    return crandall.simulate(scene, paths=20_000, seed=9, dt=0.05)
 
 
 def not_blank(path):
@@ -35,6 +38,27 @@ def test_write_figures_writes_every_figure(result, tmp_path):
                             "velocity_density.png", "stop_time_density.png"])
     for path in written:
         assert not_blank(path)
+
+
+def test_a_figure_that_cannot_be_written_names_its_file(result, tmp_path, monkeypatch):
+    """A full disk while a figure is written: the error names the figure's file (matplotlib's
+    write error named none), and no torn or temporary file is left."""
+    import errno
+    import os
+
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    def no_space(self, f, *args, **kwargs):
+        f.write(b"\x89PNG partial")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(FigureCanvasAgg, "print_png", no_space)
+    with pytest.raises(OSError, match="No space left") as info:
+        plots.write_figures(result, tmp_path, paths=2000)
+    path = str(info.value.filename)
+    assert os.path.dirname(path) == str(tmp_path) and path.endswith(".png")
+    assert path in str(info.value)
+    assert list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("func, name, kind, ref", [
@@ -97,7 +121,12 @@ def test_scenes_without_closed_forms_are_drawn_without_them(tmp_path):
     assert "no closed form" in ax.get_title()
     xs, ys = strip.get_lines()[0].get_data()
     assert max(ys) == 1.0 and 0.0 in ys
+    # At t = 3, 0.5 s after the noise, every one of the 2000 paths is at rest: the velocity's
+    # variance there is drawn hollow, without an error bar (tests/test_few_paths.py).
     figs = plots.figures(r)
+    hollow = [ln for ln in figs["fig3_velocity_var"].axes[1].get_lines()
+              if ln.get_markerfacecolor() == "none"]
+    assert [list(ln.get_xdata()) for ln in hollow] == [[3.0]]
     assert "velocity_density" not in figs and "distance_at_stop_distribution" in figs
     for fmt in plots.FORMATS:
         written = plots.write_figures(r, tmp_path / fmt, format=fmt, dpi=80)

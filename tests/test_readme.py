@@ -12,6 +12,8 @@ import re
 
 import pytest
 
+import crandall
+
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 
 #: (README text, what the test runs instead): smaller runs of the same calls.
@@ -48,7 +50,10 @@ def test_the_readme_examples_run_twice_in_order(tmp_path, monkeypatch):
     code = "from distributed import LocalCluster\n" + _examples()
     for run in range(2):
         namespace: dict = {}
-        exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102 - the README's own code
+        # The crate's velocity at 3 s, a second after the shaking, is 0 on every path: its
+        # variance's standard error is NaN, and result.to_pandas() says so.
+        with pytest.warns(crandall.StatisticsWarning, match="variance of velocity"):
+            exec(compile(code, "README.md", "exec"), namespace)  # noqa: S102 - the README's code
         client = namespace.get("client")
         if client is not None:
             cluster = client.cluster

@@ -1,9 +1,10 @@
 """Files crandall writes and reads back: atomic replacement, early checks, stored accumulators.
 
-Every file crandall keeps (a checkpoint, a saved result) is replaced atomically: written to a
-temporary file in the same folder, flushed to disk (fsync), renamed over the old one
-(``os.replace``), and the folder itself fsynced so that the rename survives a power cut. A kill
-at any moment leaves the previous file or the new one, never a torn one.
+Every file crandall keeps (a checkpoint, a saved result, the command line's table, figures and
+file list) is replaced atomically: written to a temporary file in the same folder, flushed to
+disk (fsync), renamed over the old one (``os.replace``), and the folder itself fsynced so that
+the rename survives a power cut. A kill at any moment leaves the previous file or the new one,
+never a torn one. An error on the way names the file, whatever failed (a full disk).
 
 Where a run will write is checked before it starts, so that a bad path fails in a second, not
 after the simulation. What comes back from a file is checked field by field, so that a damaged
@@ -12,8 +13,10 @@ or edited file is a ValueError naming the file and the field, never a wrong numb
 
 from __future__ import annotations
 
+import errno
 import math
 import os
+import secrets
 import tempfile
 from typing import Callable, Dict, Optional
 
@@ -43,15 +46,45 @@ def _fsync_folder(folder: str) -> None:
         os.close(fd)
 
 
-def _umask() -> int:
-    """The process's umask (read by setting it and setting it back: there is no getter)."""
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
+#: Flags of the temporary file: created, never an existing file or a link's target, not inherited
+#: by child processes.
+_CREATE = (os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0)
+           | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0))
+
+
+def _create_temporary(folder: str, stem: str):
+    """A new file ``.STEM.XXXXXXXX.tmp`` in ``folder``, open for writing: (fd, its path).
+
+    Created with mode 0666, so that the kernel applies the umask (and a folder's default ACL)
+    as it does for open(): the file has its final mode from the start, and the umask is never
+    read (reading it means setting it, which changes it for every thread for an instant).
+    """
+    for _ in range(100):
+        tmp = os.path.join(folder, f".{stem}.{secrets.token_hex(4)}.tmp")
+        try:
+            return os.open(tmp, _CREATE, 0o666), tmp
+        except FileExistsError:
+            continue
+    raise FileExistsError(errno.EEXIST, "no free temporary file name", folder)  # pragma: no cover
+
+
+def _naming(exc: OSError, path: str) -> OSError:
+    """``exc`` naming ``path``: a write or an fsync that fails (a full disk) knows only a
+    descriptor, and a failed rename names the temporary file."""
+    if exc.filename == path and exc.filename2 is None:
+        return exc
+    if exc.errno is None:
+        return OSError(f"{exc}: {path}")
+    # OSError(errno, ...) is the errno's own subclass again (PermissionError for EACCES).
+    return OSError(exc.errno, exc.strerror or os.strerror(exc.errno), path)
 
 
 def write_atomic(path, write: Callable) -> None:
     """Replace ``path`` atomically by what ``write(f)`` writes to a binary file ``f``.
+
+    The file gets the mode open() would give it (0666 less the umask). An OSError on the way
+    (a full disk, an I/O error) names ``path``; the previous file is left as it was and the
+    temporary one removed.
 
     Parameters
     ----------
@@ -62,23 +95,24 @@ def write_atomic(path, write: Callable) -> None:
     """
     path = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(dir=folder, prefix="." + os.path.basename(path) + ".",
-                               suffix=".tmp")
+    tmp = None
     try:
-        # mkstemp makes the file 0600; a file written by open() gets 0666 less the umask, and
-        # so must this one (result.nc and the file list were private while the CSV was not).
-        if hasattr(os, "fchmod"):
-            os.fchmod(fd, 0o666 & ~_umask())
+        fd, tmp = _create_temporary(folder, os.path.basename(path))
         with os.fdopen(fd, "wb") as f:
             write(f)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
+    except BaseException as exc:
+        if tmp is not None:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+        if isinstance(exc, OSError):
+            named = _naming(exc, path)
+            if named is not exc:
+                raise named from exc
         raise
     _fsync_folder(folder)
 

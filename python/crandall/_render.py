@@ -16,8 +16,15 @@ import numpy as np
 from . import _dataset
 from .quantities import quantity
 
+#: How tables (this one and Result.summary) show a standard error that is not estimated
+#: because few paths carry the spread (Result.carriers), with a note below the table.
+FEW_MARK = "n/a*"
 
-def _num(x: float, spec: str = ".6g") -> str:
+
+def _num(x: float, spec: str = ".6g", few: bool = False) -> str:
+    if few:
+        # Not estimated because few paths carry the spread: marked, with the note below.
+        return html.escape(FEW_MARK)
     return "n/a" if not np.isfinite(x) else format(float(x), spec)
 
 
@@ -35,7 +42,14 @@ def _header(result) -> str:
 
 def table_html(result) -> str:
     """The result's statistics as an HTML table: per quantity and time, the mean with its
-    standard error and bias, the variance with its standard error and bias."""
+    standard error and bias, the variance with its standard error and bias. Like the text
+    summary it warns of nothing: what is not a number is shown "n/a" (FEW_MARK, with a note,
+    where few paths carry the spread)."""
+    with result._table():
+        return _table_html(result)
+
+
+def _table_html(result) -> str:
     sc = result.scene
     rows: List[str] = []
     # Showing a result never runs paths: a bias that needs a run of its own is shown as not
@@ -47,19 +61,21 @@ def table_html(result) -> str:
                else np.atleast_2d(_dataset._accuracy(result, name)))
         times = [math.nan] if quantity(name).at_stop else list(result.times)
         unit = sc.units_of(name) or "1"
-        for t, s, a in zip(times, stats, acc):
+        few_mean, few_var = result._few(name, "mean"), result._few(name, "var")
+        for t, s, a, fm, fv in zip(times, stats, acc, few_mean, few_var):
             mean, var, _, se, vse = s
             bias_mean, _, bias_var, _ = a
             when = "stop" if math.isnan(t) else _num(t, ".4g")
             bm, bv = ("?", "?") if pending else (_num(bias_mean, ".2g"), _num(bias_var, ".2g"))
             rows.append(
                 f"<tr><td>{html.escape(name)}</td><td>{when}</td><td>{html.escape(unit)}</td>"
-                f"<td>{_num(mean)} &plusmn; {_num(se, '.2g')}</td><td>{bm}</td>"
-                f"<td>{_num(var)} &plusmn; {_num(vse, '.2g')}</td><td>{bv}</td>"
-                "</tr>")
+                f"<td>{_num(mean)} &plusmn; {_num(se, '.2g', fm)}</td><td>{bm}</td>"
+                f"<td>{_num(var)} &plusmn; {_num(vse, '.2g', fv)}</td><td>{bv}</td></tr>")
     head = (f"<tr><th>quantity</th><th>{html.escape(sc.time_name)}</th><th>units</th>"
             "<th>mean &plusmn; stderr</th><th>bias</th><th>var &plusmn; stderr</th>"
             "<th>bias</th></tr>")
-    note = ("<p>bias ?: not estimated yet (a run of its own): "
-            "<code>result.estimate_bias()</code> makes it.</p>" if pending else "")
-    return (_header(result) + "<table>" + head + "".join(rows) + "</table>" + note)
+    note = result._few_note()
+    pending_note = ("<p>bias ?: not estimated yet (a run of its own): "
+                    "<code>result.estimate_bias()</code> makes it.</p>" if pending else "")
+    return (_header(result) + "<table>" + head + "".join(rows) + "</table>"
+            + (f"<p><small>{html.escape(note)}</small></p>" if note else "") + pending_note)

@@ -282,6 +282,20 @@ def _check_out(out: str, overwrite: bool, kind: _Outputs = _RUN_OUTPUTS) -> List
     return earlier
 
 
+def _write_manifest(out: str, written: Sequence[str], failing: bool,
+                    manifest: str = MANIFEST) -> None:
+    """List the files written in ``out`` (so that a later --overwrite removes them) in this
+    kind of run's ``manifest``. When the writing already failed (``failing``: a full disk,
+    say), a failure here is dropped: the first error, naming the file it could not write, is
+    the one to show."""
+    names = json.dumps([os.path.basename(p) for p in written], indent=1).encode()
+    try:
+        write_atomic(os.path.join(out, manifest), lambda f: f.write(names))
+    except OSError:
+        if not failing:
+            raise
+
+
 def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = (),
                    figure_options: Optional[dict] = None) -> List[str]:
     check_folder_writable(out, "--out", create=True)
@@ -292,13 +306,16 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = (),
         except FileNotFoundError:
             pass
     written, notes = [], []
+    failing = True
     try:
         try:
             path = os.path.join(out, "result.nc")
             result.save(path)
             written.append(path)
             path = os.path.join(out, "result.csv")
-            result.to_pandas(tidy=True).to_csv(path, index=False)
+            table = result.to_pandas(tidy=True)
+            # Atomically, as result.nc: a full disk leaves no torn table and names the file.
+            write_atomic(path, lambda f: f.write(table.to_csv(index=False).encode()))
             written.append(path)
         except ImportError as exc:
             notes.append(f"results not written ({exc})")
@@ -309,11 +326,11 @@ def _write_outputs(result, out: str, figures: bool, earlier: Sequence[str] = (),
                 notes.append(f"figures not drawn ({exc})")
             except ValueError as exc:  # --units scaled for a scene without scaled units
                 notes.append(f"figures not drawn: {exc}")
+        failing = False
     finally:
         # Even after a failure midway: what was written is listed, so a later --overwrite
         # removes it.
-        names = json.dumps([os.path.basename(p) for p in written], indent=1).encode()
-        write_atomic(os.path.join(out, MANIFEST), lambda f: f.write(names))
+        _write_manifest(out, written, failing)
     for note in notes:
         print(f"crandall: note: {note}", file=sys.stderr)
     return written
@@ -370,18 +387,21 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
         if client is not None:
             client.close()
     elapsed = time.perf_counter() - start
-    print(result.summary())
-    if is_paper:
-        print()
-        print(paper.comparison(result))
-    table = quantile_table(result)
-    if table:
-        print()
-        print(table)
-    print(f"\n{result.paths:,} paths x {result.steps_per_path} steps in {elapsed:.1f} s "
-          f"(seed {result.seed})")
-    if files:
-        _write_and_tell(result, out, figures, earlier, figure_options)
+    # The summary says which statistics are not numbers and why (n/a, n/a* with a note): what
+    # follows shows the same statistics without warning of them again.
+    with result._table():
+        print(result.summary())
+        if is_paper:
+            print()
+            print(paper.comparison(result))
+        table = quantile_table(result)
+        if table:
+            print()
+            print(table)
+        print(f"\n{result.paths:,} paths x {result.steps_per_path} steps in {elapsed:.1f} s "
+              f"(seed {result.seed})")
+        if files:
+            _write_and_tell(result, out, figures, earlier, figure_options)
     return 0
 
 
@@ -443,15 +463,16 @@ def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, thre
     finally:
         if client is not None:
             client.close()
-    print(result.summary())
-    if is_paper:
-        print()
-        print(paper.comparison(result))
-    c = result.cost
-    print(f"\n{c['path_steps']:.3g} path-steps in {c['wall_time']:.1f} s "
-          f"(levels {len(c['paths'])}, paths per level {c['paths']}, seed {result.seed})")
-    if files:
-        _write_and_tell(result, out, figures, earlier, figure_options)
+    with result._table():  # as in run: the summary says what is not a number
+        print(result.summary())
+        if is_paper:
+            print()
+            print(paper.comparison(result))
+        c = result.cost
+        print(f"\n{c['path_steps']:.3g} path-steps in {c['wall_time']:.1f} s "
+              f"(levels {len(c['paths'])}, paths per level {c['paths']}, seed {result.seed})")
+        if files:
+            _write_and_tell(result, out, figures, earlier, figure_options)
     return 0
 
 
@@ -618,6 +639,7 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
         except FileNotFoundError:
             pass
     written = []
+    failing = True
     try:
         rows = ["level,units,probability,stderr,rel_error,lower_95,upper_95,reliable\n"]
         rows += [",".join([repr(float(result.levels[i])), result.units,
@@ -639,12 +661,14 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
             result.plot(ax=ax, reference=reference)
             path = os.path.join(out, f"tail.{figure_format}")
             fig.tight_layout()
-            fig.savefig(path, dpi=dpi)
-            plt.close(fig)
+            try:
+                write_atomic(path, lambda f: fig.savefig(f, dpi=dpi, format=figure_format))
+            finally:
+                plt.close(fig)
             written.append(path)
+        failing = False
     finally:
-        names = json.dumps([os.path.basename(p) for p in written], indent=1).encode()
-        write_atomic(os.path.join(out, TAIL_MANIFEST), lambda f: f.write(names))
+        _write_manifest(out, written, failing, TAIL_MANIFEST)
     for p in written:
         print(f"wrote {p}")
     return 0

@@ -23,12 +23,13 @@ import numpy as np
 from scipy.stats import beta
 
 from . import analytic, distributions
+from ._files import write_atomic
 from .engine import velocity_samples
 from . import paper
 from .paper import CURVES, Curve, curve, scaled_factors
 from .quantities import quantity
 from .model import ANALYTIC, holds
-from .results import Result
+from .results import MIN_CARRIERS, Result
 from .scene import Scene
 from .spec import MAX_SEED, check_int
 from .units import Scaling
@@ -53,6 +54,8 @@ __all__ = [
 Z95 = 1.96
 _SIM = dict(fmt="o", ms=4, color="C3", ecolor="C3", capsize=3, zorder=3)
 _CURVE = dict(color="C0", lw=1.6, zorder=2)
+#: A point whose standard error is not estimated because few paths carry it: hollow.
+_FEW = dict(ls="none", marker="o", ms=5, mfc="none", mec="C3", mew=1.2, zorder=3)
 
 
 def _figure(width: float = 6.4, height: float = 4.4):
@@ -168,7 +171,9 @@ def _moment_figure(result: Result, c: Curve, units: str = "scene"):
     kind = quantity(c.quantity).kind
     power = 1 if c.statistic == "mean" else 2
     closed = _has_closed_forms(result)
-    sim, se = c.simulated(result)
+    with result._table():
+        # The figure marks what is not a number (a hollow point, below) instead of warning.
+        sim, se = c.simulated(result)
     times = np.asarray(result.times, dtype=float)
     if units == "scaled":
         sim, se = (paper.to_scaled(result, x, kind, power) for x in (sim, se))
@@ -192,8 +197,15 @@ def _moment_figure(result: Result, c: Curve, units: str = "scene"):
     elif math.isfinite(sc.t0):
         t0 = sc.t0 if units == "scene" or sc.units == "scaled" else sc.scaling.to_tau(sc.t0)
         _switch_off_line(ax, t0, right)
-    ax.errorbar(times, sim, yerr=Z95 * np.asarray(se),
+    # Points whose standard error few paths would decide (Result.carriers) have none: drawn
+    # hollow, without a bar, and left out of the residuals.
+    few = np.asarray(result._few(c.quantity, c.statistic), dtype=bool)
+    sim, se = np.asarray(sim, dtype=float), np.asarray(se, dtype=float)
+    ax.errorbar(times[~few], sim[~few], yerr=Z95 * se[~few],
                 label=f"simulated, ±{Z95} stderr ({result.paths:,} paths)", **_SIM)
+    if few.any():
+        ax.plot(times[few], sim[few], **_FEW,
+                label=f"few paths carry this (< {MIN_CARRIERS}): no error bar")
     ax.set_xlim(0, right * 1.02)
     ax.set_ylim(bottom=0)
     unit = "" if (units == "scaled" or sc.units == "scaled") else sc.units_of(c.quantity)
@@ -215,12 +227,18 @@ def _moment_figure(result: Result, c: Curve, units: str = "scene"):
         tau, tau0, *_ = scaled_factors(result)
         ref = to_y(np.asarray(c.analytic(tau, tau0), dtype=float), kind, power)
         with np.errstate(divide="ignore", invalid="ignore"):
-            z = (np.asarray(sim, dtype=float) - ref) / np.asarray(se, dtype=float)
+            z = np.where(few, np.nan, (sim - ref) / se)
         rax = axes[-1]
         rax.axhline(0, color="0.5", lw=0.8)
         for y in (-2, 2):
             rax.axhline(y, color="0.6", ls="--", lw=0.8)
         rax.plot(times, z, "o", ms=3, color="C3")
+        for t in times[few]:
+            # No z where there is no error to divide by: a mark at the time, not a point.
+            rax.axvline(t, color="0.45", ls=":", lw=0.8)
+            rax.annotate("no z", (t, 1.0), xycoords=("data", "axes fraction"),
+                         xytext=(0, -8), textcoords="offset points", ha="center",
+                         fontsize=6, color="0.45")
         rax.set_ylabel("z", fontsize=8)
         finite = np.abs(z[np.isfinite(z)])
         top = max(3.0, float(finite.max()) * 1.15) if finite.size else 3.0
@@ -603,7 +621,10 @@ def figures(result: Result, *, paths: int = 200_000, units: str = "scene") -> Di
     metres and joules for an SI scene) or the paper's scaled units (``units="scaled"``), with
     the analytic curve and a residual panel (z of the simulated points against it) where the
     paper's closed forms hold for the scene, and the intensity over time above them for a
-    piecewise scene. Where the closed forms hold, also the velocity density at up to three of
+    piecewise scene. A point whose standard error fewer than ``crandall.results.MIN_CARRIERS``
+    paths would decide (:meth:`crandall.Result.carriers`: the velocity's variance long after the
+    switch-off, when almost every path is at rest) is drawn hollow, without an error bar, and
+    has no residual ("no z"). Where the closed forms hold, also the velocity density at up to three of
     the scene's output times while the noise is on (or 0.25, 1, 5 if none) and the stop-time
     density (scaled units): from the run's own histograms when it holds the distributions
     (``Scene(distributions=...)``, with their exceedance curves, :func:`distribution`),
@@ -695,6 +716,8 @@ def write_figures(result: Result, folder, *, paths: int = 200_000, units: str = 
     written = []
     for stem, fig in figures(result, paths=paths, units=units).items():
         path = os.path.join(folder, f"{stem}.{format}")
-        fig.savefig(path, dpi=dpi, format=format)
+        # Replaced atomically, as results and checkpoints are: a full disk leaves no torn
+        # figure and its error names the file.
+        write_atomic(path, lambda f, fig=fig: fig.savefig(f, dpi=dpi, format=format))
         written.append(path)
     return written

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import numbers
 import statistics as _statistics
@@ -17,17 +18,31 @@ from .quantities import core_flags, find, names_for, quantity
 from .scene import Scene
 from .spec import RunSpec
 
-__all__ = ["Result", "Accumulators", "StatisticsWarning"]
+__all__ = ["Result", "Accumulators", "StatisticsWarning", "MIN_CARRIERS"]
 
 
 class StatisticsWarning(UserWarning):
     """A statistic could not be estimated from this run and is returned as NaN.
 
     Raised (as a warning) by :meth:`Result.var`, :meth:`Result.std`, :meth:`Result.stderr` and
-    :meth:`Result.var_stderr` when they return NaN: a variance from fewer than 2 paths, or a
+    :meth:`Result.var_stderr` when they return NaN: a variance from fewer than 2 paths; a
     standard error of a variance whose fourth-moment term is negative (an extrapolated method
-    at a step far too long for it) or overflows doubles.
+    at a step far too long for it) or overflows doubles; or a standard error that rests on the
+    fourth moment (of a variance, of the kinetic energy's mean) where fewer than
+    :data:`MIN_CARRIERS` paths carry the spread (:meth:`Result.carriers`).
     """
+
+
+#: The fewest paths that must carry a quantity's spread (:meth:`Result.carriers`) for the
+#: standard errors that rest on its fourth moment (a variance's; the kinetic energy's mean's)
+#: to be reported. Fewer, and the few paths far from the mean decide the fourth moment: the
+#: interval +- 1.96 standard errors of a variance covered 77-91 % of the law's value with 5
+#: to 30 carrying paths and 49-75 % with fewer than 2, for sparse, normal and Laplace samples
+#: alike, and 17 % on the simulated velocity after the switch-off where fewer than 2 carried
+#: it, with z down to -78 870 (bench/few_carriers.py, docs/accumulators.md); from 30 on,
+#: 90-96 %. 30 carrying
+#: paths need about 100 paths of a normal quantity, a few hundred of a heavier-tailed one.
+MIN_CARRIERS = 30
 
 #: Exponents (velocity, displacement, distance) of the accumulators' moments, in their order.
 MONOMIALS = tuple(tuple(e) for e in _core.monomial_exponents())
@@ -39,10 +54,27 @@ def _sqrt(x: float) -> float:
     return math.sqrt(x) if x >= 0 else math.nan  # NaN (n/a) stays NaN
 
 
-def _fmt(x: float, spec: str) -> str:
+def _fmt(x: float, spec: str, few: bool = False) -> str:
     width = "".join(c for c in spec.split(".")[0] if c.isdigit())
-    text = "n/a" if math.isnan(x) else format(x, spec)
+    # few: a standard error not estimated because few paths carry the spread (FEW_MARK).
+    text = FEW_MARK if few else "n/a" if math.isnan(x) else format(x, spec)
     return f"{text:>{width}}" if width else text
+
+
+FEW_MARK = _render.FEW_MARK
+
+
+def _shaken_before(scene, until: float) -> bool:
+    """Whether the noise has acted before ``until``: model.noise_energy(scene, until) > 0,
+    asked without squaring the intensity (which overflows for h near 1e300)."""
+    if scene.pieces is None:
+        return scene.noise > 0 and until > 0
+    start = 0.0
+    for end, noise in scene.pieces:
+        if noise > 0 and until > start:
+            return True
+        start = end
+    return False
 
 
 def _e(v: int, power: int) -> int:
@@ -289,8 +321,25 @@ class Result:
             return float(mean[slot]), float(var[slot]), float(n[slot])
         return mean, var, n
 
+    #: Per output time, whether noise has acted by then (:meth:`_shaken`, computed once).
+    _shaken_times: Optional[np.ndarray] = None
+
+    #: Set while a table computes its statistics (:meth:`_table`): NaNs are shown there as
+    #: "n/a", and the warning is kept for the first call that returns them.
+    _quiet = False
+
+    @contextlib.contextmanager
+    def _table(self):
+        """Statistics for a table: without warnings, and without using up the one that a
+        later call of the statistic itself gives."""
+        before, self._quiet = self._quiet, True
+        try:
+            yield
+        finally:
+            self._quiet = before
+
     def _warn_nan(self, name: str, what: str, values, reason: str, stacklevel: int) -> None:
-        if not np.isnan(np.asarray(values, dtype=float)).any():
+        if self._quiet or not np.isnan(np.asarray(values, dtype=float)).any():
             return
         # Once per result and reason: a table of every statistic would repeat it dozens of
         # times.
@@ -321,9 +370,94 @@ class Result:
         return np.sqrt(self._var(name)[0])
 
     def stderr(self, name: str) -> Stat:
-        """Standard error of the mean of a quantity: sqrt(var / paths)."""
+        """Standard error of the mean of a quantity: sqrt(var / paths).
+
+        For the kinetic energy it rests on the velocity's fourth moment, as a variance's
+        does: NaN, with a :class:`StatisticsWarning`, where fewer than :data:`MIN_CARRIERS`
+        paths carry the velocity's spread (:meth:`carriers`).
+        """
         var, n = self._var(name)
-        return np.sqrt(var / n)
+        se = np.sqrt(var / n)
+        few = self._few(name, "mean")
+        if few.any():
+            se = np.where(few, math.nan, se) if np.ndim(se) else math.nan
+            self._warn_nan(name, "the standard error of the mean", se,
+                           self._few_reason(name, few), 2)
+        return se
+
+    def carriers(self, name: str) -> Stat:
+        """The effective number of paths that carry a quantity's spread, per output time (a
+        float at the stop): (sum d^2)^2 / sum d^4, with d each path's deviation of the
+        quantity's core variable from its mean (the velocity's for the kinetic energy), from
+        the accumulators' central sums.
+
+        k paths equally far from the mean and the others at it give k; a normal sample of n
+        paths about n / 3, a Laplace one n / 6. It is Kish's effective sample size with the
+        squared deviations as weights: how many paths the variance's sum rests on. 0 where
+        no path departs from the mean (every path at rest, or a quantity the noise has not
+        reached).
+
+        The standard errors that rest on the fourth moment (:meth:`var_stderr`; the kinetic
+        energy's :meth:`stderr`) are NaN, with a :class:`StatisticsWarning`, where fewer than
+        :data:`MIN_CARRIERS` paths carry the spread and the scene's noise has acted by then
+        (so the quantity is random): those few paths decide the fourth moment, and the error
+        is not estimated. Long after the switch-off, when almost every path is at rest, the
+        velocity is such a quantity: more paths, not a finer step, give it an error.
+        """
+        acc, _, v, slot = self._source(name)
+        rows = slice(None) if slot is None else slice(slot, slot + 1)
+        c2 = acc.central[rows, _e(v, 2)]
+        c4 = acc.central[rows, _e(v, 4)]
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            # c4 < 0 only from an extrapolated combination (var_stderr says so): not a count.
+            k = np.where(c4 > 0, c2 * c2 / c4, np.where((c2 == 0) & (c4 == 0), 0.0, math.nan))
+        return float(k[0]) if slot is not None else k
+
+    def _shaken(self, name: str) -> np.ndarray:
+        """Per slot of ``name``: whether noise has acted by then, so that the quantity is
+        random (a positive probability of any motion). Elsewhere a constant sample is the
+        quantity's exact law, and its standard error 0 is right."""
+        sc = self.scene
+        if quantity(name).at_stop:
+            return np.array([_shaken_before(sc, sc.t0)])
+        if self._shaken_times is None:  # once: a table asks for every quantity
+            self._shaken_times = np.array(
+                [_shaken_before(sc, min(float(t), sc.t0)) for t in self.times], dtype=bool)
+        return self._shaken_times
+
+    def _few(self, name: str, stat: str) -> np.ndarray:
+        """Per slot of ``name``: whether the standard error of ``stat`` rests on the fourth
+        moment of fewer than MIN_CARRIERS paths (:meth:`carriers`) of a random quantity."""
+        q = quantity(name)
+        rows = 1 if q.at_stop else self.times.size
+        if stat != ("var" if q.power == 1 else "mean"):
+            return np.zeros(rows, dtype=bool)
+        k = np.atleast_1d(self.carriers(name))
+        _, _, n = self._stats(name)
+        return (k < MIN_CARRIERS) & (np.atleast_1d(n) >= 2) & self._shaken(name)
+
+    def _few_reason(self, name: str, few: np.ndarray) -> str:
+        k = np.atleast_1d(self.carriers(name))[few]
+
+        def count(x: float) -> str:
+            return "none" if not x > 0 else f"about {x:.2g}"
+
+        if quantity(name).at_stop:
+            where = f"at the stop ({count(k[0])})"
+        else:
+            shown = [f"{t:g} ({count(x)})" for t, x in zip(self.times[few], k)]
+            where = (f"at {self.scene.time_name} = " + ", ".join(shown[:4])
+                     + (f" and {len(shown) - 4} more times" if len(shown) > 4 else ""))
+        # (Not worded "fewer ...": _warn_nan says such reasons once for every quantity.)
+        text = (f"its spread is carried by fewer than {MIN_CARRIERS} paths {where} "
+                "(Result.carriers): its fourth moment, and with it the error, rests on those "
+                "few paths")
+        if not (k > 0).all():
+            text += ("; where none does, every path has the same value (at rest) and the rare "
+                     "ones that still move were not drawn")
+        least = float(np.min(k[k > 0])) if (k > 0).any() else 0.0
+        return text + ("; run more paths" + (
+            f" (about {math.ceil(MIN_CARRIERS / least):d} times as many)" if least else ""))
 
     def var_stderr(self, name: str) -> Stat:
         """Standard error of the sample variance, sqrt((m4 - m2^2) / n) from central moments.
@@ -333,8 +467,11 @@ class Result:
         NaN, with a :class:`StatisticsWarning`, where it cannot be estimated: fewer than 2
         paths; a fourth-moment term m4 - m2^2 that is negative beyond rounding (impossible for
         a sample, so only from an extrapolated method whose step is far too long for the
-        scene: the combination of the grids is then no distribution's moments); or fourth
-        moments that overflow doubles. Never 0 unless the quantity is constant (m2 = m4 = 0).
+        scene: the combination of the grids is then no distribution's moments); fourth
+        moments that overflow doubles; or a random quantity whose spread fewer than
+        :data:`MIN_CARRIERS` paths carry (:meth:`carriers`: the velocity long after the
+        switch-off, when almost every path is at rest), whose fourth moment those few paths
+        decide. 0 only where the quantity is constant and the noise has not acted on it.
         """
         known = find(name)
         if known is not None and not known.has_var_stderr:
@@ -345,6 +482,7 @@ class Result:
         f = self._factor(name)
         rows = slice(None) if slot is None else slice(slot, slot + 1)
         n = n[rows]
+        few = self._few(name, "var")
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             m2 = acc.central[rows, _e(v, 2)] / n
             m4 = acc.central[rows, _e(v, 4)] / n
@@ -352,7 +490,7 @@ class Result:
             # Rounding can leave a two-point law's m4 - m2^2 = 0 slightly negative.
             tiny = 1e-12 * m2 * m2
             ok = (n >= 2) & np.isfinite(d) & (d >= -tiny)
-            se = np.where(ok, f * f * np.sqrt(np.maximum(d, 0.0) / n), np.nan)
+            se = np.where(ok & ~few, f * f * np.sqrt(np.maximum(d, 0.0) / n), np.nan)
         if np.isnan(se).any():
             reasons = []
             if np.any(n < 2):
@@ -363,6 +501,8 @@ class Result:
                 reasons.append(f"the {self.method} combination's fourth-moment term "
                                "m4 - m2^2 is negative (the step is too long for the "
                                "extrapolation; use a smaller dt)")
+            if few.any():
+                reasons.append(self._few_reason(name, few))
             self._warn_nan(name, "the standard error of the variance", se, "; ".join(reasons), 2)
         return float(se[0]) if slot is not None else se
 
@@ -372,9 +512,14 @@ class Result:
         known = find(name)
         if known is not None and not known.has_var_stderr:
             return np.full(1 if quantity(name).at_stop else self.times.size, math.nan)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", StatisticsWarning)
+        with self._table():
             return np.atleast_1d(self.var_stderr(name))
+
+    def _stderr_quiet(self, name: str) -> np.ndarray:
+        """The mean's standard error for tables (NaN, without a warning, where it cannot be
+        estimated)."""
+        with self._table():
+            return np.atleast_1d(self.stderr(name))
 
     def moment(self, j: int, k: int, l: int) -> np.ndarray:  # noqa: E741 - the paper's index
         """Mixed moment E[U1^j U2^k U3^l] over times, in the paper's scaled units (eq3, eq8).
@@ -792,12 +937,13 @@ class Result:
                              f"{'std':>12}")
                 mean, var, cnt = self._stats(n)
                 bm, bv = bias_of(n, "mean"), bias_of(n, "var")
-                vse = self._var_stderr_quiet(n)
+                se, vse = self._stderr_quiet(n), self._var_stderr_quiet(n)
+                fm, fv = self._few(n, "mean"), self._few(n, "var")
                 for i, t in enumerate(self.times):
                     lines.append(f"    {t:>10.4g}  {mean[i]:>13.6g}  "
-                                 f"{_fmt(_sqrt(var[i] / cnt[i]), '10.2g')}  "
+                                 f"{_fmt(se[i], '10.2g', fm[i])}  "
                                  f"{shown(bm[i], '9.2g')}  "
-                                 f"{_fmt(var[i], '12.6g')}  {_fmt(vse[i], '10.2g')}  "
+                                 f"{_fmt(var[i], '12.6g')}  {_fmt(vse[i], '10.2g', fv[i])}  "
                                  f"{shown(bv[i], '9.2g')}  {_fmt(_sqrt(var[i]), '12.6g')}")
         stop_names = [n for n in self.names if quantity(n).at_stop]
         if stop_names:
@@ -805,13 +951,34 @@ class Result:
             for n in stop_names:
                 mean, var, cnt = self._stats(n)
                 u = sc.units_of(n)
-                lines.append(f"    {n:<26} mean {mean:.6g} ± {_fmt(_sqrt(var / cnt), '.2g')}"
+                lines.append(f"    {n:<26} mean {mean:.6g}"
+                             f" ± {_fmt(self._stderr_quiet(n)[0], '.2g', self._few(n, 'mean')[0])}"
                              f" (bias {shown(bias_of(n, 'mean'), '.2g')})"
                              f"   var {_fmt(var, '.6g')}"
-                             f" ± {_fmt(self._var_stderr_quiet(n)[0], '.2g')}"
+                             f" ± {_fmt(self._var_stderr_quiet(n)[0], '.2g', self._few(n, 'var')[0])}"
                              f" (bias {shown(bias_of(n, 'var'), '.2g')})"
                              + (f"   [{u}]" if u else ""))
+        note = self._few_note()
+        if note:
+            lines.append(f"  {note}")
         return "\n".join(lines)
+
+    def _few_note(self) -> str:
+        """The tables' note on the standard errors marked FEW_MARK ("" if none)."""
+        marked = []
+        for n in self.names:
+            for stat in ("mean", "var"):
+                few = self._few(n, stat)
+                if few.any():
+                    at = ("at the stop" if quantity(n).at_stop else
+                          f"{self.scene.time_name} = " + ", ".join(
+                              f"{t:g}" for t in self.times[few]))
+                    marked.append(f"{'the variance of ' if stat == 'var' else ''}{n} ({at})")
+        if not marked:
+            return ""
+        return (f"{FEW_MARK}: fewer than {MIN_CARRIERS} paths carry the spread "
+                f"(Result.carriers), so the standard error is not estimated (more paths "
+                "would give it): " + "; ".join(marked))
 
     def __str__(self) -> str:
         return self.summary()
@@ -872,7 +1039,10 @@ class Result:
         path : str or os.PathLike
             Conventionally ending in ``.nc``.
         """
-        _dataset.save(self, path)
+        # The file keeps the accumulators, and the result loaded from it warns where its
+        # statistics are NaN: writing it warns of nothing.
+        with self._table():
+            _dataset.save(self, path)
 
     def __repr__(self) -> str:
         return (f"<crandall.Result {self.scene!r} paths={self.paths} seed={self.seed} "
@@ -1042,6 +1212,14 @@ class AccuracyResult(Result):
     def moment(self, j: int, k: int, l: int) -> np.ndarray:  # noqa: E741 - the paper's index
         raise ValueError("moment: a run to an accuracy estimates means and variances only; "
                          "run mixed moments with paths=")
+
+    def carriers(self, name: str) -> Stat:
+        raise ValueError("carriers: a run to an accuracy keeps its levels' estimates, not the "
+                         "central sums the carrying paths are counted from; run with paths=")
+
+    def _few(self, name: str, stat: str) -> np.ndarray:
+        # Its standard errors come from the levels' estimates (crandall.adaptive).
+        return np.zeros(1 if quantity(name).at_stop else self.times.size, dtype=bool)
 
     def table(self, name: str) -> np.ndarray:
         """The tables' row(s) of a quantity: (mean, var, std, stderr, var_stderr, bias_mean,
