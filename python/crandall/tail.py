@@ -1184,9 +1184,9 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     time : float, optional
         The output time of "velocity" and "speed" (the scene's time units).
     rel_error : float, default 0.1
-        Target relative error (stderr / probability) at every level; samples are added until it
-        is met, ``max_samples`` or ``max_seconds`` is reached (a StatisticsWarning then says
-        what was reached).
+        Target relative error (stderr / probability) at every level, in [1e-6, 1); samples
+        are added until it is met, ``max_samples`` or ``max_seconds`` is reached (a
+        StatisticsWarning then says what was reached).
     method : {"splitting", "importance"}
         Adaptive multilevel splitting (any quantity; the default) or importance sampling with
         an exact likelihood ratio (a lower or reversed friction over a final window, chosen
@@ -1203,7 +1203,8 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     min_samples, max_samples : int, optional
         The pilot's size, which sets how many samples the target needs (left out of the
         estimate), and the most samples the estimate may take: replicas (splitting; default 20
-        and 100000) or paths (importance sampling; default 1000 and 10^8).
+        and 100000; a pilot of at least 3) or paths (importance sampling; default 1000 and
+        10^8).
     max_seconds : float, default 3600
         Stop adding samples after this long.
     threads : int, optional
@@ -1216,8 +1217,10 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     checkpoint : str or path, optional
         A file of the finished samples (crandall's checkpoint format): a run with the same
         arguments resumes from it, and an interrupted run (Ctrl-C) loses only the replica or
-        batch in progress. A file of another run or estimator is refused, naming the
-        arguments that differ.
+        batch in progress. A file of another run (``rel_error``, ``min_samples`` and
+        ``max_samples`` included) or estimator is refused, naming the arguments that differ;
+        so is a damaged or edited one, naming the field (its samples are checked, and a
+        checksum over them: docs/methods/tails.md).
 
     Returns
     -------
