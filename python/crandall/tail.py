@@ -936,7 +936,7 @@ def _check_samples(samples: Sequence[Dict[str, Any]], job: Dict[str, Any], most:
                              f"[{lo}, {'...' if hi is None else hi}]")
         return v
 
-    def numbers(i, key, lo, hi=math.inf):
+    def per_level(i, key, lo, hi=math.inf):
         v = samples[i].get(key)
         if (not isinstance(v, list) or len(v) != levels
                 or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)):
@@ -944,12 +944,13 @@ def _check_samples(samples: Sequence[Dict[str, Any]], job: Dict[str, Any], most:
                              f"({levels})")
         a = np.array(v, dtype=float)
         if not (np.all(np.isfinite(a)) and np.all(a >= lo) and np.all(a <= hi)):
-            raise ValueError(f"samples[{i}].{key}: {v} is not finite and in [{lo:g}, {hi:g}]")
+            raise ValueError(f"samples[{i}].{key}: {v} holds a number that is not finite or "
+                             f"not in [{lo:g}, {hi:g}]")
         return a
 
     for i in range(len(samples)):
         if splitting:
-            est = numbers(i, "estimates", 0.0, 1.0)
+            est = per_level(i, "estimates", 0.0, 1.0)
             iterations = integer(i, "iterations", 0, _max_iterations(n))
             # A replica's steps: its n paths whole, then at most n - 1 continued per iteration.
             integer(i, "steps", n * steps, n * steps + iterations * (n - 1) * steps)
@@ -958,12 +959,12 @@ def _check_samples(samples: Sequence[Dict[str, Any]], job: Dict[str, Any], most:
             # in logarithms, within the rounding of a sum of as many logarithms, below 1e-6).
             kill = max(1, n // 10)
             if est[-1] > 0 and math.log(est[-1]) > iterations * math.log1p(-kill / n) + 1e-6:
-                raise ValueError(f"samples[{i}].estimates: {float(est[-1])!r} at the last level, above "
-                                 f"the weight {iterations} iterations leave")
+                raise ValueError(f"samples[{i}].estimates: {float(est[-1])!r} at the last "
+                                 f"level, above the weight {iterations} iterations leave")
             continue
         integer(i, "paths", n, n)
         integer(i, "steps", n * steps, n * steps)
-        s1, s2 = numbers(i, "sum", 0.0), numbers(i, "sum2", 0.0)
+        s1, s2 = per_level(i, "sum", 0.0), per_level(i, "sum2", 0.0)
         hits = samples[i].get("hits")
         if (not isinstance(hits, list) or len(hits) != levels
                 or not all(isinstance(h, int) and not isinstance(h, bool) and 0 <= h <= n
