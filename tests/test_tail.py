@@ -532,6 +532,14 @@ def test_bad_types_and_ranges_are_parameter_errors(kwargs, name):
     assert err.value.name == name
 
 
+def test_levels_are_taken_from_any_sequence_of_numbers():
+    for given in (range(8, 10), (x for x in (8.0, 9.0)), np.array([8, 9]), [np.float32(8), 9]):
+        assert TAIL._levels(given).tolist() == [8.0, 9.0]
+    assert TAIL._levels(np.float64(9.0)).tolist() == [9.0]
+    with pytest.raises(ParameterError, match="^levels must be a number or a non-empty sequence"):
+        TAIL._levels([[8.0, 9.0]])  # nested: not one-dimensional
+
+
 def test_the_smallest_allowed_pilot_and_target_run():
     # min_samples = 3 replicas (a finite variance bound); rel_error = 1e-6 (the run then stops
     # at max_samples and says so).

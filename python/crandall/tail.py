@@ -1139,9 +1139,18 @@ def _real(value) -> bool:
 
 
 def _levels(levels) -> np.ndarray:
-    items = (levels.ravel().tolist() if isinstance(levels, np.ndarray)
-             else list(levels) if isinstance(levels, (list, tuple)) else [levels])
-    bad = next((x for x in items if not (_real(x) or isinstance(x, (list, tuple)))), None)
+    # Element by element: NumPy would take "1" as 1.0 and True as 1.0 silently.
+    if isinstance(levels, np.ndarray):
+        items = levels.ravel().tolist()
+    elif isinstance(levels, (str, bytes)):
+        items = [levels]
+    else:
+        try:
+            items = levels = list(levels)  # also takes a generator once
+        except TypeError:
+            items = [levels]
+    bad = next((x for x in items if not (_real(x) or isinstance(x, (list, tuple, np.ndarray)))),
+               None)
     if bad is not None:
         raise ParameterError("levels", f"levels must be a number or a sequence of numbers, got "
                                        f"{bad!r}")
