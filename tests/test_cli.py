@@ -511,3 +511,25 @@ def test_run_to_an_accuracy_drops_the_distributions_with_a_note_and_takes_statis
     assert cli.main(["run", str(scene), "--paths", "100", "--statistics", "distance:mean",
                      "--no-files"]) == 2
     assert "--statistics: only with --error or --rel-error" in capsys.readouterr().err
+
+
+def test_tail_command_refuses_an_unreachable_target_and_a_failed_estimate(capsys):
+    # Each printed a traceback and exited with 1.
+    base = ["tail", "--quantity", "stop_time", "--seed", "1", "--threads", "1", "--no-files",
+            "--no-progress"]
+    assert cli.main(base + ["--levels", "9", "--rel-error", "1e-300"]) == 2
+    assert "crandall: error: rel_error must be in [1e-06, 1)" in capsys.readouterr().err
+    # No importance-sampling proposal reaches a stop at 1000 (P far below 1e-100): the
+    # estimator's StatisticsFailure, said as the other refusals are.
+    assert cli.main(base + ["--levels", "1000", "--method", "importance"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("crandall: error: importance sampling: no proposal reached level "
+                          "1000"), err
+    assert "Traceback" not in err
+
+
+def test_tail_help_shows_its_percent_sign_once(capsys):
+    with pytest.raises(SystemExit):
+        cli.main(["tail", "--help"])
+    text = " ".join(capsys.readouterr().out.split())  # the lines as wrapped, joined
+    assert "95 % band" in text and "%%" not in text

@@ -9,6 +9,7 @@ references (crandall.analytic's laws, the transition density's integrals, plain 
 the fixed-step core) are independent of the estimators.
 """
 
+import importlib
 import json
 import math
 import warnings
@@ -20,6 +21,7 @@ from scipy.optimize import brentq
 
 import crandall
 from crandall import analytic
+from crandall.errors import ParameterError
 from crandall.results import StatisticsWarning
 from crandall.tail import TAIL_QUANTITIES, log_transition_density, pareto_shape, tail
 
@@ -28,6 +30,7 @@ Z = 3.5
 # warning; the checks below use the reported standard error, so they hold either way.
 pytestmark = pytest.mark.filterwarnings("ignore:tail. relative error:crandall.results.StatisticsWarning")
 PAPER = crandall.Scene.scaled(tau0=5, times=[5])
+TAIL = importlib.import_module("crandall.tail")  # the module (crandall.tail is the function)
 
 
 def level_of(sf, p, lo, hi):
@@ -293,11 +296,13 @@ def test_the_result_does_not_depend_on_threads_and_a_checkpoint_resumes_bitwise(
     path = tmp_path / "tail.ckpt"
     full = tail(PAPER, "stop_time", [12.0], threads=2, checkpoint=str(path), **args)
     assert full.probability.tobytes() == one.probability.tobytes()
-    # An interrupted run: only its first samples were saved. Resuming gives the same bits.
+    # An interrupted run: only its first samples were saved (with their checksum). Resuming
+    # gives the same bits.
     with np.load(path) as stored:
         arrays = {k: stored[k] for k in stored.files}
     data = json.loads(str(arrays["state"]))
     data["samples"] = data["samples"][:7]
+    data["checksum"] = TAIL._digest(full.spec, data["samples"]).hexdigest()
     with open(path, "wb") as f:
         np.savez(f, identity=arrays["identity"], state=np.array(json.dumps(data)))
     resumed = tail(PAPER, "stop_time", [12.0], threads=2, checkpoint=str(path), **args)
@@ -313,6 +318,160 @@ def test_the_result_does_not_depend_on_threads_and_a_checkpoint_resumes_bitwise(
             tail(PAPER, "stop_time", [12.0], threads=2, checkpoint=str(path), **args)
     with pytest.raises(ValueError, match="is a checkpoint of a tail run"):
         crandall.simulate(PAPER, paths=10, seed=5, checkpoint=path)
+
+
+# -- checkpoints: what a damaged or edited one is refused for ------------------------------
+
+#: The finished runs whose checkpoints the tests below edit: small ones (a splitting run of 40
+#: replicas, an importance-sampling run of 6 batches), at two levels so that the fields'
+#: consistency across levels is checked too.
+EDITED_RUNS = {"splitting": dict(seed=5, dt=0.25, rel_error=0.3, threads=1, max_samples=60),
+               "importance": dict(seed=5, dt=0.25, rel_error=0.3, threads=1,
+                                  method="importance")}
+EDITED_LEVELS = [8.0, 9.0]
+
+
+@pytest.fixture(scope="module")
+def finished(tmp_path_factory):
+    """Per method: (the run's result, its checkpoint's identity and state as plain data)."""
+    out = {}
+    for method, args in EDITED_RUNS.items():
+        path = tmp_path_factory.mktemp(method) / "t.ckpt"
+        # The files are what these tests are about, not the estimates: a level that a run
+        # flags (a StatisticsWarning) serves as well.
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", StatisticsWarning)
+            result = tail(PAPER, "stop_time", EDITED_LEVELS, checkpoint=str(path), **args)
+        with np.load(path) as stored:
+            out[method] = (result, json.loads(str(stored["identity"])),
+                           json.loads(str(stored["state"])))
+    return out
+
+
+def _write_checkpoint(path, identity, state):
+    with open(path, "wb") as f:
+        np.savez(f, identity=np.array(json.dumps(identity)), state=np.array(json.dumps(state)))
+
+
+def _resume(path, method, levels=EDITED_LEVELS, **changed):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", StatisticsWarning)
+        return tail(PAPER, "stop_time", levels, checkpoint=str(path),
+                    **{**EDITED_RUNS[method], **changed})
+
+
+def _set(sample, key, value):
+    def edit(samples):
+        samples[sample][key] = value(samples[sample][key]) if callable(value) else value
+    return edit
+
+
+def _drop(sample, key):
+    def edit(samples):
+        del samples[sample][key]
+    return edit
+
+
+def _top_sum(samples):
+    # A sum of weights larger than its hits times the largest weight.
+    s = samples[0]
+    assert s["hits"][0] >= 1
+    s["sum"][0] = s["top"][0][-1] * (s["hits"][0] + 1)
+
+
+def _top_reversed(samples):
+    s = samples[0]
+    assert len(s["top"][0]) >= 2 and s["top"][0][0] < s["top"][0][-1]
+    s["top"][0] = s["top"][0][::-1]
+
+
+@pytest.mark.parametrize("reseal", [False, True])
+@pytest.mark.parametrize("method, edit, field", [
+    # Each was accepted as read, or raised a raw KeyError or TypeError: the estimate moved,
+    # or came out negative.
+    ("splitting", _set(0, "estimates", lambda e: [-x for x in e]), r"samples\[0\]\.estimates"),
+    ("splitting", _set(3, "estimates", lambda e: [min(1.0, 2 * x) for x in e[:1]]),
+     r"samples\[3\]\.estimates"),  # one level's estimate only
+    ("splitting", _set(0, "estimates", [0.5, 1.5]), r"samples\[0\]\.estimates"),
+    ("splitting", _set(0, "estimates", [0.5, float("nan")]), r"samples\[0\]\.estimates"),
+    ("splitting", _set(0, "estimates", "a"), r"samples\[0\]\.estimates"),
+    ("splitting", _drop(1, "estimates"), r"samples\[1\]\.estimates"),
+    # Above the weight its iterations leave (0.9^iterations): the last level's estimate.
+    ("splitting", _set(0, "iterations", 3), r"samples\[0\]\.(estimates|steps)"),
+    ("splitting", _set(2, "estimates", lambda e: [e[0], min(1.0, 6 * e[1])]),
+     r"samples\[2\]\.estimates|checksum"),
+    ("splitting", _set(0, "iterations", -1), r"samples\[0\]\.iterations"),
+    ("splitting", _set(0, "iterations", True), r"samples\[0\]\.iterations"),
+    ("splitting", _set(0, "steps", 0), r"samples\[0\]\.steps"),
+    ("splitting", _drop(0, "steps"), r"samples\[0\]\.steps"),
+    ("splitting", lambda samples: samples.extend(samples * 2), r"samples: 120 of them, more than "
+                                                               r"the 80"),
+    ("importance", _set(0, "sum", lambda s: [-x for x in s]), r"samples\[0\]\.sum"),
+    ("importance", _top_sum, r"samples\[0\]\.sum"),
+    ("importance", _set(0, "hits", lambda h: [h[0], 10 ** 6]), r"samples\[0\]\.hits"),
+    ("importance", _set(0, "hits", lambda h: [h[0], h[0] + 1]), r"samples\[0\]\.(hits|top)"),
+    ("importance", _top_reversed, r"samples\[0\]\.top\[0\]"),
+    ("importance", _set(0, "paths", 199), r"samples\[0\]\.paths"),
+    ("importance", _set(0, "top", None), r"samples\[0\]\.top"),
+    ("importance", _set(0, "sum2", "x"), r"samples\[0\]\.sum2"),
+])
+def test_edited_tail_checkpoints_are_refused_naming_the_file_and_the_field(
+        tmp_path, finished, method, edit, field, reseal):
+    result, identity, state = finished[method]
+    samples = json.loads(json.dumps(state["samples"]))
+    edit(samples)
+    # Resealed: the checksum computed anew over the edit, so that the fields' own checks are
+    # what must refuse it.
+    checksum = (TAIL._digest(result.spec, samples).hexdigest() if reseal
+                else state["checksum"])
+    path = tmp_path / "edited.ckpt"
+    _write_checkpoint(path, identity, {"samples": samples, "checksum": checksum})
+    with pytest.raises(ValueError, match=rf"^checkpoint: .*edited.ckpt is damaged \(field "
+                                         rf"({field})"):
+        _resume(path, method)
+
+
+@pytest.mark.parametrize("method", ["splitting", "importance"])
+def test_a_tail_checkpoint_edited_within_the_ranges_is_refused_by_its_checksum(
+        tmp_path, finished, method):
+    result, identity, state = finished[method]
+    path = tmp_path / "edited.ckpt"
+    # The checkpoint as written resumes (its checks pass what the run wrote) to the same bits.
+    _write_checkpoint(path, identity, state)
+    assert _resume(path, method).probability.tobytes() == result.probability.tobytes()
+    # One number a little larger: every range still holds.
+    samples = json.loads(json.dumps(state["samples"]))
+    key = "estimates" if method == "splitting" else "sum"
+    samples[1][key][0] *= 1.001
+    _write_checkpoint(path, identity, {"samples": samples, "checksum": state["checksum"]})
+    with pytest.raises(ValueError, match=r"edited.ckpt is damaged \(field checksum: it does not "
+                                         r"match"):
+        _resume(path, method)
+    # No checksum at all.
+    _write_checkpoint(path, identity, {"samples": state["samples"]})
+    with pytest.raises(ValueError, match=r"edited.ckpt is damaged \(field checksum: missing"):
+        _resume(path, method)
+    # The identity edited to another run's (its lower level; resumed with those levels, and
+    # the same importance-sampling proposal, chosen for the top one): the samples are another
+    # run's, estimates at another level. The checksum covers the run's spec.
+    other = {**identity, "levels": [7.5, 9.0]}
+    _write_checkpoint(path, other, state)
+    with pytest.raises(ValueError, match=r"edited.ckpt is damaged \(field checksum: it does "
+                                         r"not match"):
+        _resume(path, method, levels=[7.5, 9.0])
+
+
+def test_a_tail_checkpoint_of_another_target_or_pilot_is_refused(tmp_path, finished):
+    # rel_error, min_samples and max_samples set how many samples the run takes: resuming
+    # with other ones would continue another run's count silently.
+    result, identity, state = finished["splitting"]
+    path = tmp_path / "t.ckpt"
+    _write_checkpoint(path, identity, state)
+    for changed, text in ((dict(rel_error=0.2), "rel_error: checkpoint has 0.3, this run 0.2"),
+                          (dict(min_samples=30), "min_samples: checkpoint has 20, this run 30"),
+                          (dict(max_samples=70), "max_samples: checkpoint has 60, this run 70")):
+        with pytest.raises(ValueError, match=rf"belongs to a different run \({text}\)"):
+            _resume(path, "splitting", **changed)
 
 
 def test_bad_input_is_refused_naming_the_parameter():
@@ -342,6 +501,61 @@ def test_bad_input_is_refused_naming_the_parameter():
         tail(PAPER, "stop_time", [9.0], method="importance", particles=10, max_samples=10 ** 8)
     assert set(TAIL_QUANTITIES) >= {"stop_time", "velocity", "speed", "distance_at_stop",
                                     "residual_displacement", "dissipated_energy_at_stop"}
+
+
+@pytest.mark.parametrize("kwargs, name", [
+    # Each was taken as a number (True as 1, "9" as 9.0) or raised a raw OverflowError or
+    # TypeError.
+    (dict(levels="9"), "levels"),
+    (dict(levels=True), "levels"),
+    (dict(levels=[True, 9.0]), "levels"),
+    (dict(levels=np.array([False, True])), "levels"),
+    (dict(levels=[9.0, "10"]), "levels"),
+    (dict(quantity="speed", time="1"), "time"),
+    (dict(quantity="speed", time=True), "time"),
+    (dict(dt="0.25"), "dt"),
+    (dict(quantity=["stop_time"]), "quantity"),
+    (dict(checkpoint=5), "checkpoint"),
+    # The pilot's variance bound is infinite below 3 replicas (variance_upper_factor(2)).
+    (dict(min_samples=2), "min_samples"),
+    (dict(min_samples=2.5), "min_samples"),
+    # A target the sample counts cannot reach (1 / rel_error^2 above max_samples' 10^12).
+    (dict(rel_error=1e-300), "rel_error"),
+    (dict(rel_error=1e-7), "rel_error"),
+    (dict(rel_error=True), "rel_error"),
+])
+def test_bad_types_and_ranges_are_parameter_errors(kwargs, name):
+    args = {"quantity": "stop_time", "levels": [9.0], "seed": 1, "dt": 0.25, "threads": 1,
+            **kwargs}
+    with pytest.raises(ParameterError, match=f"^{name}") as err:
+        tail(PAPER, args.pop("quantity"), args.pop("levels"), **args)
+    assert err.value.name == name
+
+
+def test_levels_are_taken_from_any_sequence_of_numbers():
+    for given in (range(8, 10), (x for x in (8.0, 9.0)), np.array([8, 9]), [np.float32(8), 9]):
+        assert TAIL._levels(given).tolist() == [8.0, 9.0]
+    assert TAIL._levels(np.float64(9.0)).tolist() == [9.0]
+    with pytest.raises(ParameterError, match="^levels must be a number or a non-empty sequence"):
+        TAIL._levels([[8.0, 9.0]])  # nested: not one-dimensional
+
+
+def test_the_smallest_allowed_pilot_and_target_run():
+    # min_samples = 3 replicas (a finite variance bound); rel_error = 1e-6 (the run then stops
+    # at max_samples and says so).
+    r = tail(PAPER, "stop_time", [9.0], seed=1, dt=0.25, threads=1, min_samples=3,
+             max_samples=3, rel_error=0.5)
+    assert r.samples == 3  # never fewer than the pilot
+    with pytest.warns(StatisticsWarning, match="limited by max_samples"):
+        tail(PAPER, "stop_time", [9.0], seed=1, dt=0.25, threads=1, max_samples=20,
+             rel_error=1e-6)
+
+
+def test_simulate_refuses_a_checkpoint_that_is_not_a_path_naming_it():
+    for kw in (dict(paths=10), dict(rel_error=0.1)):
+        with pytest.raises(ParameterError, match="^checkpoint must be a path") as err:
+            crandall.simulate(PAPER, seed=1, checkpoint=5, **kw)
+        assert err.value.name == "checkpoint"
 
 
 def test_coverage_of_the_interval():

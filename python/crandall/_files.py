@@ -23,6 +23,7 @@ from typing import Callable, Dict, Optional
 import numpy as np
 
 from . import _core
+from .errors import ParameterError
 from .methods import EXTRAPOLATING_METHODS
 
 __all__ = ["write_atomic", "check_file_writable", "check_folder_writable", "check_moments"]
@@ -129,12 +130,12 @@ def _probe(folder: str, name: str, shown: str) -> None:
 
 
 def _path_text(path, name: str, kind: str) -> str:
-    """``path`` as a non-blank str (bytes paths refused), or a ValueError naming ``name``."""
+    """``path`` as a non-blank str (bytes paths refused), or a ParameterError naming ``name``."""
     if not isinstance(path, (str, os.PathLike)):
-        raise ValueError(f"{name} must be a path, got {path!r}")
+        raise ParameterError(name, f"{name} must be a path, got {path!r}")
     text = os.fspath(path)
     if not isinstance(text, str) or not text.strip():
-        raise ValueError(f"{name} must be a {kind} path, got {text!r}")
+        raise ParameterError(name, f"{name} must be a {kind} path, got {text!r}")
     return text
 
 

@@ -26,7 +26,7 @@ from .quantities import quantity
 from .model import ANALYTIC, holds
 from .scene import Scene
 from .simulate import simulate
-from .tail import TAIL_QUANTITIES, tail
+from .tail import TAIL_QUANTITIES, StatisticsFailure, tail
 
 __all__ = ["main", "run", "PAPER_SEED", "DEFAULT_OUT", "DEFAULT_TAIL_OUT"]
 
@@ -169,7 +169,7 @@ def _parser() -> argparse.ArgumentParser:
         description="Estimate P(Q > level) of one quantity of a scene at each level, to a "
                     "relative error, by adaptive multilevel splitting on exact paths (or "
                     "importance sampling); print the table and write tail.csv and the "
-                    "exceedance curve tail.png: from P = 0.9 down to the largest level, with its 95 %% "
+                    "exceedance curve tail.png: from P = 0.9 down to the largest level, with its 95 % "
                     "band, joined to plain Monte Carlo where that is informative.")
     tl.add_argument("scene", nargs="?", metavar="SCENE",
                     help="scene file (TOML), or the name of a shipped scene (crandall scenes lists "
@@ -711,7 +711,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.command == "scenes":
             return scenes_command()
         return analytic_command(args.scene, tau0=args.tau0, times=args.times)
-    except ValueError as exc:
+    except (ValueError, StatisticsFailure) as exc:
+        # StatisticsFailure: an estimator found no usable answer; its message says what to do.
         print(f"crandall: error: {exc}", file=sys.stderr)
         return 2
     except OSError as exc:  # a place that fails although it was checked (disk full, ...)

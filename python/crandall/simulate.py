@@ -29,7 +29,7 @@ from .quantities import names_for, quantity, simulated_variables
 from .results import MONOMIALS, Result, StatisticsWarning
 from .scene import Scene
 from .spec import MAX_PATHS, RunSpec, as_seed, default_dt
-from .errors import UnresolvableGrid
+from .errors import ParameterError, UnresolvableGrid
 from .model import EXACT_STEP, check_simulated, holds
 
 __all__ = ["simulate", "simulate_many", "default_dt", "METHODS", "MAX_PATHS"]
@@ -478,7 +478,7 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
                                  "grids and paths itself)")
         check_client(client)
         if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
-            raise ValueError(f"checkpoint must be a path, got {checkpoint!r}")
+            raise ParameterError("checkpoint", f"checkpoint must be a path, got {checkpoint!r}")
         if seed is None:
             seed = int(np.random.SeedSequence().entropy % (1 << 64))
         if not isinstance(scene, Scene):
@@ -502,7 +502,7 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
         method = DEFAULT_METHOD
     if checkpoint is not None:
         if not isinstance(checkpoint, (str, os.PathLike)):
-            raise ValueError(f"checkpoint must be a path, got {checkpoint!r}")
+            raise ParameterError("checkpoint", f"checkpoint must be a path, got {checkpoint!r}")
         if seed is None:
             seed = _ckpt.stored_seed(checkpoint)
     check_client(client)
@@ -570,7 +570,8 @@ def simulate_many(
     files: List[Optional[str]] = [None] * len(scenes)
     if checkpoint_dir is not None:
         if not isinstance(checkpoint_dir, (str, os.PathLike)):
-            raise ValueError(f"checkpoint_dir must be a path, got {checkpoint_dir!r}")
+            raise ParameterError("checkpoint_dir", f"checkpoint_dir must be a path, got "
+                                                  f"{checkpoint_dir!r}")
         if os.path.exists(checkpoint_dir) and not os.path.isdir(checkpoint_dir):
             raise ValueError(f"checkpoint_dir must be a directory: {os.fspath(checkpoint_dir)!r}")
         _ckpt.make_folder(checkpoint_dir)  # a ValueError if it cannot be created

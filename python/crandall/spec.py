@@ -17,7 +17,7 @@ from typing import Any, Dict, Optional
 import numpy as np
 
 from .methods import DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, METHODS
-from .errors import UnresolvableGrid
+from .errors import ParameterError, UnresolvableGrid
 from .scene import Scene
 
 __all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int"]
@@ -29,14 +29,14 @@ MAX_SEED = (1 << 64) - 1
 
 
 def check_int(name: str, value, minimum: int, maximum: Optional[int] = None) -> int:
-    """``value`` as an int within [minimum, maximum]; else a ValueError naming ``name``."""
+    """``value`` as an int within [minimum, maximum]; else a ParameterError naming ``name``."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"{name} must be an integer, got {value!r}")
+        raise ParameterError(name, f"{name} must be an integer, got {value!r}")
     value = int(value)
     if value < minimum:
-        raise ValueError(f"{name} must be >= {minimum}, got {value}")
+        raise ParameterError(name, f"{name} must be >= {minimum}, got {value}")
     if maximum is not None and value > maximum:
-        raise ValueError(f"{name} must be <= {maximum}, got {value}")
+        raise ParameterError(name, f"{name} must be <= {maximum}, got {value}")
     return value
 
 

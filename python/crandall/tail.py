@@ -22,8 +22,11 @@ a fixed-step exact run at the same ``dt``; velocity and stop time have no step b
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
 import math
+import numbers
+import os
 import time as _time
 import warnings
 from dataclasses import dataclass, field
@@ -81,6 +84,9 @@ def variance_upper_factor(n: int) -> float:
     c = 2.0 / (9.0 * k)
     cube = 1.0 - c - UPPER_Z * math.sqrt(c)
     return math.inf if cube <= 0 else 1.0 / cube ** 3
+#: The smallest target relative error: the samples a target asks for are about a sample's
+#: relative variance over rel_error^2, and max_samples is at most 10^12.
+MIN_REL_ERROR = 1e-6
 #: Largest Pareto shape of the weights' tail (:func:`pareto_shape`) for a reliable estimate.
 MAX_PARETO_SHAPE = 0.7
 
@@ -119,7 +125,7 @@ class _Problem:
                  breaks: Sequence[float] = (), coarse: bool = False):
         if not isinstance(scene, Scene):
             raise ParameterError("scene", f"scene must be a crandall.Scene, got {type(scene).__name__}")
-        if quantity not in TAIL_QUANTITIES:
+        if not isinstance(quantity, str) or quantity not in TAIL_QUANTITIES:
             raise ParameterError("quantity", f"quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
         self.scene, self.q = scene, TAIL_QUANTITIES[quantity]
         c = scene.drift
@@ -134,6 +140,8 @@ class _Problem:
         else:
             if time is None:
                 raise ParameterError("time", f"time: {quantity} is a quantity at an output time; give time=")
+            if not _real(time):
+                raise ParameterError("time", f"time must be a number, got {time!r}")
             time = float(time)
             if not (math.isfinite(time) and time >= 0):
                 raise ParameterError("time", f"time must be finite and >= 0, got {time}")
@@ -143,6 +151,8 @@ class _Problem:
         self.coast = (time - horizon) if time is not None else 0.0  # noiseless time after the grid
         if dt is None:
             dt = default_dt(scene)
+        if not _real(dt):
+            raise ParameterError("dt", f"dt must be a number, got {dt!r}")
         dt = float(dt)
         if not (math.isfinite(dt) and dt > 0):
             raise ParameterError("dt", f"dt must be finite and > 0, got {dt}")
@@ -740,10 +750,9 @@ def sample(job: Dict[str, Any], index: int, threads: int = 0) -> Dict[str, Any]:
     lv = np.asarray(job["levels"], dtype=float)
     n, key = job["particles"], job["key"]
     if job["proposal"] is None:
-        # At most 200 n log(1/p) / n iterations for log(1/p) up to about 12000: never reached
-        # by a run that progresses; a guard against one that does not.
+        # A guard against a run that does not progress.
         est, info = _splitting_replica(problem, lv, n, max(1, n // 10), key, index, threads,
-                                       200 * n * 60)
+                                       _max_iterations(n))
         return {"estimates": est.tolist(), "iterations": info["iterations"],
                 "steps": info["steps"]}
     window, drift, slow = job["proposal"]
@@ -889,6 +898,114 @@ def _stats(chosen, splitting: bool, levels: int):
     return n, mean, np.sqrt(var / n), var
 
 
+def _canonical(data) -> bytes:
+    """Plain data as canonical JSON (keys sorted; floats as Python writes them, which read
+    back exactly), one line: what the checkpoint's checksum is computed over."""
+    return json.dumps(data, sort_keys=True, separators=(",", ":")).encode("utf-8") + b"\n"
+
+
+def _digest(spec: Dict[str, Any], samples: Sequence[Dict[str, Any]]):
+    """The SHA-256 of a tail run's spec followed by its samples (hashlib's object: a run
+    updates it with each sample it merges, so that a checkpoint costs no second pass)."""
+    digest = hashlib.sha256(_canonical(spec))
+    for s in samples:
+        digest.update(_canonical(s))
+    return digest
+
+
+def _max_iterations(particles: int) -> int:
+    """The iterations after which a splitting replica gives up: 200 n log(1/p) / n for
+    log(1/p) up to about 12000, never reached by a run that progresses."""
+    return 200 * particles * 60
+
+
+def _check_samples(samples: Sequence[Dict[str, Any]], job: Dict[str, Any], most: int) -> None:
+    """Check a checkpoint's samples against what the run ``job`` can have written: at most
+    ``most`` of them, each with its fields, of the right types, lengths and ranges, and
+    consistent with each other. A ValueError whose text starts with the field
+    ("samples[3].estimates: ...")."""
+    if len(samples) > most:
+        raise ValueError(f"samples: {len(samples)} of them, more than the {most} this run can "
+                         "take")
+    levels, n = len(job["levels"]), job["particles"]
+    problem = _Problem(Scene.from_dict(job["scene"]), job["quantity"], job["time"], job["dt"])
+    splitting = job["proposal"] is None
+    steps = problem.steps if splitting else _grid_for(problem, job["proposal"][0]).steps
+
+    def integer(i, key, lo, hi=None):
+        v = samples[i].get(key)
+        if isinstance(v, bool) or not isinstance(v, int) or v < lo or (hi is not None and v > hi):
+            raise ValueError(f"samples[{i}].{key}: {v!r} is not a whole number in "
+                             f"[{lo}, {'...' if hi is None else hi}]")
+        return v
+
+    def per_level(i, key, lo, hi=math.inf):
+        v = samples[i].get(key)
+        if (not isinstance(v, list) or len(v) != levels
+                or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v)):
+            raise ValueError(f"samples[{i}].{key}: not a list of numbers, one per level "
+                             f"({levels})")
+        a = np.array(v, dtype=float)
+        if not (np.all(np.isfinite(a)) and np.all(a >= lo) and np.all(a <= hi)):
+            raise ValueError(f"samples[{i}].{key}: {v} holds a number that is not finite or "
+                             f"not in [{lo:g}, {hi:g}]")
+        return a
+
+    for i in range(len(samples)):
+        if splitting:
+            est = per_level(i, "estimates", 0.0, 1.0)
+            iterations = integer(i, "iterations", 0, _max_iterations(n))
+            # A replica's steps: its n paths whole, then at most n - 1 continued per iteration.
+            integer(i, "steps", n * steps, n * steps + iterations * (n - 1) * steps)
+            # The last level's estimate is taken at the last iteration (or is 0): at most the
+            # weight, each iteration having killed at least a tenth of the particles (compared
+            # in logarithms, within the rounding of a sum of as many logarithms, below 1e-6).
+            kill = max(1, n // 10)
+            if est[-1] > 0 and math.log(est[-1]) > iterations * math.log1p(-kill / n) + 1e-6:
+                raise ValueError(f"samples[{i}].estimates: {float(est[-1])!r} at the last "
+                                 f"level, above the weight {iterations} iterations leave")
+            continue
+        integer(i, "paths", n, n)
+        integer(i, "steps", n * steps, n * steps)
+        s1, s2 = per_level(i, "sum", 0.0), per_level(i, "sum2", 0.0)
+        hits = samples[i].get("hits")
+        if (not isinstance(hits, list) or len(hits) != levels
+                or not all(isinstance(h, int) and not isinstance(h, bool) and 0 <= h <= n
+                           for h in hits)):
+            raise ValueError(f"samples[{i}].hits: not a list of whole numbers in [0, {n}], one "
+                             f"per level ({levels})")
+        top = samples[i].get("top")
+        if not isinstance(top, list) or len(top) != levels:
+            raise ValueError(f"samples[{i}].top: not a list of lists, one per level ({levels})")
+        for j in range(levels):
+            t = top[j]
+            if (not isinstance(t, list) or len(t) != min(hits[j], _TOP_WEIGHTS)
+                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in t)):
+                raise ValueError(f"samples[{i}].top[{j}]: not the {min(hits[j], _TOP_WEIGHTS)} "
+                                 "largest weights past the level")
+            t = np.array(t, dtype=float)
+            if not (np.all(np.isfinite(t)) and np.all(t > 0) and np.all(np.diff(t) >= 0)):
+                raise ValueError(f"samples[{i}].top[{j}]: not positive finite weights in "
+                                 "ascending order")
+            # Sums of `hits` weights, each at most the largest, which they hold: exact bounds
+            # but for the rounding of a sum of at most n terms (below n 2^-53, well within
+            # 1e-6). The squares' bounds are taken in units of the largest weight, and only
+            # where its square is a normal double (a subnormal one has lost its digits).
+            m = t[-1]
+            if hits[j] and not (m <= s1[j] <= hits[j] * m * (1 + 1e-6) and m * m <= s2[j] and (
+                    m < 1e-100 or (s2[j] / m <= s1[j] * (1 + 1e-6)
+                                   and (s1[j] / m) ** 2 <= hits[j] * (s2[j] / m / m) * (1 + 1e-6)))):
+                raise ValueError(f"samples[{i}].sum: {float(s1[j])!r} (sum2 {float(s2[j])!r}) at "
+                                 f"level {j} cannot be the sum of {hits[j]} weights up to "
+                                 f"{float(t[-1])!r}")
+            if not hits[j] and (s1[j] or s2[j]):
+                raise ValueError(f"samples[{i}].sum: {float(s1[j])!r} at level {j}, where no path "
+                                 "hit")
+        # The paths past a level are among those past any lower one.
+        if np.any(np.diff(hits) > 0) or np.any(np.diff(s1) > 0) or np.any(np.diff(s2) > 0):
+            raise ValueError(f"samples[{i}].hits: the hits or sums grow with the level")
+
+
 class _TailRun(Estimator):
     """A tail run's samples (splitting replicas or batches of weighted paths) as the driver's
     estimator: each sample a pure function of the job and its index, run here or as a Dask
@@ -919,6 +1036,8 @@ class _TailRun(Estimator):
         self.pilot_samples = self.pilot_n * per_sample
         self.min_samples = min_samples
         self.samples: List[Dict[str, Any]] = []
+        #: The checksum of the spec and the samples merged so far (the checkpoint's).
+        self.digest = _digest(spec, [])
         self.target_n: Optional[int] = None
         self.wanted = 0
         self.stopped_early = False
@@ -939,14 +1058,35 @@ class _TailRun(Estimator):
                 "particles or a larger dt")
 
     def state(self):
-        return json_state({"samples": self.samples})
+        return json_state({"samples": self.samples, "checksum": self.digest.hexdigest()})
 
     def restore(self, arrays, path):
-        samples = read_json_state(path, arrays, "a tail run").get("samples")
+        """Carry on from a checkpoint's samples (its identity already matched this run's).
+
+        Every sample is checked against what this run can have written (types, lengths,
+        ranges, and the fields' consistency with each other), naming the field; then the
+        checksum, which the run wrote over its spec and the samples, refuses any edit the
+        ranges let through (an estimate scaled within [0, 1], another run's samples)."""
+        where = f"checkpoint: {path}"
+        st = read_json_state(path, arrays, "a tail run")
+        samples = st.get("samples")
         if not isinstance(samples, list) or not all(isinstance(x, dict) for x in samples):
-            raise ValueError(f"checkpoint: {path} is not a checkpoint of a tail run (field "
-                             "state: samples is not a list of tables)")
-        self.samples = samples
+            raise ValueError(f"{where} is not a checkpoint of a tail run (field state: samples "
+                             "is not a list of tables)")
+        try:
+            _check_samples(samples, self.job, self.pilot_n + max(2, -(-self.max_samples
+                                                                     // self.per_sample)))
+        except ValueError as exc:
+            raise ValueError(f"{where} is damaged (field {exc}); remove it to start "
+                             "again") from None
+        digest = _digest(self.spec, samples)
+        if st.get("checksum") != digest.hexdigest():
+            why = ("missing" if "checksum" not in st else
+                   "it does not match the samples and this run's spec: they were edited or "
+                   "damaged")
+            raise ValueError(f"{where} is damaged (field checksum: {why}); remove it to start "
+                             "again")
+        self.samples, self.digest = samples, digest
 
     def _tasks(self, first: int, last: int):
         return [Task(sample, (self.job, i, self.task_threads), functools.partial(sample, self.job, i,
@@ -984,6 +1124,7 @@ class _TailRun(Estimator):
 
     def merge(self, task, output):
         self.samples.append(output)
+        self.digest.update(_canonical(output))
 
     def progress(self):
         if self.target_n is None:
@@ -994,7 +1135,28 @@ class _TailRun(Estimator):
         return self.samples
 
 
+def _real(value) -> bool:
+    """Whether ``value`` is a real number (a bool or a string is not: NumPy and float() would
+    take True as 1 and "1" as 1.0)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
 def _levels(levels) -> np.ndarray:
+    # Element by element: NumPy would take "1" as 1.0 and True as 1.0 silently.
+    if isinstance(levels, np.ndarray):
+        items = levels.ravel().tolist()
+    elif isinstance(levels, (str, bytes)):
+        items = [levels]
+    else:
+        try:
+            items = levels = list(levels)  # also takes a generator once
+        except TypeError:
+            items = [levels]
+    bad = next((x for x in items if not (_real(x) or isinstance(x, (list, tuple, np.ndarray)))),
+               None)
+    if bad is not None:
+        raise ParameterError("levels", f"levels must be a number or a sequence of numbers, got "
+                                       f"{bad!r}")
     try:
         arr = np.atleast_1d(np.asarray(levels, dtype=float))
     except (TypeError, ValueError):
@@ -1035,9 +1197,9 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     time : float, optional
         The output time of "velocity" and "speed" (the scene's time units).
     rel_error : float, default 0.1
-        Target relative error (stderr / probability) at every level; samples are added until it
-        is met, ``max_samples`` or ``max_seconds`` is reached (a StatisticsWarning then says
-        what was reached).
+        Target relative error (stderr / probability) at every level, in [1e-6, 1); samples
+        are added until it is met, ``max_samples`` or ``max_seconds`` is reached (a
+        StatisticsWarning then says what was reached).
     method : {"splitting", "importance"}
         Adaptive multilevel splitting (any quantity; the default) or importance sampling with
         an exact likelihood ratio (a lower or reversed friction over a final window, chosen
@@ -1054,7 +1216,8 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     min_samples, max_samples : int, optional
         The pilot's size, which sets how many samples the target needs (left out of the
         estimate), and the most samples the estimate may take: replicas (splitting; default 20
-        and 100000) or paths (importance sampling; default 1000 and 10^8).
+        and 100000; a pilot of at least 3) or paths (importance sampling; default 1000 and
+        10^8).
     max_seconds : float, default 3600
         Stop adding samples after this long.
     threads : int, optional
@@ -1067,8 +1230,10 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     checkpoint : str or path, optional
         A file of the finished samples (crandall's checkpoint format): a run with the same
         arguments resumes from it, and an interrupted run (Ctrl-C) loses only the replica or
-        batch in progress. A file of another run or estimator is refused, naming the
-        arguments that differ.
+        batch in progress. A file of another run (``rel_error``, ``min_samples`` and
+        ``max_samples`` included) or estimator is refused, naming the arguments that differ;
+        so is a damaged or edited one, naming the field (its samples are checked, and a
+        checksum over them: docs/methods/tails.md).
 
     Returns
     -------
@@ -1090,8 +1255,10 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
                                  f"{problem.noisy_steps}")
     if method not in TAIL_METHODS:
         raise ParameterError("method", f"method must be one of {', '.join(TAIL_METHODS)}; got {method!r}")
-    if not (isinstance(rel_error, (int, float)) and math.isfinite(rel_error) and 0 < rel_error < 1):
-        raise ParameterError("rel_error", f"rel_error must be in (0, 1), got {rel_error!r}")
+    if not (_real(rel_error) and MIN_REL_ERROR <= rel_error < 1):
+        raise ParameterError("rel_error", f"rel_error must be in [{MIN_REL_ERROR:g}, 1), got "
+                                          f"{rel_error!r}")
+    rel_error = float(rel_error)
     if not (isinstance(max_seconds, (int, float)) and max_seconds > 0):
         raise ParameterError("max_seconds", f"max_seconds must be > 0, got {max_seconds!r}")
     check_int("particles", particles, 10, 10_000_000)
@@ -1102,7 +1269,15 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     check_int("seed", seed, 0, (1 << 64) - 1)
     splitting = method == "splitting"
     check_client(client)
+    if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
+        raise ParameterError("checkpoint", f"checkpoint must be a path, got {checkpoint!r}")
     min_samples = check_int("min_samples", min_samples if min_samples is not None else (20 if splitting else 1000), 2, 10 ** 12)
+    if splitting and min_samples < 3:
+        # The pilot's variance bound (variance_upper_factor) is infinite below 3 samples.
+        # Importance sampling's pilot is whole batches of particles >= 10 paths.
+        raise ParameterError("min_samples", f"min_samples must be >= 3 for splitting (the "
+                                            f"pilot's variance bound needs 3 replicas), got "
+                                            f"{min_samples}")
     max_samples = check_int("max_samples", max_samples if max_samples is not None else (100_000 if splitting else 10 ** 8), min_samples, 10 ** 12)
     # Sample i continues its paths with the streams i * 2^40 + 0, 1, ... (signed 64-bit in the
     # core's call): at most 2^23 samples, pilot and second stage together.
@@ -1114,8 +1289,11 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
                              f"blocks of 2^40); give fewer" + ("" if splitting else " or more particles"))
     key = _streams.tail_key(seed)
     unit = "" if scene.units == "scaled" else TAIL_QUANTITIES[quantity].unit
+    # What the samples are and how many the run takes (max_seconds is not: a run stopped by
+    # it resumes with more time).
     spec = {"scene": scene.to_dict(), **problem.describe(), "levels": lv.tolist(),
-            "method": method, "seed": seed, "particles": particles}
+            "method": method, "seed": seed, "particles": particles, "rel_error": rel_error,
+            "min_samples": min_samples, "max_samples": max_samples}
     spec = json.loads(json.dumps(spec))  # the checkpoint's view of it (tuples become lists)
     if problem.noisy_steps == 0:
         # No noise before the horizon: the quantity is deterministic.
