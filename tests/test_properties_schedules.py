@@ -319,11 +319,17 @@ def test_what_is_labelled_exact_agrees_with_an_independent_sampler(schedule, m, 
             assert np.all(np.asarray(r.bias(name, stat)) == 0.0), (name, stat)
     (v_f, stop_f), (v_c, stop_c) = euler_pair(ends_of(schedule), c, v0, times, 1.0 / 128,
                                               8000, seed=11)
+    # The kinetic energy's standard error rests on the velocity's fourth moment: where fewer
+    # than MIN_CARRIERS paths carry the spread (nearly all at rest) it is withheld, and no
+    # comparison can be made there (the test makes none; the velocity's mean still has one).
+    carried = np.asarray(r.carriers("kinetic_energy")) >= crandall.results.MIN_CARRIERS
     for i, t in enumerate(times):
         agrees_with_euler(("E V", t), r.mean("velocity")[i], r.stderr("velocity")[i],
                           v_f[i], v_c[i])
-        agrees_with_euler(("E V^2 / 2", t), r.mean("kinetic_energy")[i],
-                          r.stderr("kinetic_energy")[i], v_f[i] ** 2 / 2, v_c[i] ** 2 / 2)
+        if carried[i]:
+            agrees_with_euler(("E V^2 / 2", t), r.mean("kinetic_energy")[i],
+                              r.stderr("kinetic_energy")[i], v_f[i] ** 2 / 2,
+                              v_c[i] ** 2 / 2)
     agrees_with_euler("E t_s", r.mean("stop_time"), r.stderr("stop_time"), stop_f, stop_c)
     # The stop time's second moment: Var t_s + (E t_s)^2, as the mean of t_s^2 per path.
     mean, var = r.mean("stop_time"), r.var("stop_time")
