@@ -468,8 +468,8 @@ def _proposal(problem: _Problem, window: float, drift: float, slow: float = 0.0,
     proposal leaves the velocity at the window's start under the scene's law, and its weight
     grows with that velocity about as fast as the velocity's density falls, so paths that
     start the window already fast weigh up to 1 / P times more than the others (the stop time
-    at tau0 = 20 past 25, P = 2e-9, window 5, drift -c: a relative variance per path of 2e8 by
-    quadrature, where pilots of a few hundred paths saw tens). Under one intensity the whole
+    at tau0 = 20 past 25, P = 2e-9, window 5, drift -c: a relative variance per path of order
+    1e8 by quadrature, where pilots of a few hundred paths saw tens). Under one intensity the whole
     horizon's likelihood ratio on the coarse grid falls with the final speed, so paths past
     the level weigh at most what one at the level does, and the mixture's weights at most
     that over DEFENSIVE (docs/methods/tails.md)."""
