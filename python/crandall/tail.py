@@ -469,10 +469,10 @@ def _proposal(problem: _Problem, window: float, drift: float, slow: float = 0.0,
     grows with that velocity about as fast as the velocity's density falls, so paths that
     start the window already fast weigh up to 1 / P times more than the others (the stop time
     at tau0 = 20 past 25, P = 2e-9, window 5, drift -c: a relative variance per path of order
-    1e8 by quadrature, where pilots of a few hundred paths saw tens). Under one intensity the whole
-    horizon's likelihood ratio on the coarse grid falls with the final speed, so paths past
-    the level weigh at most what one at the level does, and the mixture's weights at most
-    that over DEFENSIVE (docs/methods/tails.md)."""
+    1e8 by quadrature, where pilots of a few hundred paths saw tens). The whole horizon's
+    likelihood ratio on the coarse grid, its pieces tilted (_tilted), falls with the final
+    speed, so paths past the level weigh about what one at the level does at most, and the
+    mixture's weights at most that over DEFENSIVE (docs/methods/tails.md)."""
     d = problem.drifts.copy()
     noisy = problem.noises > 0
     inside = (problem.step_starts >= problem.horizon - window - 1e-12 * problem.horizon) & noisy
@@ -750,8 +750,8 @@ def _choose_proposal(problem, levels, key, threads, pilot):
     for w in sorted(windows, key=lambda w: w != problem.horizon):
         grid = _grid_for(problem, w)
         if mixed and w != problem.horizon and full is None:
-            # No whole-horizon proposal reached the level in 20 pilot paths: the one with the
-            # most hits still bounds the weights.
+            # No whole-horizon proposal had 20 pilot paths past the level: the one with the
+            # most still bounds the weights.
             full = max((t for t in tried if t["window"] == problem.horizon),
                        key=lambda t: t["hits"])["drift"]
         for d in drifts:
