@@ -458,23 +458,61 @@ def _log_weights(problem: _Problem, states: np.ndarray, drifts: np.ndarray) -> n
 
 class _Law(NamedTuple):
     """A proposal's law on a grid: per step the drift, and (or None) the speed below which a
-    step keeps the scene's friction."""
+    step keeps the scene's friction; ``full`` (or None) the drifts of a defensive component
+    over every noisy step that draws DEFENSIVE of the paths (see _proposal)."""
 
     drifts: np.ndarray
     slow: Optional[np.ndarray] = None
+    full: Optional[np.ndarray] = None
 
 
-def _proposal(problem: _Problem, window: float, drift: float, slow: float = 0.0) -> _Law:
+def _proposal(problem: _Problem, window: float, drift: float, slow: float = 0.0,
+              full: Optional[float] = None) -> _Law:
     """The proposal's law: ``drift`` on the noisy steps that start in the last ``window`` of
     the horizon, the scene's friction elsewhere; with ``slow`` > 0 only while the speed at the
     step's start is at least ``slow`` times the piece's mean stationary speed sigma^2 / (2 c)
-    (below it the scene's friction: the weight then does not see the time spent near 0)."""
+    (below it the scene's friction: the weight then does not see the time spent near 0).
+
+    With ``full`` (a drift) and a window that leaves noisy steps before it, a defensive
+    mixture: DEFENSIVE of the paths have the friction ``full`` on every noisy step. A window's
+    proposal leaves the velocity at the window's start under the scene's law, and its weight
+    grows with that velocity about as fast as the velocity's density falls, so paths that
+    start the window already fast weigh up to 1 / P times more than the others (the stop time
+    at tau0 = 20 past 25, P = 2e-9, window 5, drift -c: a relative variance per path of order
+    1e8 by quadrature, where pilots of a few hundred paths saw tens). The whole horizon's
+    likelihood ratio on the coarse grid, its pieces tilted (_tilted), falls with the final
+    speed, so paths past the level weigh about what one at the level does at most, and the
+    mixture's weights at most that over DEFENSIVE (docs/methods/tails.md)."""
     d = problem.drifts.copy()
-    inside = (problem.step_starts >= problem.horizon - window - 1e-12 * problem.horizon) & (problem.noises > 0)
-    d[inside] = drift
+    noisy = problem.noises > 0
+    inside = (problem.step_starts >= problem.horizon - window - 1e-12 * problem.horizon) & noisy
+    d[inside] = _tilted(problem, inside, drift)
+    whole = None
+    if full is not None and np.any(noisy & ~inside):
+        whole = problem.drifts.copy()
+        whole[noisy] = _tilted(problem, noisy, full)
     if slow <= 0.0:
-        return _Law(d)
+        return _Law(d, None, whole)
+    if whole is not None:
+        raise ValueError("full: a speed-dependent proposal has no defensive full-horizon component")
     return _Law(d, np.where(inside, slow * problem.noises ** 2 / (2 * problem.scene.drift), 0.0))
+
+
+def _tilted(problem: _Problem, steps: np.ndarray, drift: float) -> np.ndarray:
+    """The drifts of the ``steps`` of a proposal with ``drift`` on the loudest of them. For the
+    velocity quantities a step of noise sigma gets c - (c - drift) sigma^2 / sigma_max^2: the
+    friction lowered by theta sigma^2 for one theta, the exponential tilt of |V| (the law of the
+    path weighted by exp(theta |V(T)|)), whose likelihood ratio's free part
+    exp(-theta (|x'| - |x|)) telescopes across pieces, so the whole horizon's weight falls with
+    the final speed under any schedule. One drift for every piece does not: with the pieces'
+    noise falling (v0 = 6, scaled intensities 1.5 then 0.7 over 4 each, P = 1e-8), a path fast
+    at the end of the loud piece weighs more the faster it was. Under one intensity this is
+    ``drift`` itself; the other quantities keep ``drift`` on every step."""
+    noise = problem.noises[steps]
+    if not _coarse(problem) or len(noise) == 0:
+        return np.full(len(noise), drift)
+    c, top = problem.scene.drift, np.max(noise)
+    return np.where(noise == top, drift, c - (c - drift) * (noise / top) ** 2)
 
 
 def _importance_batch(problem, law, levels, paths, key, first, threads):
@@ -499,9 +537,19 @@ def _importance_batch(problem, law, levels, paths, key, first, threads):
     else:
         if law.slow is not None:
             raise ValueError("slow: a speed-dependent proposal needs the touches' weights")
-        _extend(problem, states, rows, np.zeros(paths), first + rows, key, threads, law=law)
+        # With a full-horizon component: its DEFENSIVE of the paths first, each path weighed
+        # against the mixture (a deterministic mixture, Owen & Zhou 2000: unbiased with the
+        # components' shares fixed).
+        own = int(round(DEFENSIVE * paths)) if law.full is not None else 0
+        for part, drifts in ((rows[:own], law.full), (rows[own:], law.drifts)):
+            if len(part):
+                _extend(problem, states, part, np.zeros(len(part)), first + part, key, threads,
+                        law=_Law(drifts))
         value = problem.value(problem.score(states))
         logw = _log_weights(problem, states, law.drifts)
+        if own:
+            logw = -np.logaddexp(math.log(DEFENSIVE) - _log_weights(problem, states, law.full),
+                                 math.log1p(-DEFENSIVE) - logw)
     hits = value[:, None] > levels[None, :]
     return np.where(hits, np.exp(logw)[:, None], 0.0)
 
@@ -512,7 +560,11 @@ def _importance_batch(problem, law, levels, paths, key, first, threads):
 #: (a friction change alone pushes the distance, not the displacement, one way).
 SIGN_QUANTITIES = ("displacement_at_stop", "residual_displacement")
 #: The share of their paths simulated under the scene's own law, and of their signs drawn as
-#: fair coins (defensive mixtures).
+#: fair coins (defensive mixtures); for the velocity quantities, of the paths under the
+#: full-horizon component of a window's proposal (_proposal). On the stop time at tau0 = 20
+#: past 25 (by quadrature) the mixture of window 10, drift -c/2 with drift 0 over the horizon
+#: has a relative variance per path of 14 with a share of 0.1, 18 with 0.3, where either alone
+#: has 91 and 29.
 DEFENSIVE = 0.1
 #: Their proposals' speed thresholds, in units of the stationary mean speed sigma^2 / (2 c).
 SLOW_FACTORS = (0.0, 1.0)
@@ -638,11 +690,16 @@ def _excursions(problem: _Problem, states: np.ndarray, touched: np.ndarray):
     return fixed, parts[:, 1:]
 
 
+def _coarse(problem: _Problem) -> bool:
+    """Whether importance sampling runs on the coarsest grid (the velocity quantities)."""
+    return problem.q.velocity_only and not problem.q.peak
+
+
 def _grid_for(problem: _Problem, window: float) -> _Problem:
     """The grid importance sampling runs on: the coarsest one for the velocity quantities (the
     likelihood ratio of fewer grid values has a lighter tail: it no longer sees the time the
     path spends near 0), the problem's own otherwise."""
-    if problem.q.velocity_only and not problem.q.peak:
+    if _coarse(problem):
         return problem.coarse_for(window)
     return problem
 
@@ -661,6 +718,14 @@ def _ld_windows(problem: _Problem, top: float) -> List[float]:
     if not (c > 0 and a > 0):
         return []
     return [min(problem.horizon, a / c)]
+
+
+#: The pilot paths per proposal of the velocity quantities, which run on a few grid steps (one
+#: per piece and window). On the stop time at tau0 = 20 past 25 (100 seeds) pilots of 1024
+#: paths chose window 5, drift -c in 19 runs (its mixture's relative variance per path is 50 by
+#: quadrature; 13 of the 19 runs were flagged, their weights' tail heavy), pilots of 4096 in
+#: none: always window 10, drift -c/2 (14), all 100 runs reliable.
+_COARSE_PILOT = 4096
 
 
 def _choose_proposal(problem, levels, key, threads, pilot):
@@ -683,10 +748,22 @@ def _choose_proposal(problem, levels, key, threads, pilot):
     # The displacement's proposals may also change the friction only while the body slides
     # faster than the stationary mean speed (SLOW_FACTORS; 0: whatever its speed).
     slows = SLOW_FACTORS if problem.q.name in SIGN_QUANTITIES else (0.0,)
+    # The velocity quantities' windows shorter than the horizon draw DEFENSIVE of their paths
+    # with the friction over the whole horizon that did best on its own (_proposal: their
+    # weights are bounded then). The whole horizon's proposals are tried first, to know it.
+    mixed = _coarse(problem)
+    if mixed:
+        pilot = max(pilot, _COARSE_PILOT)
+    full = None
     best, tried = None, []
     stream = 1 << 62
-    for w in windows:
+    for w in sorted(windows, key=lambda w: w != problem.horizon):
         grid = _grid_for(problem, w)
+        if mixed and w != problem.horizon and full is None:
+            # No whole-horizon proposal had 20 pilot paths past the level: the one with the
+            # most still bounds the weights.
+            full = max((t for t in tried if t["window"] == problem.horizon),
+                       key=lambda t: t["hits"])["drift"]
         for d in drifts:
             for f in slows:
                 if f > 0 and d == c:
@@ -697,17 +774,20 @@ def _choose_proposal(problem, levels, key, threads, pilot):
                     # variance per path of 3400 and a Pareto shape of 0.91 that way, 103 and
                     # 0.51 above the mean speed; a pilot of 1024 paths does not see the tail.
                     continue
-                prop = _proposal(grid, w, d, f)
+                prop = _proposal(grid, w, d, f, full if w != problem.horizon else None)
                 contrib = _importance_batch(grid, prop, np.array([top]), pilot, key, stream,
                                             threads)[:, 0]
                 stream += pilot
                 hits = int(np.count_nonzero(contrib))
                 mean = contrib.mean()
                 rel = contrib.var() / mean ** 2 if mean > 0 else math.inf
-                tried.append({"window": w, "drift": d, "slow": f, "hits": hits,
+                used = None if prop.full is None else full
+                tried.append({"window": w, "drift": d, "slow": f, "full": used, "hits": hits,
                               "relative_variance": rel})
-                if hits >= 20 and (best is None or rel < best[3]):
-                    best = (w, d, f, rel)
+                if hits >= 20 and (best is None or rel < best[4]):
+                    best = (w, d, f, used, rel)
+        if mixed and w == problem.horizon and best is not None:
+            full = best[1]
     return best, tried
 
 
@@ -755,9 +835,9 @@ def sample(job: Dict[str, Any], index: int, threads: int = 0) -> Dict[str, Any]:
                                        _max_iterations(n))
         return {"estimates": est.tolist(), "iterations": info["iterations"],
                 "steps": info["steps"]}
-    window, drift, slow = job["proposal"]
+    window, drift, slow, full = job["proposal"]
     grid = _grid_for(problem, window)
-    contrib = _importance_batch(grid, _proposal(grid, window, drift, slow), lv, n, key,
+    contrib = _importance_batch(grid, _proposal(grid, window, drift, slow, full), lv, n, key,
                                 index * _REPLICA_STREAMS, threads)
     return {"paths": n, "steps": n * grid.steps,
             "sum": contrib.sum(axis=0).tolist(),
@@ -1307,6 +1387,7 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     start = _time.perf_counter()
     diagnostics: Dict[str, Any] = {}
     window = drift = slow = 0.0
+    full = None
     if splitting:
         diagnostics.update(particles=particles, killed_per_iteration=max(1, particles // 10),
                            score=("plain" if _normalised_top(problem, lv) is None
@@ -1321,14 +1402,15 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
             raise StatisticsFailure(
                 f"importance sampling: no proposal reached level {lv[-1]:g} in its pilot paths; "
                 f"use method='splitting'")
-        window, drift, slow, _ = best
-        diagnostics["proposal"] = {"window": window, "drift": drift, "slow": slow}
+        window, drift, slow, full, _ = best
+        diagnostics["proposal"] = {"window": window, "drift": drift, "slow": slow,
+                                   "full": full}
 
     # What a sample needs, as plain data: the sample is a pure function of it and its index,
     # run here or as a Dask task (bitwise the same).
     job = {"scene": scene.to_dict(), "quantity": quantity, "time": time, "dt": problem.dt,
            "levels": lv.tolist(), "particles": particles, "key": key,
-           "proposal": None if splitting else (window, drift, slow)}
+           "proposal": None if splitting else (window, drift, slow, full)}
 
     run = _TailRun(job, spec, threads=threads, task_threads=task_threads,
                    per_sample=1 if splitting else particles,
