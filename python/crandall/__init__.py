@@ -11,6 +11,7 @@ Berezin & Zayats (see ``crandall.analytic``).
 """
 
 from ._version import __version__
+from . import _openmp  # noqa: F401  (first: OpenMP's wait policy, read when the core loads)
 from . import bias as _bias  # installs the results' bias estimator
 from .io import load
 from .results import Result, StatisticsWarning
