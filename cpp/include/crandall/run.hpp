@@ -60,8 +60,8 @@ constexpr double kValuesPerStep = 64.0;
 
 // The threads a parallel loop of the core uses for a `threads` argument (that many, or
 // OpenMP's default for 0) and its `work` in path steps: at most one per kThreadWork steps (or
-// set_thread_work's value), at least one. Every loop's result is the same for any thread count, so this only changes the
-// time. Throws std::invalid_argument for a negative count.
+// set_thread_work's value), at least one. Every loop's result is the same for any thread
+// count, so this only changes the time. Throws std::invalid_argument for a negative count.
 int thread_count(int threads, double work);
 
 // Simulate chunk `chunk` of the plan on `threads` threads (0: OpenMP's default). The result
