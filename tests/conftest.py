@@ -3,6 +3,18 @@ import math
 import pytest
 
 import crandall
+from crandall import _core
+
+
+@pytest.fixture(autouse=True, scope="session")
+def small_runs_go_parallel():
+    """The tests' runs are small: every parallel loop of the core goes parallel anyway (one
+    path step of work per thread, where runs give each thread about 10 ms of work), so that
+    the tests of bitwise results across thread counts do run on several threads. Subprocesses
+    run with the rule as shipped."""
+    before = _core.set_thread_work(1.0)
+    yield
+    _core.set_thread_work(before)
 
 
 @pytest.fixture

@@ -192,3 +192,35 @@ def test_threads_default_to_every_core_here_and_one_per_cluster_task():
     for bad in (0, 2.0, "2", True):
         with pytest.raises(ValueError, match="threads"):
             driver.threads(bad)
+
+
+# OpenMP's wait policy (crandall._openmp): an idle thread of GNU's runtime spun for
+# milliseconds between two parallel loops, taking the cores other work on the machine needed
+# (issue 30). The runtime reports what it read with OMP_DISPLAY_ENV=verbose.
+_POLICY = "import os, crandall; print(os.environ.get('OMP_WAIT_POLICY'))"
+
+
+def _policy(**user):
+    import os
+    import re
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("OMP_WAIT_POLICY", "GOMP_SPINCOUNT", "KMP_BLOCKTIME")}
+    env.update(user, OMP_DISPLAY_ENV="verbose")
+    done = subprocess.run([sys.executable, "-c", _POLICY], env=env, capture_output=True,
+                          text=True, check=True)
+    spin = re.search(r"GOMP_SPINCOUNT = '(\d+)'", done.stderr)
+    if spin is None:
+        pytest.skip("the core's OpenMP runtime is not GNU's (no GOMP_SPINCOUNT)")
+    return int(spin.group(1)), done.stdout.strip()
+
+
+def test_openmp_threads_sleep_when_idle_unless_the_user_chose_a_policy():
+    # No policy given: passive (no spinning), and the variable is not left to child processes.
+    assert _policy() == (0, "None")
+    # The user's choice is kept: an active policy spins, GNU's spin count is taken as given.
+    spin, left = _policy(OMP_WAIT_POLICY="active")
+    assert spin > 0 and left == "active"
+    assert _policy(GOMP_SPINCOUNT="1234") == (1234, "None")

@@ -60,4 +60,8 @@ void register_run(py::module_& m) {
       },
       py::arg("plan"), py::arg("chunk"), py::arg("threads") = 0,
       "Simulate one chunk of paths; bitwise the same for any thread count.");
+
+  m.def("set_thread_work", &crandall::set_thread_work, py::arg("steps"),
+        "Set the least work (path steps) a thread of a parallel loop gets, for the process; "
+        "returns the previous value. The tests set 1 (their runs are small).");
 }

@@ -91,7 +91,10 @@ void extend_paths(double* states, std::size_t rows_total, const BranchGrid& grid
       throw std::invalid_argument("states: the start state of row " + std::to_string(rows[i]) +
                                   " is not finite");
   }
-  const int team = thread_count(threads);
+  double work = 0.0;  // the steps to take: splitting extends a few short paths at a time
+  for (std::size_t i = 0; i < count; ++i)
+    work += double(grid.steps - static_cast<std::size_t>(starts[i]));
+  const int team = thread_count(threads, work);
   const long n = static_cast<long>(count);
 #pragma omp parallel for schedule(dynamic, 16) num_threads(team)
   for (long i = 0; i < n; ++i)

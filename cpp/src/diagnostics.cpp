@@ -15,7 +15,7 @@
 namespace crandall {
 
 double random_floor(std::uint64_t paths, std::uint64_t steps, std::uint64_t seed, int threads) {
-  const int team = thread_count(threads);
+  const int team = thread_count(threads, double(paths) * double(steps));
   const long groups = static_cast<long>((paths + kLanes - 1) / kLanes);
   const KernelTable& kernel = active_kernel();
   double total = 0.0;

@@ -22,7 +22,7 @@ void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int
   if (count == 0 || first >= o.paths || count > o.paths - first)
     throw std::invalid_argument("run_samples: paths [first, first + count) must lie in the plan's paths");
   if (count > (std::uint64_t{1} << 24)) throw std::invalid_argument("run_samples: count must be <= 2^24");
-  const int team = thread_count(threads);
+  const int team = thread_count(threads, double(count) * double(plan.steps_per_path()));
   const std::size_t slots = o.sample_slots();
   const int grids = o.grids();
   BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks,
@@ -108,7 +108,8 @@ void form_features(const double* samples, std::uint64_t rows, std::uint64_t slot
       throw std::invalid_argument("form_features: a column's control slot is out of range");
   }
   const std::size_t path_size = static_cast<std::size_t>(slots) * static_cast<std::size_t>(grids) * 3;
-#pragma omp parallel for schedule(static) num_threads(thread_count(threads))
+  const int team = thread_count(threads, double(rows) * double(cols) / kValuesPerStep);
+#pragma omp parallel for schedule(static) num_threads(team)
   for (std::int64_t r = 0; r < static_cast<std::int64_t>(rows); ++r) {
     const double* path = samples + static_cast<std::size_t>(r) * path_size;
     double* row = out + static_cast<std::size_t>(r) * cols;
@@ -145,7 +146,8 @@ std::vector<double> sum_products(const double* values, std::uint64_t rows, std::
   const std::uint64_t block = 256;
   const long blocks = static_cast<long>((rows + block - 1) / block);
   std::vector<double> partial(static_cast<std::size_t>(blocks) * width, 0.0);
-#pragma omp parallel for schedule(static) num_threads(thread_count(threads))
+  const int team = thread_count(threads, double(rows) * double(width) / kValuesPerStep);
+#pragma omp parallel for schedule(static) num_threads(team)
   for (long b = 0; b < blocks; ++b) {
     double* acc = partial.data() + static_cast<std::size_t>(b) * width;
     const std::uint64_t end = std::min<std::uint64_t>(rows, (static_cast<std::uint64_t>(b) + 1) * block);

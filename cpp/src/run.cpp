@@ -2,6 +2,8 @@
 
 #include <omp.h>
 
+#include <atomic>
+#include <cmath>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -30,17 +32,29 @@ ChunkResult empty_result(const Options& o) {
 
 }  // namespace
 
-int thread_count(int threads) {
+namespace {
+std::atomic<double> thread_work{kThreadWork};
+}  // namespace
+
+double set_thread_work(double steps) {
+  if (!(std::isfinite(steps) && steps >= 1.0))
+    throw std::invalid_argument("thread work must be finite and >= 1 step");
+  return thread_work.exchange(steps);
+}
+
+int thread_count(int threads, double work) {
   if (threads < 0) throw std::invalid_argument("threads must be >= 0");
-  return threads > 0 ? threads : omp_get_max_threads();
+  const int asked = threads > 0 ? threads : omp_get_max_threads();
+  const double useful = std::floor(work / thread_work.load());
+  return useful < 1.0 ? 1 : useful < asked ? static_cast<int>(useful) : asked;
 }
 
 ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
                       const CancelCheck& cancel) {
-  const int team = thread_count(threads);
   const Options& o = plan.options();
   const std::uint64_t first = chunk * kChunkPaths;
   const std::uint64_t count = plan.chunk_paths(chunk);
+  const int team = thread_count(threads, double(count) * double(plan.steps_per_path()));
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
   // The quadratic variation is only recorded with run_samples' values: not integrated here.
   const BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks,

@@ -2,6 +2,7 @@
 // from the calling thread, even while another thread holds the only block; an exception in the
 // cancel check comes back to the caller; the stop time keeps its precision at a huge switch-off.
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <chrono>
 #include <cmath>
@@ -15,6 +16,34 @@
 #include "support.hpp"
 
 namespace {
+
+// The tests' runs are small: every parallel loop goes parallel anyway (one step of work per
+// thread), so that the thread-count tests do run on several threads. Run.ThreadsGetEnoughWork
+// checks the rule a run follows.
+class SmallRunsGoParallel : public ::testing::Environment {
+ public:
+  void SetUp() override { crandall::set_thread_work(1.0); }
+};
+[[maybe_unused]] ::testing::Environment* const kSmallRuns =
+    ::testing::AddGlobalTestEnvironment(new SmallRunsGoParallel);
+
+TEST(Run, ThreadsGetEnoughWork) {
+  const double before = crandall::set_thread_work(crandall::kThreadWork);
+  const double w = crandall::kThreadWork;
+  EXPECT_EQ(crandall::thread_count(4, 0.0), 1);
+  EXPECT_EQ(crandall::thread_count(4, 2 * w - 1), 1);  // one thread below twice the least work
+  EXPECT_EQ(crandall::thread_count(4, 2 * w), 2);
+  EXPECT_EQ(crandall::thread_count(4, 3.5 * w), 3);
+  EXPECT_EQ(crandall::thread_count(4, 1e300), 4);
+  EXPECT_EQ(crandall::thread_count(0, 1e300), omp_get_max_threads());
+  EXPECT_EQ(crandall::thread_count(1, 1e300), 1);
+  // splitting's usual extension: 20 paths of a few hundred steps
+  EXPECT_EQ(crandall::thread_count(2, 20.0 * 400.0), 1);
+  EXPECT_THROW(crandall::thread_count(-1, 1e300), std::invalid_argument);
+  EXPECT_THROW(crandall::set_thread_work(0.5), std::invalid_argument);
+  EXPECT_THROW(crandall::set_thread_work(std::nan("")), std::invalid_argument);
+  EXPECT_EQ(crandall::set_thread_work(before), w);
+}
 
 TEST(Run, BitwiseIdenticalForAnyThreadCount) {
   const crandall::Plan plan(scene());

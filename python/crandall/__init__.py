@@ -13,6 +13,7 @@ Berezin & Zayats (see ``crandall.analytic``).
 from typing import TYPE_CHECKING
 
 from ._version import __version__
+from . import _openmp  # noqa: F401  (first: OpenMP's wait policy, read when the core loads)
 from . import bias as _bias  # installs the results' bias estimator
 from ._lazy import lazy_submodules as _lazy_submodules
 from .io import load

@@ -131,6 +131,10 @@ class ChunkResult:
 def run_chunk(plan: Plan, chunk: int, threads: int = 0) -> ChunkResult:
     """Simulate one chunk of paths; bitwise the same for any thread count."""
 
+def set_thread_work(steps: float) -> float:
+    """Set the least work (path steps) a thread of a parallel loop gets, for the process;
+    returns the previous value. The tests set 1 (their runs are small)."""
+
 def exact_steps(
     start: Union[Sequence[float], npt.NDArray[np.float64]],
     h: float,

@@ -43,9 +43,26 @@ class Cancelled : public std::runtime_error {
   Cancelled() : std::runtime_error("run cancelled") {}
 };
 
-// The threads a parallel loop of the core uses for a `threads` argument: that many, or OpenMP's
-// default for 0. Throws std::invalid_argument for a negative count.
-int thread_count(int threads);
+// The least work (in path steps) a thread of a parallel loop must get: about 10 ms of one
+// core. A smaller loop runs on fewer threads (one below twice this). Waking a thread and
+// waiting for it at the loop's end costs microseconds on an idle machine but up to a time
+// slice of the scheduler (milliseconds) on a busy one, and splitting's thousands of small
+// path extensions paid it each time (issue 30: 28x slower than one thread under load).
+constexpr double kThreadWork = double(1u << 17);
+// Sets the least work per thread for the process (kThreadWork until then) and returns the
+// previous value. The tests set 1 so that their small runs still go parallel and check that
+// results do not depend on the thread count; nothing else changes it. Throws
+// std::invalid_argument unless steps is finite and >= 1.
+double set_thread_work(double steps);
+// Values formed or summed per path step, for loops over stored values (a step costs about
+// 100 ns, a value a nanosecond or two).
+constexpr double kValuesPerStep = 64.0;
+
+// The threads a parallel loop of the core uses for a `threads` argument (that many, or
+// OpenMP's default for 0) and its `work` in path steps: at most one per kThreadWork steps (or
+// set_thread_work's value), at least one. Every loop's result is the same for any thread
+// count, so this only changes the time. Throws std::invalid_argument for a negative count.
+int thread_count(int threads, double work);
 
 // Simulate chunk `chunk` of the plan on `threads` threads (0: OpenMP's default). The result
 // is bitwise the same for any thread count. No exception escapes the threads: the first one
