@@ -1,6 +1,6 @@
 """A notebook, as a user runs one (nbclient and ipykernel, which make test installs): figures
 show as pictures without ``%matplotlib inline``, a run shows a progress bar where a person
-watches, and results show as HTML tables."""
+watches, and results (a run's, a tail's) show as HTML tables."""
 
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ CELLS = [
     "crandall._resources._interactive()",
     "result = crandall.simulate(scene, paths=20_000, seed=1, progress=True)\nresult",
     "plots.distance_mean(result)",
+    "crandall.tail(scene, 'stop_time', [1.5], seed=1, rel_error=0.3)",
 ]
 
 
@@ -36,7 +37,7 @@ def _outputs(tmp_path, monkeypatch):
 
 
 def test_a_notebook_shows_figures_a_progress_bar_and_tables(tmp_path, monkeypatch):
-    imports, interactive, run, figure = _outputs(tmp_path, monkeypatch)
+    imports, interactive, run, figure, tail = _outputs(tmp_path, monkeypatch)
     assert imports == []
     assert interactive[0]["data"]["text/plain"] == "True"
     # The bar: a widget where ipywidgets is installed, else tqdm's text on stderr.
@@ -48,3 +49,6 @@ def test_a_notebook_shows_figures_a_progress_bar_and_tables(tmp_path, monkeypatc
     shown = figure[-1]["data"]
     assert "image/png" in shown, figure
     assert shown["text/plain"].startswith("<Figure")
+    # Every kind of result has its HTML table.
+    shown = [out["data"] for out in tail if "data" in out][-1]
+    assert "<table" in shown["text/html"] and "stop_time" in shown["text/html"]

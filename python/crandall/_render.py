@@ -1,4 +1,4 @@
-"""HTML rendering of a result for notebooks (``Result._repr_html_``).
+"""HTML rendering of results for notebooks (``Result._repr_html_``, ``TailResult._repr_html_``).
 
 Reads the statistics table a result already provides (the rows of ``to_pandas``: the
 statistics and their accuracy per quantity and time, computed once) and lays it out; the text
@@ -79,3 +79,23 @@ def _table_html(result) -> str:
                     "<code>result.estimate_bias()</code> makes it.</p>" if pending else "")
     return (_header(result) + "<table>" + head + "".join(rows) + "</table>"
             + (f"<p><small>{html.escape(note)}</small></p>" if note else "") + pending_note)
+
+
+def tail_html(result) -> str:
+    """A tail result's table as HTML: per level the probability, its standard error, relative
+    error and 95 % interval, and whether it is reliable (the rows of ``TailResult.__str__``)."""
+    lo, hi = result.interval()
+    unit = f" [{result.units}]" if result.units else ""
+    what = "replicas" if result.method == "splitting" else "paths"
+    head = (f"<p><b>crandall tail</b>: P({html.escape(result.quantity)} &gt; level), "
+            f"{html.escape(result.method)}, {result.samples:,} {what}, "
+            f"{result.seconds:.1f} s</p>")
+    rows = [f"<tr><th>level{html.escape(unit)}</th><th>probability</th><th>stderr</th>"
+            "<th>rel. error</th><th>95 % interval</th><th>reliable</th></tr>"]
+    for i, level in enumerate(result.levels):
+        flag = "yes" if result.reliable[i] else "<b>no</b> (see diagnostics)"
+        rows.append(f"<tr><td>{_num(level)}</td><td>{_num(result.probability[i], '.4g')}</td>"
+                    f"<td>{_num(result.stderr[i], '.3g')}</td>"
+                    f"<td>{_num(result.rel_error[i], '.3f')}</td>"
+                    f"<td>[{_num(lo[i], '.3g')}, {_num(hi[i], '.3g')}]</td><td>{flag}</td></tr>")
+    return head + "<table>" + "".join(rows) + "</table>"

@@ -34,7 +34,7 @@ from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Union
 
 import numpy as np
 
-from . import _core
+from . import _core, _render
 from . import streams as _streams
 from ._lazy import lazy_module
 from ._resources import available_memory
@@ -930,6 +930,10 @@ class TailResult:
             lines.append(f"{lv:16.6g} {self.probability[i]:12.4g} {self.stderr[i]:10.3g} "
                          f"{self.rel_error[i]:8.3f} [{lo[i]:.3g}, {hi[i]:.3g}]{flag}")
         return "\n".join(lines)
+
+    def _repr_html_(self) -> str:
+        """The table of :meth:`__str__` as HTML (Jupyter shows it for a tail result)."""
+        return _render.tail_html(self)
 
     def plot(self, ax=None, reference=None, label=None):
         """The exceedance curve with its 95 % band (log probability). ``reference``: a
