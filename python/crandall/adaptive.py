@@ -818,13 +818,15 @@ class _Engine(Estimator):
                 # A level with control variates fits their coefficients on paths of its own.
                 paths = max(n - have, 0) + (PILOT_PATHS if lev.controls and self.beta is None
                                             else 0)
-                if paths:
-                    seconds += paths * self.path_seconds(level)
-                    steps += paths * lev.cost
-            if time.perf_counter() - started + seconds > self.max_seconds:
-                raise self._too_long(seconds, steps,
-                                     "the round in progress alone" if self.round_count
-                                     else f"the pilot alone, {PILOT_PATHS} paths per level")
+                if not paths:
+                    continue
+                seconds += paths * self.path_seconds(level)
+                steps += paths * lev.cost
+                # Judged after each level's measurement: a finer level's path costs more.
+                if time.perf_counter() - started + seconds > self.max_seconds:
+                    raise self._too_long(seconds, steps,
+                                         "the round in progress alone" if self.round_count
+                                         else f"the pilot alone, {PILOT_PATHS} paths per level")
         while True:
             while self.pending:
                 level, target = self.pending[0]
