@@ -75,6 +75,9 @@ MAX_SECONDS = 3600.0
 #: Path-steps per second above any machine's (bench/throughput.py measures tens of millions
 #: per thread): a bound for what a pilot must at least cost.
 FASTEST_RATE = 1e10
+#: Path-steps of the measurement of a level's time per path before its first batch
+#: (_Engine.measure): a few paths, discarded (at most one path, however long).
+RATE_STEPS = 1 << 20
 #: A round at most multiplies a level's paths by this (the variance estimates of a small
 #: sample can be far off).
 MAX_GROWTH = 16
@@ -387,6 +390,13 @@ class _Engine(Estimator):
         self.checkpoint = None  # where the driver keeps the state (for messages only)
         self.text = ""  # the progress bar's text
         self.max_seconds = MAX_SECONDS
+        #: Per level, [seconds, paths] run here in this call (its measurement first): every
+        #: batch run here is checked against max_seconds before it starts (_checked). Per
+        #: level, since a path's cost is not its steps alone: a path at rest through a pause
+        #: costs nothing on the finer levels, the base level's control sums every step.
+        self.timing: Dict[int, List[float]] = {}
+        #: The start and path-steps of this call.
+        self.call = (time.perf_counter(), 0)
         self.task_threads = 1
         self.started = time.perf_counter()
         self.wall_before = 0.0
@@ -595,19 +605,85 @@ class _Engine(Estimator):
             # Run here (its samples are used at once, from the level's buffers): the first
             # batch fixes what every later batch's features need.
             start, n = batches.pop(0)
-            yield [Task(None, (), functools.partial(lev.samples, start, n), n,
+            run = functools.partial(lev.samples, start, n)
+            yield [Task(None, (), functools.partial(self._checked, lev, n, run), n,
                         key=(lev.level, start, n))]
         if not batches:
             return
         if self.workers is None:
-            yield [Task(None, (), functools.partial(self._batch, lev, start, n), n,
-                        key=(lev.level, None, n)) for start, n in batches]
+            yield [Task(None, (), functools.partial(self._checked, lev, n, functools.partial(
+                self._batch, lev, start, n)), n, key=(lev.level, None, n))
+                for start, n in batches]
             return
         # On a Dask cluster: every batch a task; merged in batch order, so bitwise the local
         # result.
         config = self.config()
         yield [Task(batch_task, (config, lev.level, start, n), None, n,
                     key=(lev.level, None, n)) for start, n in batches]
+
+    def measure(self, lev: _Level) -> Tuple[float, int]:
+        """(seconds, paths) of a few paths of a level as its batches run them (with its
+        control sums; RATE_STEPS path-steps, at least one path): their values are discarded
+        (paths far beyond any the run draws), so the run is unchanged."""
+        n = max(1, min(64, RATE_STEPS // lev.cost))
+        values = np.empty((n,) + tuple(lev.shape))
+        t = time.perf_counter()
+        if lev.controls:
+            ctl = np.empty((n, len(lev.control_slots), _core.CONTROLS))
+            _core.run_samples(lev.plan, 1 << 61, n, self.threads, True, values, ctl,
+                              lev.control_slots)
+        else:
+            _core.run_samples(lev.plan, 1 << 61, n, self.threads, False, values)
+        return time.perf_counter() - t, n
+
+    def path_seconds(self, level: int) -> float:
+        """A level's seconds per path, as measured in this call (first: measure)."""
+        if level not in self.timing:
+            self.timing[level] = list(self.measure(self._level(level)))
+        seconds, paths = self.timing[level]
+        return seconds / paths
+
+    def _checked(self, lev: _Level, n: int, run):
+        """run() (a batch of n paths of a level, run here), unless at the level's time per
+        path measured in this call it would end past max_seconds: then refused, with what was
+        merged kept (the driver's checkpoint)."""
+        seconds = n * self.path_seconds(lev.level)
+        if time.perf_counter() - self.call[0] + seconds > self.max_seconds:
+            raise self._too_long(seconds, n * lev.cost,
+                                 f"the next {n} paths of level {lev.level} alone")
+        t = time.perf_counter()
+        out = run()
+        timing = self.timing[lev.level]
+        timing[0] += time.perf_counter() - t
+        timing[1] += n
+        return out
+
+    def _too_long(self, seconds: float, steps: float, what: str) -> ValueError:
+        """The refusal of a run that would outlast max_seconds: what it would take and what
+        would help."""
+        elapsed = time.perf_counter() - self.call[0]
+        calm = self._calm_time()
+        end = self.scene.t0 if "stop" in self.scene.observe else float(self.scene.times.max())
+        pause = (f"; {calm:.3g} s of the {end:.3g} s its paths are stepped through have no "
+                 f"noise (h = 0), where nothing random happens but the grid's steps still "
+                 f"cost" if calm > 0 else "")
+        return ValueError(
+            f"max_seconds: reaching {self._target_text()} would take about {seconds:.3g} s "
+            f"more ({what}: {steps:.3g} path-steps at the times per path measured, "
+            f"{elapsed:.3g} s spent), beyond max_seconds={self.max_seconds:g}{pause}; raise "
+            f"max_seconds or ask for a larger target"
+            + (" (the checkpoint keeps what was done)" if self.checkpoint else ""))
+
+    def _calm_time(self) -> float:
+        """The time the paths are stepped through without noise (pieces of h = 0)."""
+        end = self.scene.t0 if "stop" in self.scene.observe else float(self.scene.times.max())
+        pieces = list(self.scene.pieces) if self.scene.pieces is not None else [(self.scene.t0, self.scene.noise)]
+        calm, start = 0.0, 0.0
+        for stop, noise in pieces:
+            if noise == 0:
+                calm += max(min(stop, end) - start, 0.0)
+            start = stop
+        return calm
 
     def config(self) -> Dict:
         """What a Dask worker needs to rebuild this engine (plain data)."""
@@ -730,6 +806,27 @@ class _Engine(Estimator):
                     f"{self.max_seconds:g}; give shorter times or t0, or observe only velocity, "
                     "kinetic_energy and stop (no internal steps)")
         started, steps_before = time.perf_counter(), self.path_steps
+        self.call = (started, steps_before)
+        self.timing = {}
+        if self.workers is None:
+            # The round in progress (the pilot: many batches on a long grid) as a whole, at
+            # its levels' measured times per path; each batch again before it starts.
+            seconds = steps = 0.0
+            for level, n in self.pending:
+                lev = self._level(level)
+                have = lev.sums.n if lev.sums is not None else 0
+                # A level with control variates fits their coefficients on paths of its own.
+                paths = max(n - have, 0) + (PILOT_PATHS if lev.controls and self.beta is None
+                                            else 0)
+                if not paths:
+                    continue
+                seconds += paths * self.path_seconds(level)
+                steps += paths * lev.cost
+                # Judged after each level's measurement: a finer level's path costs more.
+                if time.perf_counter() - started + seconds > self.max_seconds:
+                    raise self._too_long(seconds, steps,
+                                         "the round in progress alone" if self.round_count
+                                         else f"the pilot alone, {PILOT_PATHS} paths per level")
         while True:
             while self.pending:
                 level, target = self.pending[0]
@@ -779,15 +876,14 @@ class _Engine(Estimator):
             ran = self.path_steps - steps_before
             # No rate yet when a resumed run starts at a round's end: judged next round.
             seconds = left * elapsed / ran if ran > 0 else math.nan
-            rate = ran / elapsed if elapsed > 0 else math.inf
+            if self.workers is None and ran > 0:
+                # Here: at each level's own time per path (a path's cost is not its steps
+                # alone: see timing).
+                seconds = sum(max(n - lev.sums.n, 0) * self.path_seconds(lev.level)
+                              for n, lev in zip(want, self.levels))
             self._show(worst, seconds)
             if elapsed + seconds > self.max_seconds:
-                raise ValueError(
-                    f"max_seconds: reaching {self._target_text()} would take about "
-                    f"{seconds:.3g} s more ({left:.3g} path-steps at the {rate:.3g} per second "
-                    f"measured so far, after {self.round_count} rounds), beyond max_seconds="
-                    f"{self.max_seconds:g}; raise max_seconds or ask for a larger target"
-                    + (" (the checkpoint keeps what was done)" if self.checkpoint else ""))
+                raise self._too_long(seconds, left, f"after {self.round_count} rounds")
             if deeper and len(self.levels) <= MAX_LEVELS:
                 self.pending = [[len(self.levels), PILOT_PATHS]]
                 continue

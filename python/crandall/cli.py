@@ -189,7 +189,7 @@ def _parser() -> argparse.ArgumentParser:
     tl.add_argument("--dt", type=_float, metavar="DT", help="grid step (default: crandall.default_dt)")
     tl.add_argument("--threads", type=_positive_int, metavar="T", help="threads (default: all cores)")
     tl.add_argument("--max-seconds", type=_float, default=3600.0, metavar="S",
-                    help="stop adding samples after S seconds (default 3600)")
+                    help="bound on the run's time, pilots included (default 3600)")
     tl.add_argument("--checkpoint", metavar="PATH",
                     help="keep finished samples in PATH; rerunning the same command resumes")
     tl.add_argument("--mc-paths", type=_positive_int, default=20_000, metavar="N",

@@ -221,17 +221,18 @@ class _Problem:
         """The first grid point that differs between paths: the end of the first noisy step."""
         return int(np.argmax(self.noises > 0)) + 1
 
-    def split_score(self, states: np.ndarray, top: Optional[float]):
+    def split_score(self, states: np.ndarray, top: Optional[float], uncoast: bool = False):
         """(the score splitting ranks paths by, the quantity's score), both of shape
         states.shape[:2]. With ``top`` (a run of one level, for the NORMALISED quantities) the
         first is (m - top) / sd, m the quantity's score (its conditional mean, or where the body
         would stop now) and sd^2 an estimate of the variance still to come: sigma^2 (|V| / c -
         r)^2 integrated while the speed would decay to zero, plus the stationary speed's share
         of the rest. At the last point sd is a floor eps, so the score there is (Q - top) / eps
-        and Q > top is a score above 0 (split_threshold). Otherwise both are m."""
+        and Q > top is a score above 0 (split_threshold). Otherwise both are m, or with
+        ``uncoast`` (:meth:`coasts_to_rest`) the first is :meth:`uncoasted`."""
         m = self.score(states)
         if top is None:
-            return m, m
+            return (self.uncoasted(states) if uncoast else m), m
         points, cum, stationary, step = self._normaliser()
         c = self.scene.drift
         q = np.abs(states[..., 0]) / c
@@ -303,6 +304,23 @@ class _Problem:
         states[:, 0] = (self.scene.v0, self.scene.u0, 0.0)
         return states
 
+    def coasts_to_rest(self, levels: np.ndarray) -> bool:
+        """Whether splitting ranks the paths by :meth:`uncoasted`: the velocity and the speed
+        after the switch-off, at levels >= 0 (where Q > L if and only if the unclipped value
+        exceeds L, so that a path past the level is always ranked past it)."""
+        return (self.q.name in ("velocity", "speed") and self.coast > 0
+                and bool(np.min(levels) >= 0))
+
+    def uncoasted(self, states: np.ndarray) -> np.ndarray:
+        """The velocity (speed) at the output time without the clip at rest: v - c coast
+        (|v| - c coast). The coasted quantity is 0 for every path whose speed at the end of the
+        grid is below c coast, long after the switch-off almost all of them: as a splitting
+        score it would tie them all at 0 (extinction at the first iteration). This one ranks
+        them, and above 0 it is the quantity."""
+        v = states[..., 0]
+        shift = self.scene.drift * self.coast
+        return (np.abs(v) if self.q.name == "speed" else v) - shift
+
     def _coasted(self, v):
         """The velocity at the output time from the velocity at the end of the grid."""
         if self.coast == 0.0:
@@ -369,7 +387,7 @@ def _normalised_top(problem: _Problem, levels: np.ndarray, schedule: bool = True
 
 def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, kill: int,
                        key: int, replica: int, threads: int, max_iterations: int,
-                       normalise: Optional[bool] = None):
+                       normalise: Optional[bool] = None, deadline: Optional[float] = None):
     """One run of adaptive multilevel splitting: an unbiased estimate of P(Q > L) for each L.
 
     The estimate for L is taken at the first iteration whose kill level z (the kill-th smallest
@@ -383,6 +401,12 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     its threshold.
     ``normalise``: None, the rule above (crandall.tail's); False, the plain score; True, the
     normalised one whatever the schedule (bench/tails_score.py compares them).
+    The velocity and speed after the switch-off rank the paths before the coast's clip at rest
+    (_Problem.coasts_to_rest).
+
+    ``deadline`` (a ``time.time()``): past it, between iterations, the replica stops and its
+    info says so (``timed_out``, with the iterations and log weight it reached); its estimates
+    are then NaN and no sample. The info's ``extinct`` is the log weight at an extinction.
     """
     n = particles
     rng = np.random.default_rng([key, replica, 1])
@@ -395,7 +419,8 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     first = problem.first_random_point() if top is not None else 0
     thresholds = (np.array([problem.split_threshold(float(x), top) for x in levels])
                   if top is not None else levels)
-    score, plain = problem.split_score(states, top)
+    uncoast = top is None and problem.coasts_to_rest(levels)
+    score, plain = problem.split_score(states, top, uncoast)
     level = score[:, first:].max(axis=1)
     value = problem.value(plain)
     order = np.argsort(levels, kind="stable")
@@ -403,7 +428,11 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     log_weight = 0.0
     done = 0
     iterations = 0
+    extinct = None
     while True:
+        if deadline is not None and _time.time() > deadline:
+            return estimates, {"iterations": iterations, "steps": steps,
+                               "log_weight": log_weight, "timed_out": True}
         z = np.partition(level, kill - 1)[kill - 1]
         while done < len(order) and thresholds[order[done]] <= z:
             estimates[order[done]] = math.exp(log_weight) * np.mean(value > levels[order[done]])
@@ -413,6 +442,7 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
         killed = np.flatnonzero(level <= z)
         if len(killed) == n:
             estimates[order[done:]] = 0.0  # extinction: every particle at the same level
+            extinct = log_weight
             break
         if iterations >= max_iterations:
             raise RuntimeError(f"splitting did not reach the level after {iterations} iterations")
@@ -425,11 +455,12 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
                 threads)
         branches += len(killed)
         steps += int(np.sum(problem.steps - branch))
-        score[killed], plain = problem.split_score(states[killed], top)
+        score[killed], plain = problem.split_score(states[killed], top, uncoast)
         level[killed] = score[killed, first:].max(axis=1)
         value[killed] = problem.value(plain)
         iterations += 1
-    return estimates, {"iterations": iterations, "steps": steps, "log_weight": log_weight}
+    return estimates, {"iterations": iterations, "steps": steps, "log_weight": log_weight,
+                       "extinct": extinct}
 
 
 # -- importance sampling --------------------------------------------------------------------
@@ -728,11 +759,12 @@ def _ld_windows(problem: _Problem, top: float) -> List[float]:
 _COARSE_PILOT = 4096
 
 
-def _choose_proposal(problem, levels, key, threads, pilot):
+def _choose_proposal(problem, levels, key, threads, pilot, budget=None):
     """The proposal (window, drift) with the smallest estimated relative variance per path at
     the rarest level, over a grid of windows and drifts (and the large-deviation window of the
     velocity quantities), from pilot paths of their own stream (left out of the estimate, so
-    the choice does not bias it)."""
+    the choice does not bias it). ``budget(done, total)``, called before each proposal's
+    paths, may refuse to go on (max_seconds)."""
     c = problem.scene.drift
     top = float(np.max(levels))
     windows = sorted({problem.horizon * f for f in (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0)}
@@ -757,6 +789,10 @@ def _choose_proposal(problem, levels, key, threads, pilot):
     full = None
     best, tried = None, []
     stream = 1 << 62
+    # How many proposals the pilot tries (for budget's estimate of the time left).
+    total = sum(1 for _ in windows for d in drifts for f in slows
+                if not (f > 0 and d == c) and not (f == 0 and d < 0 and len(slows) > 1))
+    done = 0
     for w in sorted(windows, key=lambda w: w != problem.horizon):
         grid = _grid_for(problem, w)
         if mixed and w != problem.horizon and full is None:
@@ -774,6 +810,9 @@ def _choose_proposal(problem, levels, key, threads, pilot):
                     # variance per path of 3400 and a Pareto shape of 0.91 that way, 103 and
                     # 0.51 above the mean speed; a pilot of 1024 paths does not see the tail.
                     continue
+                if budget is not None:
+                    budget(done, total)
+                done += 1
                 prop = _proposal(grid, w, d, f, full if w != problem.horizon else None)
                 contrib = _importance_batch(grid, prop, np.array([top]), pilot, key, stream,
                                             threads)[:, 0]
@@ -821,20 +860,26 @@ def pareto_shape(largest: np.ndarray) -> float:
     return float((n * k_hat + 10 * 0.5) / (n + 10))
 
 
-def sample(job: Dict[str, Any], index: int, threads: int = 0) -> Dict[str, Any]:
+def sample(job: Dict[str, Any], index: int, threads: int = 0,
+           deadline: Optional[float] = None) -> Dict[str, Any]:
     """Sample ``index`` of a tail run described by ``job`` (plain data: the scene's dict, the
     quantity, time, grid step, levels, particles, key and, for importance sampling, the
     proposal): a splitting replica, or a batch of ``particles`` weighted paths. A pure function
-    of (job, index): the Dask task of a tail run."""
+    of (job, index): the Dask task of a tail run. A replica still running at ``deadline`` (a
+    ``time.time()``, the run's max_seconds) stops between its iterations and returns only
+    ``timed_out`` and how far it got (no sample: the run leaves it out)."""
     problem = _Problem(Scene.from_dict(job["scene"]), job["quantity"], job["time"], job["dt"])
     lv = np.asarray(job["levels"], dtype=float)
     n, key = job["particles"], job["key"]
     if job["proposal"] is None:
         # A guard against a run that does not progress.
         est, info = _splitting_replica(problem, lv, n, max(1, n // 10), key, index, threads,
-                                       _max_iterations(n))
+                                       _max_iterations(n), deadline=deadline)
+        if info.get("timed_out"):
+            return {"timed_out": True, "iterations": info["iterations"],
+                    "log_weight": info["log_weight"]}
         return {"estimates": est.tolist(), "iterations": info["iterations"],
-                "steps": info["steps"]}
+                "steps": info["steps"], "extinct": info["extinct"]}
     window, drift, slow, full = job["proposal"]
     grid = _grid_for(problem, window)
     contrib = _importance_batch(grid, _proposal(grid, window, drift, slow, full), lv, n, key,
@@ -1106,7 +1151,8 @@ class _TailRun(Estimator):
     name = "tail"
 
     def __init__(self, job, spec, *, threads, task_threads, per_sample, path_bytes,
-                 min_samples, max_samples, rel_error, max_seconds, started):
+                 min_samples, max_samples, rel_error, max_seconds, started, rate=None,
+                 steps=0, advice="give a larger max_seconds"):
         self.job, self.spec, self.threads = job, spec, threads
         self.task_threads = task_threads
         self.splitting = job["proposal"] is None
@@ -1125,21 +1171,27 @@ class _TailRun(Estimator):
         self.target_n: Optional[int] = None
         self.wanted = 0
         self.stopped_early = False
+        #: The run's max_seconds as a time.time() (Dask workers compare their clocks with
+        #: it): a replica still running then stops between its iterations.
+        self.deadline = _time.time() + max_seconds - (_time.perf_counter() - started)
+        #: Path-steps per second measured before the run (_rate) and the steps of a
+        #: sample's grid: a sample's least cost, its first paths' steps, is estimated from
+        #: them before any sample has run.
+        self.rate, self.steps = rate, steps
+        #: What would help when max_seconds does not suffice (tail()'s words for the case).
+        self.advice = advice
+        #: The output of a sample stopped by the deadline (no sample: left out).
+        self.cut: Optional[Dict[str, Any]] = None
+        #: Wall seconds and samples of the batches run in this call (the measured rate).
+        self.ran = [0.0, 0]
 
     def identity(self):
         return self.spec
 
     def check_memory(self):
-        # A sample's paths are stored whole on the grid (velocity, displacement, distance at
-        # every point), with room for a splitting step's copies and scores (4 x).
-        need = 4 * self.job["particles"] * self.path_bytes + self.threads * (16 << 20)
-        have = available_memory()
-        if need > have:
-            raise ParameterError(
-                "particles", f"particles: {self.job['particles']} paths of "
-                f"{self.path_bytes // 24} grid points need about {need / 2**20:.0f} MiB, more "
-                f"than the {have / 2**20:.0f} MiB this process may still allocate; give fewer "
-                "particles or a larger dt")
+        _check_memory(self.job["particles"], self.path_bytes, self.threads, "particles",
+                      f"particles: {self.job['particles']} paths", "give fewer particles or a "
+                      "larger dt")
 
     def state(self):
         return json_state({"samples": self.samples, "checksum": self.digest.hexdigest()})
@@ -1173,25 +1225,92 @@ class _TailRun(Estimator):
         self.samples, self.digest = samples, digest
 
     def _tasks(self, first: int, last: int):
-        return [Task(sample, (self.job, i, self.task_threads), functools.partial(sample, self.job, i,
-                                                                 self.threads), 1)
+        return [Task(sample, (self.job, i, self.task_threads, self.deadline),
+                     functools.partial(sample, self.job, i, self.threads, self.deadline), 1)
                 for i in range(first, last)]
 
+    def _elapsed(self) -> float:
+        return _time.perf_counter() - self.started
+
+    def _expect(self, count: int) -> float:
+        """The seconds ``count`` more samples are expected to take: at the wall time per
+        sample of those run in this call; before any, at least their first paths' steps at the
+        measured rate (a lower bound: a replica's iterations come on top)."""
+        seconds, done = self.ran
+        if done:
+            return seconds / done * count
+        if not self.rate:
+            return 0.0
+        parallel = 1 if self.workers is None else max(1, min(count, self.workers))
+        paths = self.job["particles"] * -(-count // parallel)
+        return paths * self.steps / self.rate
+
+    def _timed(self, batch):
+        """Yield a batch to the driver, timing it (the driver merges it before resuming)."""
+        started = _time.perf_counter()
+        yield batch
+        self.ran[0] += _time.perf_counter() - started
+        self.ran[1] += len(batch)
+
+    def _out_of_time(self, what: str) -> ParameterError:
+        # Pilot replicas that ended in an extinction (their particles tied below the level)
+        # had no particle past it: a sign that the level is out of reach.
+        dead = sum(1 for c in self.samples if c.get("extinct") is not None
+                   and not np.any(np.asarray(c.get("estimates", [])) > 0))
+        out = (f" ({dead} of the {len(self.samples)} replicas run ended with their particles "
+               "tied below the levels: they may be beyond what the paths reach)" if dead else "")
+        return ParameterError(
+            "max_seconds", f"max_seconds: {what}, more than max_seconds={self.max_seconds:g} "
+            f"allows ({self._elapsed():.3g} s spent){out}; {self.advice}")
+
+    def _pilot_cut(self) -> ParameterError:
+        """The error of a pilot replica stopped by the deadline: how far it got."""
+        top = max(self.job["levels"])
+        return ParameterError(
+            "max_seconds", f"max_seconds: the pilot's replica {len(self.samples)} had not "
+            f"reached level {top:g} when max_seconds={self.max_seconds:g} ran out "
+            f"({self._elapsed():.3g} s spent, {self.cut['iterations']} iterations; its "
+            f"particles had got as far as a probability of about "
+            f"{math.exp(self.cut['log_weight']):.1e}): the level is beyond what the paths "
+            f"reach in that time; {self.advice}")
+
     def rounds(self):
-        # On a cluster a batch of as many samples as it has threads (at least 8); here one
-        # (the time bound is checked between batches).
+        # On a cluster a batch of as many samples as it has threads (at least 8); here one.
+        # A batch is not started when the time per sample measured so far (before any: its
+        # least cost at the measured rate) says it would end past max_seconds; a replica
+        # running then stops (sample's deadline). A pilot that cannot finish is refused.
         width = 1 if self.workers is None else max(8, self.workers)
+        what = "replicas" if self.splitting else "batches"
         while len(self.samples) < self.pilot_n:
             last = self.pilot_n if self.workers is not None else len(self.samples) + 1
-            yield self._tasks(len(self.samples), last)
+            left = self.pilot_n - len(self.samples)
+            expect = self._expect(left)
+            if self._elapsed() + expect > self.max_seconds:
+                raise self._out_of_time(
+                    f"the pilot's {left} {'remaining ' if self.samples else ''}{what} would "
+                    f"take {'about' if self.ran[1] else 'at least'} {expect:.3g} s more")
+            yield from self._timed(self._tasks(len(self.samples), last))
+            if self.cut is not None:
+                raise self._pilot_cut()
         _, pmean, _, pvar = _stats(self.samples[:self.pilot_n], self.splitting, self.levels)
         with np.errstate(divide="ignore", invalid="ignore"):
             need = np.where(pmean > 0, pvar / (self.rel_error * pmean) ** 2, np.nan)
         if np.all(np.isnan(need)):
+            low = self.job["levels"][0]
+            if not self.splitting:
+                raise StatisticsFailure(f"importance: no pilot sample reached level {low:g}; "
+                                        "use method='splitting'")
+            # Replicas that ended in an extinction: their particles' scores tied below the
+            # level, which more particles do not untie.
+            reached = [c.get("extinct") for c in self.samples[:self.pilot_n]]
+            reached = [x for x in reached if x is not None]
+            how = (f"in {'every one' if len(reached) == self.pilot_n else len(reached)} the "
+                   f"particles' scores stopped rising below it, all tied (they got as far as "
+                   f"a probability of about {math.exp(min(reached)):.1e}): " if reached else "")
             raise StatisticsFailure(
-                f"{'splitting' if self.splitting else 'importance'}: no pilot sample reached "
-                f"level {self.job['levels'][0]:g}; "
-                + ("use more particles" if self.splitting else "use method='splitting'"))
+                f"splitting: no pilot replica reached level {low:g}: {how}the level is "
+                "beyond what the paths reach; give a smaller level, or try "
+                "method='importance'")
         # The pilot's variance is itself noisy (and low more often than high for skewed
         # samples): SAFETY more, or up to the variance's 90 % upper confidence bound, and never
         # fewer than the pilot.
@@ -1201,12 +1320,21 @@ class _TailRun(Estimator):
                                   * np.nanmax(need)))))
         self.target_n = self.pilot_n + max(2, -(-self.wanted // self.per_sample))
         while len(self.samples) < self.target_n:
-            if _time.perf_counter() - self.started > self.max_seconds:
+            batch = self._tasks(len(self.samples), min(self.target_n, len(self.samples) + width))
+            if self._elapsed() + self._expect(len(batch)) > self.max_seconds:
                 self.stopped_early = True
                 return
-            yield self._tasks(len(self.samples), min(self.target_n, len(self.samples) + width))
+            yield from self._timed(batch)
+            if self.cut is not None:
+                self.stopped_early = True
+                return
 
     def merge(self, task, output):
+        # A sample stopped by the deadline is no sample, nor is any after it in its batch
+        # (the samples are kept in the order of their indices).
+        if self.cut is not None or output.get("timed_out"):
+            self.cut = self.cut or output
+            return
         self.samples.append(output)
         self.digest.update(_canonical(output))
 
@@ -1223,6 +1351,43 @@ def _real(value) -> bool:
     """Whether ``value`` is a real number (a bool or a string is not: NumPy and float() would
     take True as 1 and "1" as 1.0)."""
     return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+def _check_memory(paths: int, path_bytes: int, threads: int, name: str, what: str,
+                  advice: str) -> None:
+    """Refuse, before they are allocated, ``paths`` paths stored whole on a grid of
+    ``path_bytes`` each (velocity, displacement, distance at every point), with room for a
+    splitting step's copies and scores or importance sampling's touches and excursions (4 x),
+    and a stack per thread, that would not fit in what this process may still allocate."""
+    need = 4 * paths * path_bytes + threads * (16 << 20)
+    have = available_memory()
+    if need > have:
+        raise ParameterError(
+            name, f"{what} of {path_bytes // 24} grid points need about {need / 2**20:.0f} MiB, "
+            f"more than the {have / 2**20:.0f} MiB this process may still allocate; {advice}")
+
+
+#: Path-steps of the measurement of the core's rate (_rate): tens of milliseconds.
+_RATE_STEPS = 1 << 18
+
+
+def _rate(problem: _Problem, key: int, threads: int) -> float:
+    """Path-steps per second of the core's exact step on this problem's grid, measured on a
+    few paths over the grid's last steps (their numbers are discarded): what a run's least
+    cost is estimated from before it starts. The faster of two measurements (a loaded
+    machine's pause makes one slower, and a lower bound of the cost must not grow by it)."""
+    m = max(1, min(problem.steps, _RATE_STEPS // 16))
+    k = max(1, _RATE_STEPS // m)
+    part = slice(problem.steps - m, problem.steps)
+    states = np.zeros((k, m + 1, 3))
+    states[:, 0, 0] = problem.scene.v0
+    best = math.inf
+    for _ in range(2):
+        t = _time.perf_counter()
+        _core.extend_paths(states, np.arange(k, dtype=np.int64), np.zeros(k, dtype=np.int64),
+                           np.arange(k, dtype=np.uint64) + np.uint64(3 << 61),
+                           problem.lengths[part], problem.noises[part], problem.drifts[part],
+                           key, threads)
+        best = min(best, _time.perf_counter() - t)
+    return k * m / max(best, 1e-9)
 
 
 def _levels(levels) -> np.ndarray:
@@ -1252,6 +1417,26 @@ def _levels(levels) -> np.ndarray:
     if np.any(np.diff(arr) <= 0):
         raise ParameterError("levels", f"levels must be strictly increasing, got {arr.tolist()}")
     return arr
+
+
+def _advice(problem: _Problem, splitting: bool, dt_given: bool,
+            samples: Optional[str] = "") -> str:
+    """What makes a tail run cheaper, for a message: only what is true for its case.
+    ``samples``: the words for fewer samples (default: the run's pilot; None: none help)."""
+    q = problem.q
+    out = ["a smaller level"] if splitting else []
+    coarse_is_own = not splitting and q.velocity_only and not q.peak  # runs on one step a part
+    if not coarse_is_own and (not splitting or problem.noisy_steps > MIN_SPLITTING_STEPS):
+        out.append(f"a larger dt (the {q.name}'s probabilities do not depend on it)"
+                   if q.velocity_only else
+                   f"a larger dt{' than the default' if not dt_given else ''} (a coarser "
+                   f"trapezoid rule for the {q.name})")
+    if samples == "":
+        samples = "fewer particles or min_samples" if splitting else "fewer min_samples"
+    if samples:
+        out.append(samples)
+    out.append("method='importance'" if splitting else "method='splitting'")
+    return "give " + ", ".join(out) + " or a larger max_seconds"
 
 
 def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
@@ -1291,7 +1476,9 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     seed : int, numpy SeedSequence or Generator, optional
         The run's seed; the result is bitwise the same for any ``threads``.
     dt : float, optional
-        Grid step (scene units). Default: the scene's default step (``crandall.default_dt``).
+        Grid step (scene units). Default: the scene's default step (``crandall.default_dt``),
+        for splitting refined to at least 50 steps while the noise acts (a short
+        excitation).
         Velocity and stop time are exact on any grid (dt only changes the cost); displacement
         and distance are the trapezoid rule on it, as a fixed-step run with method "exact".
     particles : int, default 200
@@ -1303,7 +1490,12 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
         and 100000; a pilot of at least 3) or paths (importance sampling; default 1000 and
         10^8).
     max_seconds : float, default 3600
-        Stop adding samples after this long.
+        The run's time bound, pilots included. A pilot that would not finish in it is
+        refused before it starts (its least cost at the core's speed measured on a few
+        paths) or when the time per sample it shows says so; a replica still running at the
+        bound stops (one in the pilot: refused, saying how far it got); the estimate's
+        samples stop when the next would end past it (a StatisticsWarning says so). The
+        refusals say what would help in the case at hand.
     threads : int, optional
         Threads of the core (default: all cores; with ``client``, threads per task, default 1).
     progress : bool, optional
@@ -1323,15 +1515,17 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     -------
     TailResult
     """
+    start = _time.perf_counter()
     problem = _Problem(scene, quantity, time, dt)
     lv = _levels(levels)
     if method == "splitting" and 0 < problem.noisy_steps < MIN_SPLITTING_STEPS:
         # Few grid points, few branch points: the replicas' estimates get a heavy tail (at
         # 5 steps over the paper's tau0 = 5 the relative spread of one replica at 1e-4 is 5,
         # against 1.0 at 50 steps), and their mean's interval stops covering. The velocity
-        # quantities are exact on any grid, so theirs is refined; the others' dt defines
-        # their trapezoid rule, and a coarser one is refused.
-        if TAIL_QUANTITIES[quantity].velocity_only:
+        # quantities are exact on any grid, so theirs is refined; so is the default step of
+        # the others (a short excitation); a coarser dt the user gave defines their trapezoid
+        # rule, and is refused.
+        if TAIL_QUANTITIES[quantity].velocity_only or dt is None:
             problem = _Problem(scene, quantity, time, problem.noisy_time / MIN_SPLITTING_STEPS)
         else:
             raise ParameterError("dt", f"dt: splitting needs at least {MIN_SPLITTING_STEPS} "
@@ -1388,10 +1582,13 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
         z = np.zeros_like(p)
         return TailResult(quantity, lv, unit, p, z, z.copy(), method, 1, 0.0, 0,
                           {"deterministic": True}, np.ones(len(lv), bool), spec)
-    start = _time.perf_counter()
     diagnostics: Dict[str, Any] = {}
     window = drift = slow = 0.0
     full = None
+    advice = _advice(problem, splitting, dt is not None)
+    # The core's speed on this grid: the pilots' least cost is estimated from it before they
+    # start (max_seconds bounds them too).
+    rate = _rate(problem, key, threads)
     if splitting:
         diagnostics.update(particles=particles, killed_per_iteration=max(1, particles // 10),
                            score=("plain" if _normalised_top(problem, lv) is None
@@ -1400,7 +1597,31 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
         # The displacement's proposals hit less often in their pilot (a few per cent at 1e-9):
         # more pilot paths, so that the best of them shows its 20 hits.
         pilot = max(1024 if quantity in SIGN_QUANTITIES else 256, particles)
-        best, tried = _choose_proposal(problem, lv, key, threads, pilot=pilot)
+        # The proposal pilot's paths are allocated too: checked before it, as the run's are.
+        grid = _grid_for(problem, problem.horizon)
+        _check_memory(pilot, 8 * 3 * (grid.steps + 1), threads, "dt",
+                      f"dt: importance sampling's proposal pilot, {pilot} paths",
+                      "give a larger dt" + ("" if pilot > particles else " or fewer particles"))
+        # Its paths are max(floor, particles): fewer particles help only above the floor.
+        pilot_advice = _advice(problem, splitting, dt is not None,
+                               "fewer particles" if pilot == particles else None)
+        proposal_started = _time.perf_counter()
+
+        def budget(done: int, total: int) -> None:
+            # Before each proposal: the pilot's remaining proposals at the time per proposal
+            # measured so far (before any: their paths' steps at the measured rate).
+            spent = _time.perf_counter() - proposal_started
+            expect = ((total - done) * spent / done if done
+                      else total * pilot * grid.steps / rate)
+            if _time.perf_counter() - start + expect > max_seconds:
+                raise ParameterError(
+                    "max_seconds", f"max_seconds: importance sampling's proposal pilot "
+                    f"({total - done} {'more ' if done else ''}proposals of {pilot} paths) "
+                    f"would take {'about' if done else 'at least'} {expect:.3g} s more, more "
+                    f"than max_seconds={max_seconds:g} allows ({_time.perf_counter() - start:.3g} "
+                    f"s spent); {pilot_advice}")
+
+        best, tried = _choose_proposal(problem, lv, key, threads, pilot=pilot, budget=budget)
         diagnostics["proposals_tried"] = tried
         if best is None:
             raise StatisticsFailure(
@@ -1420,14 +1641,18 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
                    per_sample=1 if splitting else particles,
                    path_bytes=8 * 3 * (problem.steps + 1),
                    min_samples=min_samples, max_samples=max_samples, rel_error=rel_error,
-                   max_seconds=max_seconds, started=start)
+                   max_seconds=max_seconds, started=start, rate=rate, advice=advice,
+                   steps=(problem if splitting else _grid_for(problem, window)).steps)
     drive(run, checkpoints=checkpoint, client=client, progress=progress)
     samples, pilot_n, wanted, stopped_early = (run.samples, run.pilot_n, run.wanted,
                                                run.stopped_early)
     diagnostics["pilot_samples"] = pilot_n * (1 if splitting else particles)
     used = samples[pilot_n:]
     if len(used) < 2:
-        raise StatisticsFailure(f"{method}: stopped by max_seconds before the estimate's samples ran")
+        raise ParameterError(
+            "max_seconds", f"max_seconds: {method} stopped by max_seconds={max_seconds:g} "
+            f"after its pilot, before the estimate's samples ran (the pilot's took "
+            f"{run.ran[0] / max(run.ran[1], 1):.3g} s each); {advice}")
     n, mean, se, _ = _stats(used, splitting, len(lv))
     with np.errstate(divide="ignore", invalid="ignore"):
         rel = np.where(mean > 0, se / mean, np.inf)
