@@ -819,3 +819,21 @@ def test_both_kinds_render_as_html(run):
             for n in r.names)
         assert "distance_at_stop" in text and "&plusmn;" in text
     assert "error &lt;= 0.03" in run._repr_html_()
+
+
+def test_a_refusal_names_the_statistics_that_ask_for_the_work():
+    # The round-end refusal of a run that would outlast max_seconds names the statistics that
+    # ask for most of the work left (each with its share) and what to ask instead.
+    from crandall.adaptive import _Engine
+    scene = crandall.Scene.scaled(tau0=5.0, times=[1.0, 7.0], observe=["velocity", "distance"])
+    engine = _Engine(scene, eps=None, rel=0.03, seed=1, threads=1)
+    index = {(t.name, t.stat, t.time_index): i for i, t in enumerate(engine.targets)}
+    asks = {index[("velocity", "var", 1)]: 96.0, index[("distance", "var", 0)]: 3.0,
+            index[("distance", "mean", 1)]: 1.0}
+    text = engine._drivers(asks)
+    assert "the var of velocity at tau = 7 (96 % of the work)" in text
+    assert "distance" not in text  # under 5 % of the work: not named
+    assert "leave velocity:var out of the statistics" in text and "absolute error=" in text
+    assert engine._drivers({}) == ""
+    refusal = str(engine._too_long(120.0, 1e9, "after 3 rounds", text))
+    assert refusal.startswith("max_seconds: reaching rel_error=0.03") and text in refusal

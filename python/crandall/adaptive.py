@@ -658,9 +658,34 @@ class _Engine(Estimator):
         timing[1] += n
         return out
 
-    def _too_long(self, seconds: float, steps: float, what: str) -> ValueError:
+    def _drivers(self, asks: Dict[int, float], shown: int = 3) -> str:
+        """The statistics that ask for most of the work left (``asks``: path-steps per
+        target), for a refusal: each with its time and the share of the work it asks for, and
+        what to ask instead."""
+        total = sum(asks.values())
+        if not total > 0:
+            return ""
+        # The few that matter (at least 5 % of the work each).
+        order = [i for i in sorted(asks, key=lambda i: -asks[i])[:shown]
+                 if asks[i] >= 0.05 * total]
+        parts = []
+        for i in order:
+            t = self.targets[i]
+            when = "at the stop" if t.time_index is None else (
+                f"at {self.scene.time_name} = {self.scene.times[t.time_index]:g}")
+            parts.append(f"the {t.stat} of {t.name} {when} ({100 * asks[i] / total:.0f} % "
+                         "of the work)")
+        names = list(dict.fromkeys(f"{self.targets[i].name}:{self.targets[i].stat}"
+                                   for i in order))
+        return (f"; most of it is for {', '.join(parts)}: leave {' and '.join(names)} out of "
+                "the statistics the target applies to (statistics=, crandall run "
+                "--statistics), or ask "
+                + ("an absolute error= for " if self.rel is not None else "a larger error= for ")
+                + ("it" if len(names) == 1 else "them") + " in a run of its own")
+
+    def _too_long(self, seconds: float, steps: float, what: str, drivers: str = "") -> ValueError:
         """The refusal of a run that would outlast max_seconds: what it would take and what
-        would help."""
+        would help (``drivers``: the statistics that ask for most of it, :meth:`_drivers`)."""
         elapsed = time.perf_counter() - self.call[0]
         calm = self._calm_time()
         end = self.scene.t0 if "stop" in self.scene.observe else float(self.scene.times.max())
@@ -670,8 +695,8 @@ class _Engine(Estimator):
         return ValueError(
             f"max_seconds: reaching {self._target_text()} would take about {seconds:.3g} s "
             f"more ({what}: {steps:.3g} path-steps at the times per path measured, "
-            f"{elapsed:.3g} s spent), beyond max_seconds={self.max_seconds:g}{pause}; raise "
-            f"max_seconds or ask for a larger target"
+            f"{elapsed:.3g} s spent), beyond max_seconds={self.max_seconds:g}{pause}{drivers}; "
+            f"raise max_seconds or ask for a larger target"
             + (" (the checkpoint keeps what was done)" if self.checkpoint else ""))
 
     def _calm_time(self) -> float:
@@ -836,6 +861,9 @@ class _Engine(Estimator):
             self.round_count += 1
             est = self.estimates()
             want = [lev.sums.n for lev in self.levels]
+            # Per statistic: the path-steps it alone would still ask for (what a refusal
+            # names as driving the cost).
+            asks: Dict[int, float] = {}
             done = True
             deeper = False
             worst = 0.0  # the largest error / target, for the progress bar
@@ -867,6 +895,7 @@ class _Engine(Estimator):
                             i, f"level {level} would need {x:.3g} paths, beyond the "
                             f"{MAX_LEVEL_PATHS:.3g} a level can draw")
                     want[level] = max(want[level], math.ceil(x))
+                    asks[i] = asks.get(i, 0.0) + max(x - self.levels[level].sums.n, 0.0) * c
             if done:
                 self._show(worst, 0.0)
                 return
@@ -883,7 +912,8 @@ class _Engine(Estimator):
                               for n, lev in zip(want, self.levels))
             self._show(worst, seconds)
             if elapsed + seconds > self.max_seconds:
-                raise self._too_long(seconds, left, f"after {self.round_count} rounds")
+                raise self._too_long(seconds, left, f"after {self.round_count} rounds",
+                                     self._drivers(asks))
             if deeper and len(self.levels) <= MAX_LEVELS:
                 self.pending = [[len(self.levels), PILOT_PATHS]]
                 continue
