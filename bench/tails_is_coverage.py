@@ -1,5 +1,5 @@
 """Coverage of importance sampling's runs flagged reliable: crandall.tail(method="importance")
-on stop-time tails with exact references, many seeds.
+on tails of the stop time, the velocity and the speed with exact references, many seeds.
 
 For each case and seed the run reports an estimate, its standard error, the 95 % interval and
 whether it calls itself reliable (crandall.tail's Pareto, effective-sample and largest-share
@@ -10,7 +10,9 @@ should be near 95 % and the mean ratio near 1.
 
 The references: the closed-form stop-time law (crandall.analytic.stop_time_sf) for the paper's
 scene, and for a start in motion with two pieces the law of V at the switch-off by numerical
-integration of the transition density (crandall.analytic.schedule.stop_time_sf).
+integration of the transition density (crandall.analytic.schedule.stop_time_sf); the paper's
+law of the velocity (crandall.analytic.velocity_sf, any time, also after the switch-off) for
+the velocity while the noise acts and the speed |V| after it.
 
 Writes bench/out/tails_is_coverage.json and .png; --publish copies both to bench/results/.
 
@@ -37,19 +39,20 @@ from _publish import write  # noqa: E402
 
 
 def cases():
-    """name -> (scene, level, exact P, what)."""
+    """name -> (scene, quantity, time, level, exact P, what)."""
     import crandall
     from crandall import analytic
     from crandall.analytic import schedule
 
     out = {}
-    out["tau0=20, level 25"] = (crandall.Scene.scaled(tau0=20, times=[20]), 25.0,
+    out["tau0=20, level 25"] = (crandall.Scene.scaled(tau0=20, times=[20]), "stop_time", None, 25.0,
                                 float(analytic.stop_time_sf(25.0, 20.0)), "closed form")
     level = brentq(lambda t: math.log(analytic.stop_time_sf(t, 5.0)) - math.log(1e-9), 5.0, 40.0,
                    xtol=1e-12)
-    out["tau0=5, P=1e-9"] = (crandall.Scene.scaled(tau0=5, times=[5]), level, 1e-9,
+    out["tau0=5, P=1e-9"] = (crandall.Scene.scaled(tau0=5, times=[5]), "stop_time", None, level, 1e-9,
                              "closed form")
-    out["tau0=100, level 105"] = (crandall.Scene.scaled(tau0=100, times=[100]), 105.0,
+    out["tau0=100, level 105"] = (crandall.Scene.scaled(tau0=100, times=[100]), "stop_time", None,
+                                  105.0,
                                   float(analytic.stop_time_sf(105.0, 100.0)), "closed form")
     # A start in motion (U1 = 6) and two pieces (h = 1.5 then 0.7).
     scene = crandall.Scene.scaled(tau0=[4.0, 8.0], h=[1.5, 0.7], v0=6.0, times=[8.0])
@@ -59,8 +62,21 @@ def cases():
         return schedule.stop_time_sf(pieces, scene.drift, t, scene.v0)
 
     level = brentq(lambda t: math.log(sf(t)) - math.log(1e-8), 8.5, 30.0, xtol=1e-10)
-    out["v0=6, two pieces, P=1e-8"] = (scene, level, float(sf(level)),
+    out["v0=6, two pieces, P=1e-8"] = (scene, "stop_time", None, level, float(sf(level)),
                                        "transition density, quadrature")
+    # The velocity at the switch-off (tau0 = 5) above a level of P = 1e-8, and the speed |V|
+    # one unit of time after it above a level of P = 1e-7 (symmetric: twice the velocity's).
+    level = brentq(lambda y: math.log(analytic.velocity_sf(y, 5.0, 5.0)) - math.log(1e-8),
+                   0.5, 40.0, xtol=1e-12)
+    out["velocity at tau0=5, P=1e-8"] = (crandall.Scene.scaled(tau0=5, times=[5]), "velocity",
+                                         5.0, level, float(analytic.velocity_sf(level, 5.0, 5.0)),
+                                         "closed form")
+    level = brentq(lambda y: math.log(2 * analytic.velocity_sf(y, 6.0, 5.0)) - math.log(1e-7),
+                   0.1, 40.0, xtol=1e-12)
+    out["speed at tau=6 (tau0=5), P=1e-7"] = (crandall.Scene.scaled(tau0=5, times=[6]), "speed",
+                                              6.0, level,
+                                              float(2 * analytic.velocity_sf(level, 6.0, 5.0)),
+                                              "closed form")
     return out
 
 
@@ -76,13 +92,13 @@ def main() -> None:
     warnings.simplefilter("ignore")  # unreliable runs warn: they are counted below
     rows = []
     start = time.perf_counter()
-    for name, (scene, level, exact, what) in cases().items():
+    for name, (scene, quantity, at, level, exact, what) in cases().items():
         if args.cases and name not in args.cases:
             continue
         runs = []
         for seed in range(args.seeds):
             t = time.perf_counter()
-            r = crandall.tail(scene, "stop_time", [level], method="importance",
+            r = crandall.tail(scene, quantity, [level], time=at, method="importance",
                               seed=70_000 + seed, rel_error=args.rel_error, threads=1)
             lo, hi = r.interval()
             d = r.diagnostics
@@ -101,7 +117,7 @@ def main() -> None:
         props = Counter(f"w{x['proposal']['window']:g} d{x['proposal']['drift']:g}"
                         + ("" if x["proposal"].get("full") is None
                            else f" + full d{x['proposal']['full']:g}") for x in runs)
-        row = {"case": name, "level": level, "exact": exact, "reference": what,
+        row = {"case": name, "quantity": quantity, "time": at, "level": level, "exact": exact, "reference": what,
                "seeds": len(runs), "reliable": n, "covered": int(sum(x["covered"] for x in rel)),
                "coverage": cov,
                "coverage_stderr": math.sqrt(cov * (1 - cov) / n) if n else math.nan,
@@ -148,7 +164,8 @@ def plot(data, path: Path) -> None:
         ax.set_yticklabels([f"{r['case']}\n({r['reliable']}/{r['seeds']} reliable)" for r in rows],
                            fontsize=7)
     a2.set_yticklabels([])
-    fig.suptitle("importance sampling: the stop time's tail, runs flagged reliable", fontsize=9)
+    fig.suptitle("importance sampling: tails of the stop time, velocity and speed, runs flagged "
+                 "reliable", fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
     plt.close(fig)
