@@ -102,10 +102,12 @@ def plot(data, path):
     import matplotlib.pyplot as plt
     import numpy as np
 
-    names = list(data["conditions"]["idle"]["cases"])
+    conds = [(cond, shift) for cond, shift in (("idle", -0.2), ("busy", 0.2))
+             if cond in data["conditions"]]
+    names = list(data["conditions"][conds[0][0]]["cases"])
     x = np.arange(len(names))
     fig, ax = plt.subplots(figsize=(8, 4.2))
-    for k, (cond, shift) in enumerate((("idle", -0.2), ("busy", 0.2))):
+    for k, (cond, shift) in enumerate(conds):
         c = data["conditions"][cond]
         ratios = [c["cases"][n]["ratio"] for n in names]
         loads = [l for n in names for l in c["cases"][n]["load_1min"]]
@@ -184,9 +186,7 @@ def main() -> None:
             print(f"{cond:5s} {name:22s} threads=1 {r['threads1_seconds']:7.2f} s  default "
                   f"{r['default_seconds']:7.2f} s  ratio {r['ratio']:.2f}  load "
                   f"{min(r['load_1min']):.1f}-{max(r['load_1min']):.1f}")
-    both = args.only is None
-    print(write(args.stem, data, plot if both else lambda d, p: None,
-                publish=args.publish and both))
+    print(write(args.stem, data, plot, publish=args.publish))
 
 
 if __name__ == "__main__":
