@@ -115,9 +115,34 @@ def test_a_function_envelope_keeps_its_pieces_in_plain_data():
     sc = crandall.Scene(envelope=env, mu=0.35, times=[1.0, 2.0], observe=["velocity", "stop"])
     assert model.ENVELOPE in sc.effects and not sc.envelope.serializable
     d = sc.to_dict()
-    assert d["h"] == env.h and d["t0"] == env.t0 and "envelope" not in d
+    assert d["envelope"] == {"kind": "function", "end": 4.0, "pieces": 8, "h": env.h,
+                             "t0": env.t0} and "h" not in d
     r = crandall.simulate(sc, paths=4000, seed=3)
     assert r.bias("stop_time") > 0 and not r.exact("stop_time")
+    # Read back, it is still an envelope (never the plain schedule of its pieces, which would
+    # be reported exact): the same paths, nothing exact, and a piece error that is unknown
+    # without the function (NaN with the reason; a run to an accuracy is refused).
+    back = crandall.Scene.from_dict(d)
+    assert back == sc and model.ENVELOPE in back.effects and back.envelope.function is None
+    again = crandall.simulate(back, paths=4000, seed=3)
+    assert again.mean("stop_time") == r.mean("stop_time") and not again.exact("stop_time")
+    with pytest.warns(crandall.StatisticsWarning, match="envelope's function is not kept"):
+        assert math.isnan(again.bias("stop_time"))
+    with pytest.raises(crandall.errors.ParameterError, match="function envelope came back"):
+        crandall.simulate(back, error=0.1, seed=1)
+    with pytest.raises(ValueError, match="cannot be refined"):
+        back.envelope.refined(2)
+
+
+def test_a_saved_function_envelope_result_loads_as_an_envelope(tmp_path):
+    pytest.importorskip("xarray")
+    env = envelopes.from_function(lambda t: t, end=2.0, pieces=1)
+    r = crandall.simulate(crandall.Scene(mu=0.3, envelope=env, times=[0.5]), paths=2000, seed=1)
+    r.save(tmp_path / "r.nc")
+    back = crandall.load(tmp_path / "r.nc")
+    # It was loaded as the one-intensity scene of its piece, stop time "exact" with bias 0.
+    assert model.ENVELOPE in back.scene.effects and not model.exact("stop_time", back.scene)
+    assert back.mean("stop_time") == r.mean("stop_time")
 
 
 def test_an_envelope_with_the_most_pieces_can_still_be_refined():

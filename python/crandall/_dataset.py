@@ -198,6 +198,8 @@ def _scene_attrs(sc) -> Dict[str, Any]:
         if isinstance(v, dict):
             # An envelope: its kind and parameters, and the pieces it is simulated with.
             for kk, vv in v.items():
+                if kk in ("h", "t0"):  # a function envelope's pieces: scene_h, scene_t0
+                    continue
                 attrs[f"scene_{k}_{kk}"] = vv if isinstance(vv, str) else float(vv)
             attrs["scene_h"] = np.asarray(sc.envelope.h, dtype=float)
             attrs["scene_t0"] = np.asarray(sc.envelope.t0, dtype=float)

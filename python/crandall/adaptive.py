@@ -42,6 +42,7 @@ from . import _core, bias
 from ._resources import available_memory
 from .checkpoint import json_state, read_json_state
 from .driver import Estimator, Progress, Task, drive
+from .errors import ParameterError
 from .quantities import VELOCITY, DISTANCE, core_flags, names_for, quantity
 from .model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds, isometry_applies, ito_constant
 from .results import AccuracyResult, StatisticsWarning
@@ -1161,6 +1162,13 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
         raise ValueError("distributions: a run to an accuracy estimates means and variances "
                          "and keeps no histograms; leave distributions out of the scene, or "
                          "run them with paths=")
+    if scene.envelope is not None and scene.envelope.function is None:
+        # Its piece error, part of every statistic's total error, cannot be estimated: a
+        # target could only be claimed met without it.
+        raise ParameterError("scene", "scene: its function envelope came back from plain data "
+                             "(a saved result, a checkpoint), which keep the pieces, not the "
+                             "function, so the piece error a target must include is unknown; "
+                             "give envelopes.from_function(...) again")
     chosen = _check_statistics(scene, statistics)
     engine = _Engine(scene, eps=eps, rel=rel, seed=seed, threads=threads, statistics=chosen)
     engine.max_seconds = max_seconds

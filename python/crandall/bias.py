@@ -175,8 +175,16 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
     needs_run = needs_run_for(result)
     quadratic = envelope and bool(_isometry_names(result.scene, names))
     samples = _samples(result.spec, result.paths, threads, quadratic) if needs_run else None
-    pieces = (_piece_errors(result.spec, result.names, samples, threads)
-              if needs_run and envelope else {})
+    if envelope and result.scene.envelope.function is None:
+        # A function envelope read back from plain data: its pieces without the function, so
+        # the error of the pieces is unknown (NaN in every statistic's bias; Result.bias says
+        # why).
+        unknown = {(n, s): (np.full(1 if quantity(n).at_stop else len(result.times), math.nan),
+                            False) for n in names for s in ("mean", "var")}
+        pieces = unknown
+    else:
+        pieces = (_piece_errors(result.spec, result.names, samples, threads)
+                  if needs_run and envelope else {})
     w3 = np.array(_core.richardson_weights("richardson"))
     w2 = np.array(list(_core.richardson_weights("richardson2")))
     # a: the run's estimator on the coupled grids (finest first); b: a better one.

@@ -251,16 +251,23 @@ class Envelope:
     runs twice the pieces); :meth:`to_dict` its plain data (not for a function)."""
 
     def __init__(self, kind: str, params: Mapping[str, Any], pieces: int,
-                 function: Callable[[float], float], breaks: Sequence[float] = (),
-                 _limit: int = MAX_PIECES, _warn: bool = True) -> None:
+                 function: Optional[Callable[[float], float]], breaks: Sequence[float] = (),
+                 _limit: int = MAX_PIECES, _warn: bool = True,
+                 _schedule: Optional[Schedule] = None) -> None:
         self.kind = kind
         self.params = dict(params)
+        #: h(t); None for a function envelope read back from plain data (its pieces only).
         self.function = function
         self.breaks = tuple(float(b) for b in breaks)
-        # Checks end, pieces and the function's values; warns where a function's pieces may
-        # have missed part of it (a named envelope's form is known: h = 0 is all of it).
-        self.h, self.t0 = _function_schedule(function, self.params["end"], pieces, self.breaks,
-                                             _limit, warn=_warn and kind not in KINDS)
+        if _schedule is not None:
+            self.h, self.t0 = _schedule
+        else:
+            # Checks end, pieces and the function's values; warns where a function's pieces
+            # may have missed part of it (a named envelope's form is known: h = 0 is all of
+            # it).
+            self.h, self.t0 = _function_schedule(function, self.params["end"], pieces,
+                                                 self.breaks, _limit,
+                                                 warn=_warn and kind not in KINDS)
         self.pieces = int(pieces)
         self.params["end"] = float(self.t0[-1])
 
@@ -271,6 +278,11 @@ class Envelope:
         """The same envelope with ``factor`` times the pieces."""
         if isinstance(factor, bool) or not isinstance(factor, (int, np.integer)) or factor < 1:
             raise ValueError(f"factor must be an integer >= 1, got {factor!r}")
+        if self.function is None:
+            raise ValueError("envelope: this function envelope came back from plain data (a "
+                             "saved result, a checkpoint), which keep its pieces, not its "
+                             "function: it cannot be refined, so its piece error is unknown; "
+                             "give envelopes.from_function(...) again")
         # Beyond MAX_PIECES only by refining (the piece error of an envelope given the most).
         pieces = self.pieces * int(factor)
         # Not warned again: the piece error's run refines the envelope the user was warned of.
@@ -279,14 +291,18 @@ class Envelope:
 
     @property
     def serializable(self) -> bool:
-        """Whether :meth:`to_dict` can describe it (a named envelope, not a function)."""
+        """Whether :meth:`to_dict` describes it whole (a named envelope; a function's plain
+        data keep its pieces, not the function)."""
         return self.kind in KINDS
 
     def to_dict(self) -> Dict[str, Any]:
-        """The envelope as plain data: ``kind``, its parameters and ``pieces``."""
+        """The envelope as plain data: ``kind``, its parameters and ``pieces``; for a function
+        (kind "function") its pieces too, ``h`` and ``t0``: read back, it is an envelope whose
+        piece error is unknown (:meth:`refined` needs the function), never the plain schedule
+        of its pieces."""
         if not self.serializable:
-            raise ValueError("envelope: a function envelope has no plain data (its function "
-                             "is code); save its pieces, Scene(h=..., t0=...)")
+            return {"kind": self.kind, **self.params, "pieces": self.pieces,
+                    "h": list(self.h), "t0": list(self.t0)}
         return {"kind": self.kind, **self.params, "pieces": self.pieces}
 
     @classmethod
@@ -297,6 +313,8 @@ class Envelope:
                              f"{data!r}")
         data = dict(data)
         kind = data.pop("kind", None)
+        if kind == "function":
+            return cls._from_pieces(data)
         if kind not in KINDS:
             raise ValueError(f"envelope.kind must be one of {', '.join(KINDS)}, got {kind!r}")
         build, keys = KINDS[kind]
@@ -309,6 +327,37 @@ class Envelope:
             raise ValueError(f"envelope.{missing[0]}: missing (kind {kind!r} needs "
                              f"{', '.join(k for k in keys if k != 'end')})")
         return build(**data)
+
+    @classmethod
+    def _from_pieces(cls, data: Dict[str, Any]) -> "Envelope":
+        """A function envelope's plain data read back: its pieces, no function."""
+        unknown = sorted(set(data) - {"end", "pieces", "h", "t0"})
+        if unknown:
+            raise ValueError(f"envelope.{unknown[0]}: unknown key for kind 'function'; allowed: "
+                             "end, pieces, h, t0")
+        for key in ("pieces", "h", "t0"):
+            if key not in data:
+                raise ValueError(f"envelope.{key}: missing (kind 'function' needs pieces, h, t0)")
+        h, t0 = data["h"], data["t0"]
+        if not (isinstance(h, (list, tuple)) and isinstance(t0, (list, tuple)) and h
+                and len(h) == len(t0)):
+            raise ValueError("envelope.h, envelope.t0: a function envelope's pieces must be two "
+                             "lists of one length")
+        values = []
+        for key, seq in (("h", h), ("t0", t0)):
+            for i, v in enumerate(seq):
+                if isinstance(v, bool) or not isinstance(v, (int, float)) \
+                        or not math.isfinite(v) or v < 0:
+                    raise ValueError(f"envelope.{key}[{i}] must be a finite number >= 0, "
+                                     f"got {v!r}")
+            values.append(tuple(float(v) for v in seq))
+        if not all(b > a for a, b in zip((0.0,) + values[1][:-1], values[1])):
+            raise ValueError("envelope.t0: the pieces' ends must be > 0 and strictly increasing")
+        pieces = data["pieces"]
+        if isinstance(pieces, bool) or not isinstance(pieces, int) or pieces < 1:
+            raise ValueError(f"envelope.pieces must be an integer >= 1, got {pieces!r}")
+        return cls("function", {"end": values[1][-1]}, pieces, None,
+                   _schedule=(list(values[0]), list(values[1])))
 
     def __eq__(self, other) -> bool:
         if not isinstance(other, Envelope):

@@ -150,7 +150,7 @@ def _schedule_strip(ax, sc, right: float, to_x) -> None:
     ax.fill_between(xs, ys, step=None, color="0.75", lw=0)
     ax.plot(xs, ys, color="0.35", lw=1, label="pieces")
     env = getattr(sc, "envelope", None)
-    if env is not None:
+    if env is not None and env.function is not None:  # (read back from a file: pieces only)
         # The smooth envelope the pieces stand for (an SI scene's times).
         t = np.linspace(0.0, env.t0[-1], 400)
         ax.plot([to_x(x) for x in t], [float(env.function(float(x))) for x in t], color="C0",

@@ -817,7 +817,12 @@ class Result:
             self._bias_cache = _estimate_bias(self)
         values, _ = self._bias_cache[(name, stat)]
         if warn and np.isnan(values).any():
-            why = ("not estimated for the peaks (maxima over the grid: their shortfall is "
+            env = self.scene.envelope
+            why = ("the envelope's function is not kept (its scene came back from plain data: "
+                   "a saved result, a checkpoint), so the error of its pieces is unknown; run "
+                   "the envelope from envelopes.from_function(...) again"
+                   if env is not None and env.function is None else
+                   "not estimated for the peaks (maxima over the grid: their shortfall is "
                    "measured in docs/distributions.md)" if quantity(name).peak else
                    "a bias estimate needs at least 2 paths" if self.paths < 2 else
                    f"not estimated for method {self.method!r} (no coupled grids; "

@@ -317,7 +317,7 @@ class Scene:
             observe=observe,
             mass=mass,
             params=({"mu": mu, "envelope": envelope.to_dict(), "g": g, "mass": mass}
-                    if envelope is not None and envelope.serializable else
+                    if envelope is not None else
                     {"mu": mu, "h": list(hs) if piecewise else h,
                      "t0": list(ends) if piecewise else t0, "g": g, "mass": mass}),
             scaling=_scaling(mu, h, g),
