@@ -12,7 +12,10 @@ moment) and ``laplace_moment(..., exact=True)`` import sympy when called.
 
 from __future__ import annotations
 
+from typing import Union
+
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from . import _data
 from . import coast_var as _cv
@@ -53,6 +56,10 @@ from .switch_off import (
     stop_time_pdf,
     stop_time_var,
 )
+
+#: What a closed form returns: a float for a scalar time, an array (of the times' shape) for
+#: an array of times.
+Scalar = Union[float, "NDArray[np.float64]"]
 
 __all__ = [
     "schedule",
@@ -125,7 +132,7 @@ def _coast_since(name, elapsed, tau0):
     return float(np.ravel(value)[0])
 
 
-def velocity_var(tau, tau0=np.inf):
+def velocity_var(tau: ArrayLike, tau0: float = np.inf) -> Scalar:
     """Variance of the scaled velocity, Var U1(tau) = E[U1^2] (E U1 = 0 by symmetry).
 
     For tau <= tau0 (eq10s):
@@ -162,7 +169,7 @@ def velocity_var(tau, tau0=np.inf):
     return _on_then_coast(tau, tau0, _velocity_var_on, _so.coast_velocity_second_moment)
 
 
-def distance_mean(tau, tau0=np.inf):
+def distance_mean(tau: ArrayLike, tau0: float = np.inf) -> Scalar:
     """Mean scaled distance travelled, E[U3(tau)].
 
     For tau <= tau0 (eq10r):
@@ -200,7 +207,7 @@ def distance_mean(tau, tau0=np.inf):
         _distance_mean_on(np.array([t0]))[0] + _so.coast_distance_increment(t, t0)))
 
 
-def displacement_var(tau, tau0=np.inf):
+def displacement_var(tau: ArrayLike, tau0: float = np.inf) -> Scalar:
     """Variance of the scaled displacement, Var U2(tau) = E[U2^2] (E U2 = 0 by symmetry).
 
     For tau <= tau0 (eq10t):
@@ -250,7 +257,7 @@ def displacement_var(tau, tau0=np.inf):
                           _cv.coast_displacement_var)
 
 
-def distance_var(tau, tau0=np.inf):
+def distance_var(tau: ArrayLike, tau0: float = np.inf) -> Scalar:
     """Variance of the scaled distance travelled, Var U3(tau) (eq10u, corrected).
 
     For tau <= tau0: Var U3 = E[U3^2] - E[U3]^2 with E[U3^2] from :func:`distance_second_moment`

@@ -10,8 +10,10 @@ docs/analytic.md, "After switch-off".
 from __future__ import annotations
 
 import math
+from typing import Union
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy.special import erfc, erfcx
 
 from . import _data
@@ -255,7 +257,7 @@ def _tau0_array(tau0, positive=False):
     return t0
 
 
-def stop_time_mean(tau0):
+def stop_time_mean(tau0: ArrayLike) -> Union[float, "NDArray[np.float64]"]:
     """Mean stop time E[tau_s] = tau0 + E|U1(tau0)| / 2 (eq14).
 
     .. math:: E\\tau_s = \\tau_0 + \\tfrac14 - \\tfrac12(\\tau_0 + \\tfrac12)\\mathrm{erfc}
@@ -275,7 +277,7 @@ def stop_time_mean(tau0):
     return scalar_or_array(t0 + 0.5 * _data.S100(t0, SWITCH))
 
 
-def stop_time_var(tau0):
+def stop_time_var(tau0: ArrayLike) -> Union[float, "NDArray[np.float64]"]:
     """Variance of the stop time, Var tau_s = (E[U1(tau0)^2] - E|U1(tau0)|^2) / 4 (eq14).
 
     .. math:: \\mathrm{Var}\\,\\tau_s = \\tfrac14\\big(\\sigma_{U_1}^2(\\tau_0)
