@@ -62,28 +62,35 @@ def test_the_readme_examples_run_twice_in_order(tmp_path, monkeypatch):
     assert os.path.exists("crate.nc") and os.path.exists("accurate.nc")
 
 
+def _mypy(tmp_path, code: str, *options: str):
+    """mypy on ``code`` (written to a file in tmp_path), against the package's annotations."""
+    import subprocess
+    import sys
+    path = tmp_path / "readme_examples.py"
+    path.write_text(code)
+    env = dict(os.environ, MYPYPATH=str(ROOT / "python"))
+    return subprocess.run([sys.executable, "-m", "mypy", *options, "--follow-imports=silent",
+                           "--ignore-missing-imports", "--cache-dir", str(tmp_path / "cache"),
+                           str(path)], capture_output=True, text=True, env=env, cwd=tmp_path)
+
+
+def _readme_code() -> str:
+    """The README's Python examples as written (no SHRINK: what a reader's type checker sees)."""
+    text = (ROOT / "README.md").read_text()
+    use = text[text.index("## Use"):text.index("## Bias of the integrals")]
+    return "\n".join(re.findall(r"```python\n(.*?)```", use, re.S))
+
+
 def test_the_readme_examples_type_check(tmp_path):
     # mypy on the README's examples as written, against the package's annotations
     # (simulate -> Result, the statistics, intervals, files): a call the annotations do not
     # allow, or a method that does not exist, fails here.
     pytest.importorskip("mypy")
-    import subprocess
-    import sys
-    text = (ROOT / "README.md").read_text()
-    use = text[text.index("## Use"):text.index("## Bias of the integrals")]
-    path = tmp_path / "readme_examples.py"
-    path.write_text("\n".join(re.findall(r"```python\n(.*?)```", use, re.S)))
-    env = dict(os.environ, MYPYPATH=str(ROOT / "python"))
-    done = subprocess.run([sys.executable, "-m", "mypy", "--follow-imports=silent",
-                           "--ignore-missing-imports", "--cache-dir", str(tmp_path / "cache"),
-                           str(path)], capture_output=True, text=True, env=env, cwd=tmp_path)
+    done = _mypy(tmp_path, _readme_code())
     assert done.returncode == 0, done.stdout + done.stderr
     # The check can fail: a misspelt method is an error.
-    path.write_text("import crandall\nr = crandall.simulate(crandall.Scene.scaled(tau0=1.0, "
-                    "times=[1.0]), paths=10)\nr.meen('distance')\n")
-    done = subprocess.run([sys.executable, "-m", "mypy", "--follow-imports=silent",
-                           "--ignore-missing-imports", "--cache-dir", str(tmp_path / "cache"),
-                           str(path)], capture_output=True, text=True, env=env, cwd=tmp_path)
+    done = _mypy(tmp_path, "import crandall\nr = crandall.simulate(crandall.Scene.scaled("
+                           "tau0=1.0, times=[1.0]), paths=10)\nr.meen('distance')\n")
     assert done.returncode == 1 and "has no attribute \"meen\"" in done.stdout
 
 
@@ -91,16 +98,7 @@ def test_the_readme_examples_pass_mypy_strict_but_for_dask(tmp_path):
     # The package's annotations hold under --strict too: the one call strict mypy refuses is
     # Dask's Client, which distributed ships without annotations.
     pytest.importorskip("mypy")
-    import subprocess
-    import sys
-    text = (ROOT / "README.md").read_text()
-    use = text[text.index("## Use"):text.index("## Bias of the integrals")]
-    path = tmp_path / "readme_examples.py"
-    path.write_text("\n".join(re.findall(r"```python\n(.*?)```", use, re.S)))
-    env = dict(os.environ, MYPYPATH=str(ROOT / "python"))
-    done = subprocess.run([sys.executable, "-m", "mypy", "--strict", "--follow-imports=silent",
-                           "--ignore-missing-imports", "--cache-dir", str(tmp_path / "cache"),
-                           str(path)], capture_output=True, text=True, env=env, cwd=tmp_path)
+    done = _mypy(tmp_path, _readme_code(), "--strict")
     errors = [line for line in done.stdout.splitlines() if ": error:" in line]
     # mypy ran to its verdict (0: clean, 1: errors found), and every error is Client's.
     assert done.returncode in (0, 1) and ("Success" in done.stdout or "Found" in done.stdout), \
