@@ -51,8 +51,11 @@ def test_the_piece_error_of_one_piece_is_estimated_and_covers_the_error():
     # the reference's standard error of 1.1e-3 at 2^15 paths): the one piece's mean stop time
     # is 0.10 s short (2.077 against 2.178 s). The bias it reports must cover that error less
     # 3 standard errors of the difference; before the fix it was 0 and "exact".
-    one = crandall.simulate(crandall.Scene(envelope=_ramp(1), **KW), paths=1 << 15, seed=3)
-    ref = crandall.simulate(crandall.Scene(envelope=_ramp(256), **KW), paths=1 << 15, seed=4)
+    # Both kept at their pieces (fixed()): the estimate of one piece's error is under test.
+    one = crandall.simulate(crandall.Scene(envelope=_ramp(1).fixed(), **KW), paths=1 << 15,
+                            seed=3)
+    ref = crandall.simulate(crandall.Scene(envelope=_ramp(256).fixed(), **KW), paths=1 << 15,
+                            seed=4)
     assert not one.exact("stop_time") and not one.exact("velocity", "var")
     for name, stat in (("stop_time", "mean"), ("stop_time", "var"), ("velocity", "var")):
         se = np.hypot(*(r.stderr(name) if stat == "mean" else r.var_stderr(name)
@@ -63,16 +66,18 @@ def test_the_piece_error_of_one_piece_is_estimated_and_covers_the_error():
 
 
 def test_a_run_to_an_accuracy_reports_the_piece_error():
-    # The piece error (about 0.1 s) exceeds the target: the run says so and nothing is exact.
-    sc = crandall.Scene(envelope=_burst(), **KW)
+    # Kept at its pieces, the piece error (7e-3 s, with a piece end at the output time 0.5 s;
+    # 0.1 s without) exceeds the target: the run says so and nothing is exact.
+    sc = crandall.Scene(envelope=_burst().fixed(), **KW)
     with pytest.warns(StatisticsWarning, match="give the envelope more pieces"):
-        r = crandall.simulate(sc, error=0.01, statistics="stop_time:mean", seed=1)
+        r = crandall.simulate(sc, error=0.002, statistics="stop_time:mean", seed=1)
     assert not r.exact("stop_time") and r.bias("stop_time") > 0.0
 
 
 def test_a_sweep_keeps_the_envelope():
-    rs = crandall.simulate_many([crandall.Scene(envelope=_ramp(1), **KW),
-                                 crandall.Scene(envelope=_burst(), **KW)], paths=2000, seed=5)
+    rs = crandall.simulate_many([crandall.Scene(envelope=_ramp(1).fixed(), **KW),
+                                 crandall.Scene(envelope=_burst().fixed(), **KW)], paths=2000,
+                                seed=5)
     for r in rs:
         assert model.ENVELOPE in r.scene.effects
         assert not r.exact("stop_time") and r.bias("stop_time") > 0.0
@@ -88,7 +93,8 @@ def test_the_exact_part_of_an_unresolvable_function_envelope_keeps_it():
                         observe=["velocity", "distance", "stop"])
     with pytest.warns(StatisticsWarning, match="cannot be resolved"):
         r = crandall.simulate(sc, paths=64, seed=1)
-    assert "distance" not in r.scene.observe and r.scene.envelope is env
+    # The envelope's own function (with a piece end at the output time, Envelope.at_times).
+    assert "distance" not in r.scene.observe and r.scene.envelope.function is env.function
     assert model.ENVELOPE in r.scene.effects and not r.exact("stop_time")
 
 
@@ -115,7 +121,7 @@ def test_a_zero_named_envelope_is_still_an_envelope():
 def test_the_figures_draw_the_envelope_and_no_analytic_curve():
     pytest.importorskip("matplotlib")
     from crandall import plots
-    sc = crandall.Scene(mu=0.3, envelope=_ramp(1), times=[0.5, 1.0, 3.0],
+    sc = crandall.Scene(mu=0.3, envelope=_ramp(1).fixed(), times=[0.5, 1.0, 3.0],
                         observe=["velocity", "distance", "stop"])
     fig = plots.distance_mean(crandall.simulate(sc, paths=256, seed=1))
     strip, main = fig.axes  # no residual panel: no closed form to compare with
@@ -151,9 +157,9 @@ def test_a_tail_of_a_collapsed_envelope_is_its_pieces_tail():
     # crandall.tail reports the probabilities of an envelope's pieces, for any number of them
     # (docs/methods/tails.md: the piece error is not estimated for tails), and labels nothing
     # exact: a collapsed envelope's tail is its one piece's, bitwise.
-    env = _ramp(1)
-    runs = [crandall.tail(sc, "stop_time", [2.3], rel_error=0.5, seed=1, threads=1,
+    sc = crandall.Scene(envelope=_ramp(1), **KW)
+    env = sc.envelope  # its pieces: the envelope's, with a piece end at the output time
+    runs = [crandall.tail(s, "stop_time", [2.3], rel_error=0.5, seed=1, threads=1,
                           progress=False)
-            for sc in (crandall.Scene(envelope=env, **KW),
-                       crandall.Scene(h=env.h, t0=env.t0, **KW))]
+            for s in (sc, crandall.Scene(h=env.h, t0=env.t0, **KW))]
     assert runs[0].probability.tobytes() == runs[1].probability.tobytes()

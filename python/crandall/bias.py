@@ -44,8 +44,10 @@ than the squares' (docs/scenes.md).
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import functools
+import json
 import math
 from typing import Dict, Optional, Tuple
 
@@ -173,8 +175,10 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
     names = result.names
     envelope = ENVELOPE in result.scene.effects
     needs_run = needs_run_for(result)
-    quadratic = envelope and bool(_isometry_names(result.scene, names))
-    samples = _samples(result.spec, result.paths, threads, quadratic) if needs_run else None
+    # The run's own grids (the envelope's piece error has coupled runs of its own).
+    grid_needed = any(not exact_in_law(n, result.scene) and not quantity(n).peak for n in names)
+    samples = (_samples(result.spec, result.paths, threads)
+               if needs_run and grid_needed else None)
     if envelope and result.scene.envelope.function is None:
         # A function envelope read back from plain data: its pieces without the function, so
         # the error of the pieces is unknown (NaN in every statistic's bias; Result.bias says
@@ -183,7 +187,7 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
                             False) for n in names for s in ("mean", "var")}
         pieces = unknown
     else:
-        pieces = (_piece_errors(result.spec, result.names, samples, threads)
+        pieces = (_piece_errors(result.spec, result.names, threads, result.paths)
                   if needs_run and envelope else {})
     w3 = np.array(_core.richardson_weights("richardson"))
     w2 = np.array(list(_core.richardson_weights("richardson2")))
@@ -254,53 +258,141 @@ def piece_errors(scene, names, *, seed: int, paths: int = BIAS_PATHS,
     if ENVELOPE not in scene.effects or paths < 2:
         return {}
     spec = RunSpec.create(scene, paths=min(paths, BIAS_PATHS), seed=seed, method="richardson")
-    quadratic = bool(_isometry_names(scene, names))
-    return _piece_errors(spec, names, _samples(spec, spec.paths, threads, quadratic), threads)
+    return _piece_errors(spec, names, threads)
 
 
-def _piece_errors(spec, names, samples: np.ndarray, threads: int):
+def _coarse_on_fine(scene, fine):
+    """The scene's pieces cut at the ends of ``fine`` (its refinement): each fine piece with
+    the intensity of the scene's piece that holds it. The law of the scene's pieces on the
+    grid of the fine schedule, so that both draw the same random numbers at the same times:
+    paired by index on different grids, the paths of the two schedules part within a piece
+    (per-path differences as spread as the values themselves, 0.025 against 0.023 in the
+    cabinet scene's velocity at 1 s), on one grid they differ only by the intensities."""
+    coarse_ends = np.asarray(scene.envelope.t0)
+    fine_ends = list(fine.envelope.t0)
+    holder = np.searchsorted(coarse_ends, fine_ends, side="left")
+    h = [float(scene.envelope.h[i]) for i in holder]
+    p = scene.params
+    return type(scene)(mu=p["mu"], h=h, t0=fine_ends, g=p["g"], mass=p["mass"], v0=scene.v0,
+                       u0=scene.u0, times=scene.times, observe=scene.observe)
+
+
+def _order_factor(d1: float, se1: float, d2: float, se2: float) -> float:
+    """e(n) / |d1| from the differences d1 = m(n) - m(2n) and d2 = m(2n) - m(4n): r/(r-1)
+    with r = |d1| / |d2| the measured ratio where d2 is resolved (PIECE_ORDER_FACTOR, first
+    order, where it is not), PIECE_ORDER_FACTOR (r = 2) at least, and
+    MAX_ORDER_FACTOR where r is near 1 or below (no convergence seen: the pieces are far from
+    the envelope's time scales, where more pieces are the answer, not a factor)."""
+    if not abs(d2) > 2 * se2:
+        return PIECE_ORDER_FACTOR  # no second difference seen: first order assumed
+    r = abs(d1) / abs(d2)
+    if r >= PIECE_ORDER_FACTOR:
+        return PIECE_ORDER_FACTOR
+    return min(r / (r - 1.0), MAX_ORDER_FACTOR) if r > 1.0 else MAX_ORDER_FACTOR
+
+
+#: The largest e(n) / |m(n) - m(2n)| the piece error is given (convergence not seen).
+MAX_ORDER_FACTOR = 11.0
+
+
+def piece_table(spec, names, threads: int, paths: Optional[int] = None):
+    """Per (name, stat) of ``names``: the estimated error of the envelope's pieces at each
+    slot (core units; NaN for the peaks) and whether each is a bound; and per name the
+    scene's per-path values (paths, slots). The coupled run (``spec``'s options, on coupled
+    grids, at most ``paths`` or ``spec.paths`` paths) on three nested schedules laid on the
+    finest one's grid: the scene's pieces (n), each halved (2n) and halved again (4n). The
+    error of n pieces is |m(n) - m(2n)| times the factor the ratio of the two differences
+    gives (:func:`_order_factor`: 2 where the pieces are halving their error, more before)."""
     scene = spec.scene
     n_times = len(scene.times)
-    # The samples hold the isometry's integral when they have a slot after the stop's.
-    quadratic = samples.shape[1] > n_times + (1 if "stop" in scene.observe else 0)
+    quadratic = bool(_isometry_names(scene, names))
     isometry = _isometry_names(scene, names) if quadratic else set()
-    fine = _samples(dataclasses.replace(spec, scene=_refined(scene)), len(samples), threads,
-                    quadratic)
-    n = len(samples)
-    out: Dict[Tuple[str, str], Tuple[np.ndarray, bool]] = {}
+    middle = _refined(scene)
+    finest = _refined(middle)
+    count = spec.paths if paths is None else paths
+    runs = [_samples(dataclasses.replace(spec, scene=s), count, threads, quadratic)
+            for s in (_coarse_on_fine(scene, finest), _coarse_on_fine(middle, finest), finest)]
+    n = len(runs[0])
+    out: Dict[Tuple[str, str], Tuple[np.ndarray, np.ndarray]] = {}
+    values: Dict[str, np.ndarray] = {}
+
+    def moments(x: np.ndarray) -> np.ndarray:
+        return np.abs(x) if q.magnitude else x ** q.power
+
+    def difference(a: np.ndarray, b: np.ndarray, stat: str, name: str, k: int, i: int):
+        if stat == "mean":
+            phi = a - b
+        elif name in isometry:
+            # Var S(t_s) = E int sigma^2 V^2 dt / c^2 on either schedule: the difference of
+            # the variances is a difference of means, of per-path values far less spread
+            # than the squares' (docs/methods/adaptive.md).
+            c2 = scene.drift * scene.drift
+            phi = (runs[i][:, n_times + 1, 0, VELOCITY]
+                   - runs[i + 1][:, n_times + 1, 0, VELOCITY]) / c2
+        else:
+            ca = a - _sum(a, threads) / n
+            cb = b - _sum(b, threads) / n
+            phi = ca * ca - cb * cb
+        d = _sum(phi, threads) / n
+        return d, math.sqrt(_sum((phi - d) ** 2, threads) / max(n - 1, 1) / n)
+
     for name in names:
         q = quantity(name)
         slots = [n_times] if q.at_stop else list(range(n_times))
+        if q.peak:
+            for stat in ("mean", "var"):
+                out[(name, stat)] = (np.full(len(slots), math.nan),
+                                     np.zeros(len(slots), dtype=bool))
+            continue
+        x = [moments(r[:, slots, 0, q.variable]) for r in runs]
+        values[name] = x[0]
         for stat in ("mean", "var"):
-            if q.peak:
-                out[(name, stat)] = (np.full(len(slots), math.nan), False)
-                continue
-            values, bounds = [], []
-            for slot in slots:
-                a, b = samples[:, slot, 0, q.variable], fine[:, slot, 0, q.variable]
-                a = np.abs(a) if q.magnitude else a ** q.power
-                b = np.abs(b) if q.magnitude else b ** q.power
-                if stat == "mean":
-                    phi = a - b
-                elif name in isometry:
-                    # Var S(t_s) = E int sigma^2 V^2 dt / c^2 on either schedule: the
-                    # difference of the variances is a difference of means, of per-path values
-                    # far less spread than the squares' (docs/methods/adaptive.md).
-                    c2 = scene.drift * scene.drift
-                    phi = (samples[:, n_times + 1, 0, VELOCITY]
-                           - fine[:, n_times + 1, 0, VELOCITY]) / c2
+            errors, bounds = [], []
+            for k in range(len(slots)):
+                d1, se1 = difference(x[0][:, k], x[1][:, k], stat, name, k, 0)
+                d2, se2 = difference(x[1][:, k], x[2][:, k], stat, name, k, 1)
+                resolved = abs(d1) > 2 * se1
+                if resolved:
+                    errors.append(_order_factor(d1, se1, d2, se2) * abs(d1))
                 else:
-                    ca = a - _sum(a, threads) / n
-                    cb = b - _sum(b, threads) / n
-                    phi = ca * ca - cb * cb
-                d = _sum(phi, threads) / n
-                se = math.sqrt(_sum((phi - d) ** 2, threads) / max(n - 1, 1) / n)
-                resolved = abs(d) > 2 * se
-                mag = PIECE_ORDER_FACTOR * (abs(d) if resolved else abs(d) + 2 * se)
-                values.append(mag)
+                    errors.append(PIECE_ORDER_FACTOR * (abs(d1) + 2 * se1))
                 bounds.append(not resolved)
-            out[(name, stat)] = (np.array(values), any(bounds))
-    return out
+            out[(name, stat)] = (np.array(errors), np.array(bounds))
+    return out, values
+
+
+#: The piece errors of the last runs' pilots (crandall.pieces), so that the bias estimate of
+#: a run on the pieces its pilot chose reuses the pilot's table (the same paths: the same
+#: numbers) instead of running it again. Keyed by the spec's plain data and the names.
+_TABLES: "collections.OrderedDict" = collections.OrderedDict()
+_TABLES_KEPT = 8
+
+
+def _table_key(spec, names, paths) -> str:
+    return json.dumps([spec.to_dict(), sorted(names), paths], sort_keys=True)
+
+
+def piece_table_kept(spec, names, threads: int, paths: Optional[int] = None):
+    """:func:`piece_table`, from the kept tables when this spec's was computed already."""
+    count = min(spec.paths if paths is None else paths, PIECE_PATHS)
+    spec = dataclasses.replace(spec, paths=count)
+    key = _table_key(spec, names, count)
+    if key not in _TABLES:
+        _TABLES[key] = piece_table(spec, names, threads, count)
+        while len(_TABLES) > _TABLES_KEPT:
+            _TABLES.popitem(last=False)
+    return _TABLES[key]
+
+
+#: Paths of the piece error's coupled runs (three schedules, the finest with four times the
+#: pieces): as many as the pilot that chose the pieces (crandall.pieces.PILOT_PATHS).
+PIECE_PATHS = 4096
+
+
+def _piece_errors(spec, names, threads: int, paths: Optional[int] = None):
+    """:func:`piece_table` as (errors, whether any is a bound) per (name, stat)."""
+    table, _ = piece_table_kept(spec, names, threads, paths)
+    return {k: (v, bool(b.any())) for k, (v, b) in table.items()}
 
 
 def _difference(v: np.ndarray, a: np.ndarray, b: np.ndarray, stat: str, threads: int):

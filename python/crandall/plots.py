@@ -174,9 +174,17 @@ def _moment_figure(result: Result, c: Curve, units: str = "scene"):
     with result._table():
         # The figure marks what is not a number (a hollow point, below) instead of warning.
         sim, se = c.simulated(result)
+        # The bars: the total error (standard error and bias together) wherever the bias is
+        # known (an envelope's pieces, a grid's bias); the standard error where it is not
+        # (NaN: euler, refine, peaks) or not estimated yet (Result.bias_pending: a figure
+        # never runs paths; the command line estimates it first).
+        total = (np.full(np.shape(se), np.nan) if result.bias_pending
+                 else np.asarray(result._error(c.quantity, c.statistic, False), dtype=float))
+    with_bias = np.isfinite(total) & (total > np.asarray(se, dtype=float))
+    bars = np.where(np.isfinite(total), total, np.asarray(se, dtype=float))
     times = np.asarray(result.times, dtype=float)
     if units == "scaled":
-        sim, se = (paper.to_scaled(result, x, kind, power) for x in (sim, se))
+        sim, se, bars = (paper.to_scaled(result, x, kind, power) for x in (sim, se, bars))
         times = np.asarray(scaled_factors(result)[0] if closed else (
             times if sc.units == "scaled" else sc.scaling.to_tau(times)), dtype=float)
     to_x, to_y, xlabel, _ = _axes_converter(result, units)
@@ -201,8 +209,9 @@ def _moment_figure(result: Result, c: Curve, units: str = "scene"):
     # hollow, without a bar, and left out of the residuals.
     few = np.asarray(result._few(c.quantity, c.statistic), dtype=bool)
     sim, se = np.asarray(sim, dtype=float), np.asarray(se, dtype=float)
-    ax.errorbar(times[~few], sim[~few], yerr=Z95 * se[~few],
-                label=f"simulated, ±{Z95} stderr ({result.paths:,} paths)", **_SIM)
+    what = "total error (stderr and bias)" if with_bias.any() else "stderr"
+    ax.errorbar(times[~few], sim[~few], yerr=Z95 * np.asarray(bars, dtype=float)[~few],
+                label=f"simulated, ±{Z95} {what} ({result.paths:,} paths)", **_SIM)
     if few.any():
         ax.plot(times[few], sim[few], **_FEW,
                 label=f"few paths carry this (< {MIN_CARRIERS}): no error bar")

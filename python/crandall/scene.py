@@ -294,6 +294,12 @@ class Scene:
         mu = _number("mu", mu)
         envelope = _envelope(envelope, h, t0)
         if envelope is not None:
+            try:
+                # Every output time a piece end (Envelope.at_times); bad times are refused
+                # below, naming them.
+                envelope = envelope.at_times(_times(times, math.inf, ("stop",)))
+            except ParameterError:
+                pass
             h, t0 = envelope.h, envelope.t0
         elif h is None or t0 is None:
             raise ParameterError("h" if h is None else "t0",

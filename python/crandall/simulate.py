@@ -97,7 +97,21 @@ def run_spec(scene, *, paths, seed, dt, method, threads):
     results do not depend on it; the driver checks it against the memory the accumulators
     need, :meth:`FixedStep.check_memory`)."""
     spec = RunSpec.create(scene, paths=paths, seed=seed, dt=dt, method=method)
-    return spec, resolve_threads(threads)[0]
+    cores = resolve_threads(threads)[0]
+    if spec.scene.envelope is not None:
+        engine.make_plan(spec)  # the run's own grid first (UnresolvableGrid: simulate's)
+        # An envelope's pieces, refined until their error (as estimated) is within the run's
+        # standard errors (crandall.pieces): the same choice for the same spec, so resumed
+        # runs and Dask tasks find the same pieces.
+        from . import pieces
+        chosen, _ = pieces.choose(spec.scene, names_for(spec.scene.observe), paths=spec.paths,
+                                  seed=spec.seed, threads=cores,
+                                  target=pieces.stderr_target(spec.paths),
+                                  step_length=spec.dt, dt=dt, method=spec.method)
+        if chosen is not spec.scene:
+            spec = RunSpec.create(chosen, paths=spec.paths, seed=spec.seed, dt=dt,
+                                  method=spec.method)
+    return spec, cores
 
 
 def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads, min_steps=0,
