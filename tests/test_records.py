@@ -379,3 +379,40 @@ def test_exact_method_is_fast(shipped, pyslammer):
         newmark(rec, ky=0.1)
         best = min(best, time.perf_counter() - t)
     assert best * 5 < theirs, (best, theirs)
+
+
+def test_command_line(tmp_path, capsys, shipped):
+    from crandall.cli import main
+
+    path = tmp_path / "rec.csv"
+    rec = shipped["Imperial_Valley_1979_BCR-230"][1]
+    np.savetxt(path, np.column_stack([rec.time, rec.acceleration]), delimiter=",",
+               header="Time (s),Acceleration (g's)")
+    assert main(["newmark", str(path), "--ky", "0.1", "--polarity", "both",
+                 "--save", str(tmp_path / "r.nc")]) == 0
+    out = capsys.readouterr().out
+    assert f"{REFERENCE['Imperial_Valley_1979_BCR-230']:.6g}" in out and "inverse" in out
+    assert load_newmark(tmp_path / "r.nc").displacement.shape == (2,)
+    pytest.importorskip("matplotlib")
+    assert main(["newmark", str(path), "--ky", "0.1", "--method", "slammer",
+                 "--figure", str(tmp_path / "f.png")]) == 0
+    assert (tmp_path / "f.png").read_bytes()[:4] == b"\x89PNG"
+    assert main(["newmark", str(path), "--mu", "-0.1"]) == 2
+    assert "mu must be finite and > 0" in capsys.readouterr().err
+    assert main(["newmark", str(path), "--ky", "0.1", "0.2", "--figure",
+                 str(tmp_path / "g.png")]) == 2
+
+
+def test_figures(shipped):
+    pytest.importorskip("matplotlib")
+    from crandall import plots
+
+    rec = shipped["Kobe_1995_TAK-090"][1]
+    fig = plots.newmark(newmark(rec, kd=0.1, ku=0.2, polarity="inverse"))
+    assert len(fig.axes) == 3
+    assert "Kobe_1995_TAK-090" in fig._suptitle.get_text()
+    assert "PGA 0.616 g" in fig._suptitle.get_text() and "kd = 0.1 g" in fig._suptitle.get_text()
+    fig = plots.newmark_sweep(newmark([rec], ky=[0.05, 0.1, 0.2], polarity="both"))
+    assert len(fig.axes[0].lines) == 2
+    with pytest.raises(ValueError, match="one case"):
+        plots.newmark(newmark(rec, ky=[0.1, 0.2]))
