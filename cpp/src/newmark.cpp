@@ -88,6 +88,13 @@ Summary exact(const double* a, std::size_t n, double dt, double sign, const Yiel
   if (history.displacement) history.displacement[0] = 0.0;
   for (std::size_t i = 0; i + 1 < n; ++i) {
     const double a0 = sign * a[i], a1 = sign * a[i + 1];
+    // At rest with both ends within the static yields (the line between them too): nothing
+    // happens on this step (most steps of a record).
+    if (mode == 0 && a0 <= y.sd && a1 <= y.sd && a0 >= -y.su && a1 >= -y.su) {
+      if (history.velocity) history.velocity[i + 1] = 0.0;
+      if (history.displacement) history.displacement[i + 1] = d;
+      continue;
+    }
     const double t0 = static_cast<double>(i) * dt;
     const double c = (a1 - a0) / dt;  // the record's slope on this step
     double tau = 0.0;                 // time into the step

@@ -117,6 +117,8 @@ class Record:
                 or not math.isfinite(scale) or scale == 0:
             raise ParameterError("scale", f"scale must be a finite number other than 0, got {scale!r}")
         self.scale = float(scale)
+        self._si: Optional[np.ndarray] = None
+        self._pga: Optional[float] = None
 
     # -- reading ---------------------------------------------------------------------------
     @classmethod
@@ -204,13 +206,20 @@ class Record:
 
     def si(self) -> np.ndarray:
         """The acceleration in m/s^2: (samples x scale) x the unit's factor, in that order
-        (pySLAMMER's: its scaled record in g times 9.80665)."""
-        return (self._raw * self.scale) * UNITS[self.units]
+        (pySLAMMER's: its scaled record in g times 9.80665). Read-only (computed once)."""
+        if self._si is None:
+            si = (self._raw * self.scale) * UNITS[self.units]
+            si.setflags(write=False)
+            self._si = si
+        return self._si
 
     @property
     def pga(self) -> float:
         """The peak ground acceleration |a| of the scaled record, in g."""
-        return float(np.max(np.abs(self.si()))) / G
+        if self._pga is None:
+            si = self.si()
+            self._pga = float(max(si.max(), -si.min())) / G
+        return self._pga
 
     def scaled(self, factor: Optional[float] = None, *, pga: Optional[float] = None) -> "Record":
         """The record times ``factor``, or scaled to a peak ground acceleration ``pga`` (in g;
@@ -268,7 +277,9 @@ def _read_at2(path: str, text: str) -> Tuple[np.ndarray, float]:
 # -- the block -------------------------------------------------------------------------------
 
 def _yield_values(name: str, value: Any, *, allow_inf: bool = False) -> np.ndarray:
-    """A yield (in g) as a 1-D array of checked values, and whether it was a scalar."""
+    """A yield (in g) as a 1-D array of checked values."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return np.array([_positive(name, value, allow_inf=allow_inf)])
     if isinstance(value, (str, bytes)):
         raise ParameterError(name, f"{name} must be a number or a sequence of numbers")
     arr = np.asarray(value, dtype=object)
@@ -290,8 +301,9 @@ def _mode(ky, mu, mu_static, kd, ku):
         raise ParameterError("mu_static", "mu_static goes with mu (two-way on a flat surface)")
     if ky is not None:
         k = _yield_values("ky", ky)
-        inf = np.full_like(k, np.inf)
-        return "one-way", {"ky": k}, np.stack([k, inf, k, inf], axis=1), np.ndim(ky) == 0
+        rows = np.full((k.size, 4), np.inf)
+        rows[:, 0] = rows[:, 2] = k
+        return "one-way", {"ky": k}, rows, np.ndim(ky) == 0
     if mu is not None:
         m = _yield_values("mu", mu)
         ms = m if mu_static is None else _yield_values("mu_static", mu_static)
@@ -399,16 +411,16 @@ def newmark(record: Any, *, ky: Any = None, mu: Any = None, mu_static: Any = Non
     polarities = ("normal", "inverse") if polarity == "both" else (polarity,)
     signs = [_SIGNS[p] for p in polarities]
     accelerations = [r.si() for r in records]
-    if method == "slammer":
-        core_rows = np.column_stack([rows_g[:, 0], np.zeros((len(rows_g), 3))])
+    if method == "slammer":  # ky in g: the recursion multiplies by g itself, as pySLAMMER
+        core_rows = np.zeros_like(rows_g)
+        core_rows[:, 0] = rows_g[:, 0]
     else:
-        core_rows = rows_g * G
-        core_rows[~np.isfinite(rows_g)] = np.inf
+        core_rows = rows_g * G   # (inf stays inf: one-way)
     dims = tuple(d for d, many in (("record", not single_record), ("yield", not scalar_yield),
                                    ("polarity", polarity == "both")) if many)
     history = None
     if not dims:
-        a, r, s = accelerations[0], core_rows[0], signs[0]
+        a, r, s = accelerations[0], core_rows[0].tolist(), signs[0]
         try:
             if method == "exact":
                 out = _core.newmark_exact(a, records[0].dt, s, *r)
@@ -425,9 +437,9 @@ def newmark(record: Any, *, ky: Any = None, mu: Any = None, mu_static: Any = Non
                                         method, nthreads)
         except ValueError as exc:
             raise ParameterError("record", f"record: {exc}") from None
-    if not np.all(np.isfinite(table)) or (history is not None and not (
-            np.all(np.isfinite(history["velocity"]))
-            and np.all(np.isfinite(history["displacement"])))):
+    # Finite summaries bound the histories: the displacement lies between its extremes, and a
+    # velocity that overflowed would have taken the displacement with it.
+    if not np.isfinite(table).all():
         raise ParameterError("record", "record: the displacement overflows doubles (samples "
                                        "or yields far beyond a ground motion's)")
     if mode == "flat":  # the body relative to the foundation: -W
@@ -442,7 +454,7 @@ def newmark(record: Any, *, ky: Any = None, mu: Any = None, mu_static: Any = Non
                   "units": r.units} for r in records],
         mode=mode, method=method, yields=yields, polarities=polarities, dims=dims,
         table=table,
-        acceleration=None if history is None else accelerations[0] * signs[0] / G,
+        acceleration=None if history is None else (accelerations[0], signs[0]),
         history=history)
 
 
@@ -486,7 +498,7 @@ class NewmarkResult:
 
     def __init__(self, *, records: List[Dict[str, Any]], mode: str, method: str,
                  yields: Mapping[str, np.ndarray], polarities: Sequence[str],
-                 dims: Sequence[str], table: np.ndarray, acceleration: Optional[np.ndarray],
+                 dims: Sequence[str], table: np.ndarray, acceleration: Any,
                  history: Optional[Dict[str, np.ndarray]]) -> None:
         self.records = records
         self.mode = mode
@@ -495,7 +507,8 @@ class NewmarkResult:
         self.polarities = tuple(polarities)
         self.dims = tuple(dims)
         self.table = np.asarray(table, dtype=float)
-        self.acceleration = acceleration
+        # The record as run, in g: given, or (m/s^2 samples, sign) made into it when first read.
+        self._acceleration = acceleration
         self._history = history
 
     def _value(self, k: int):
@@ -545,6 +558,14 @@ class NewmarkResult:
     @property
     def events(self) -> np.ndarray:
         return self._one("events")
+
+    @property
+    def acceleration(self) -> np.ndarray:
+        self._one("velocity")
+        if isinstance(self._acceleration, tuple):
+            si, sign = self._acceleration
+            self._acceleration = si * sign / G
+        return self._acceleration
 
     @property
     def label(self) -> str:
