@@ -511,7 +511,7 @@ class NewmarkResult:
         self._acceleration = acceleration
         self._history = history
 
-    def _value(self, k: int):
+    def _value(self, k: int) -> Any:
         v = self.table[..., k]
         squeeze = tuple(i for i, d in enumerate(("record", "yield", "polarity"))
                         if d not in self.dims)
@@ -521,19 +521,19 @@ class NewmarkResult:
         return v.item() if v.ndim == 0 else v
 
     @property
-    def displacement(self):
+    def displacement(self) -> Any:
         return self._value(0)
 
     @property
-    def max_displacement(self):
+    def max_displacement(self) -> Any:
         return self._value(1)
 
     @property
-    def min_displacement(self):
+    def min_displacement(self) -> Any:
         return self._value(2)
 
     @property
-    def slips(self):
+    def slips(self) -> Any:
         return self._value(3)
 
     def _one(self, name: str) -> np.ndarray:
