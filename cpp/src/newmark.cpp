@@ -163,8 +163,9 @@ void sweep(const std::vector<RecordView>& records, const std::vector<Yield>& yie
   const std::size_t cases = records.size() * per_record;
   double work = 0.0;
   for (const auto& rec : records) work += static_cast<double>(rec.n) * per_record;
-  // A sample costs about a tenth of a path step (~10 ns against ~100 ns).
-  const int team = thread_count(threads, work / 10.0);
+  // A sample costs about what a path step of the kernel does (a few ns): a thread per
+  // kThreadWork samples at most, so a small sweep stays on the calling thread.
+  const int team = thread_count(threads, work);
   std::exception_ptr error;
   std::mutex error_mutex;
 #pragma omp parallel for num_threads(team) schedule(dynamic, 1)

@@ -522,18 +522,22 @@ class NewmarkResult:
 
     @property
     def displacement(self) -> Any:
+        """At the record's end, m (float for one case, else an array over ``dims``)."""
         return self._value(0)
 
     @property
     def max_displacement(self) -> Any:
+        """The largest displacement over the record, m (>= 0)."""
         return self._value(1)
 
     @property
     def min_displacement(self) -> Any:
+        """The smallest displacement over the record, m (<= 0)."""
         return self._value(2)
 
     @property
     def slips(self) -> Any:
+        """How many slides started (int for one case, else an array over ``dims``)."""
         return self._value(3)
 
     def _one(self, name: str) -> np.ndarray:
