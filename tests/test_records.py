@@ -263,6 +263,12 @@ def test_reading_files(tmp_path):
     assert r.dt == 0.01 and r.npts == 7 and r.name == "RSN1_TEST"
     assert r.acceleration.tolist() == [0.01, 0.02, -0.03, 0.4, 0.05, -0.06, 0.07]
     assert r.pga == pytest.approx(0.4)
+    older = tmp_path / "older.at2"   # the older PEER header: "NPTS DT NPTS, DT" on line 4
+    older.write_text(at2.read_text().replace("NPTS=    7, DT=   .0100 SEC", "    7   .0100   NPTS, DT"))
+    assert Record.read(older) == Record(r.acceleration, 0.01, name="older")
+    older.write_text("x\ny\nz\nw\n1\n")
+    with pytest.raises(ParameterError, match="not a PEER NGA AT2 file"):
+        Record.read(older)
     one = tmp_path / "one.txt"
     one.write_text("# cm/s2\n1.0\n-2.0\n3.5\n")
     r = Record.read(one, dt=0.02, units="cm/s2")

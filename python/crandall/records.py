@@ -260,17 +260,26 @@ def _read_at2(path: str, text: str) -> Tuple[np.ndarray, float]:
     header = "\n".join(lines[:4])
     npts = re.search(r"NPTS\s*=\s*(\d+)", header, re.I)
     dt = re.search(r"DT\s*=\s*([0-9.eE+-]+)", header, re.I)
-    if len(lines) < 5 or not npts or not dt:
+    if npts and dt:
+        return _at2_values(path, lines, int(npts.group(1)), dt.group(1))
+    # The older PEER layout: "  5590   .0050   NPTS, DT" on the fourth line.
+    older = re.match(r"\s*(\d+)\s+([0-9.eE+-]+)\s+NPTS", lines[3], re.I) if len(lines) >= 4 \
+        else None
+    if older is None:
         raise ParameterError("path", f"path: {path!r} is not a PEER NGA AT2 file (its 4th "
                                      "line must give NPTS= and DT=)")
+    return _at2_values(path, lines, int(older.group(1)), older.group(2))
+
+
+def _at2_values(path: str, lines: List[str], npts: int, dt: str) -> Tuple[np.ndarray, float]:
     try:
         values = [float(x) for line in lines[4:] for x in line.replace(",", " ").split()]
-        step = float(dt.group(1))
+        step = float(dt)
     except ValueError:
         raise ParameterError("path", f"path: {path!r}: a sample is not a number") from None
-    if len(values) != int(npts.group(1)):
+    if len(values) != npts:
         raise ParameterError("path", f"path: {path!r} holds {len(values)} samples, its header "
-                                     f"says NPTS={npts.group(1)}")
+                                     f"says NPTS={npts}")
     return np.array(values, dtype=float), step
 
 
