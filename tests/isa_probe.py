@@ -38,7 +38,26 @@ def probe(paths: int) -> dict:
                               progress=False)
         stats[f"{method}/pauses"] = hex_statistics(r)
     return {"isa": _core.build_info()["isa"], "available": _core.build_info()["isa_available"],
-            "stats": stats}
+            "stats": stats, "newmark": newmark_probe()}
+
+
+def newmark_probe() -> dict:
+    """Newmark's block, exact and slammer, on a record made with +, -, x, / only (no libm, whose
+    results may depend on the CPU): the displacements and slips as hex."""
+    import numpy as np
+
+    i = np.arange(3000, dtype=float)
+    record = ((i * 7919.0) % 1000.0 - 500.0) / 1000.0 * 0.6 * (1.0 - i / 3000.0)
+    rec = crandall.Record(record, 0.01)
+    out = {}
+    for method in ("exact", "slammer"):
+        r = crandall.newmark(rec, ky=[0.05, 0.1, 0.2], polarity="both", method=method, threads=1)
+        out[method] = [float(x).hex() for x in np.ravel(r.table)]
+    r = crandall.newmark(rec, kd=0.1, ku=0.15, polarity="both", threads=1)
+    out["incline"] = [float(x).hex() for x in np.ravel(r.table)]
+    r = crandall.newmark(rec, mu=0.1, mu_static=0.12, polarity="both", threads=1)
+    out["flat"] = [float(x).hex() for x in np.ravel(r.table)]
+    return out
 
 
 if __name__ == "__main__":

@@ -46,6 +46,7 @@ def test_the_readme_examples_run_twice_in_order(tmp_path, monkeypatch):
     pytest.importorskip("matplotlib")
     pytest.importorskip("distributed")
     pytest.importorskip("boost_histogram")
+    pytest.importorskip("pyslammer")   # the records' example reads its shipped records
     monkeypatch.chdir(tmp_path)
     code = "from distributed import LocalCluster\n" + _examples()
     for run in range(2):

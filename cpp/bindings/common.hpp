@@ -29,6 +29,7 @@ void register_run(py::module_& m);          // run_chunk, ChunkResult, cancellin
 void register_diagnostics(py::module_& m);  // exact_steps, random_floor, build_info, ...
 void register_levels(py::module_& m);       // run_samples, sum_products (adaptive runs)
 void register_branch(py::module_& m);       // extend_paths (rare-event estimators)
+void register_newmark(py::module_& m);      // newmark_exact, newmark_slammer, newmark_sweep
 
 namespace bindings {
 

@@ -19,4 +19,5 @@ PYBIND11_MODULE(_core, m) {
   register_diagnostics(m);
   register_levels(m);
   register_branch(m);
+  register_newmark(m);
 }

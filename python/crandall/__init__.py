@@ -17,6 +17,7 @@ from . import _openmp  # noqa: F401  (first: OpenMP's wait policy, read when the
 from . import bias as _bias  # installs the results' bias estimator
 from ._lazy import lazy_submodules as _lazy_submodules
 from .io import load
+from .records import NewmarkResult, Record, newmark
 from .results import Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene
 from .simulate import METHODS, default_dt, simulate, simulate_many
@@ -25,7 +26,8 @@ from .trajectories import paths
 from .units import Scaling
 
 __all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS",
-           "StatisticsWarning", "StatisticsFailure", "tail", "TailResult", "paths"]
+           "StatisticsWarning", "StatisticsFailure", "tail", "TailResult", "paths",
+           "Record", "newmark", "NewmarkResult"]
 
 # The analytic layer and the envelopes need scipy: imported when first read
 # (crandall.envelopes.amin_ang(...), crandall.analytic.physical(...)), not by `import crandall`.

@@ -221,3 +221,27 @@ def form_features(samples: npt.NDArray[np.float64], columns: FeatureColumns, two
     grid's (0 for columns exact in law)."""
 
 MAX_HISTOGRAM_BINS: int
+
+#: Standard gravity, m/s^2 (records' g; crandall.records.G).
+STANDARD_GRAVITY: float
+
+_Summary = Tuple[float, float, float, int]
+
+def newmark_exact(
+    acceleration: npt.NDArray[np.float64], dt: float, sign: float, kd: float, ku: float,
+    sd: float, su: float,
+) -> Tuple[_Summary, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The exact block on one record (m/s^2; yields in m/s^2): ((displacement, max, min,
+    slips), velocity, displacement, events (onset, stop, direction, stopped))."""
+
+def newmark_slammer(
+    acceleration: npt.NDArray[np.float64], dt: float, sign: float, ky: float,
+) -> Tuple[_Summary, npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """pySLAMMER 0.2.2's rigid block on one record (m/s^2), ky in g; as newmark_exact."""
+
+def newmark_sweep(
+    records: Sequence[npt.NDArray[np.float64]], dts: Sequence[float],
+    yields: npt.NDArray[np.float64], signs: Sequence[float], method: str, threads: int = 0,
+) -> npt.NDArray[np.float64]:
+    """Every (record, yield, sign): (records, yields, signs, 4) of (displacement, max, min,
+    slips)."""

@@ -1,5 +1,6 @@
 """The ``crandall`` command line: ``crandall run [SCENE]``, ``crandall tail [SCENE]``,
-``crandall analytic [SCENE]`` and ``crandall scenes`` (the shipped scenes, by name).
+``crandall analytic [SCENE]``, ``crandall scenes`` (the shipped scenes, by name) and
+``crandall newmark RECORD`` (Newmark's sliding block on a recorded ground motion).
 
 ``crandall run`` without a scene file simulates the paper's setting (``crandall.paper``) and
 prints it beside the analytic layer; ``python -m crandall`` does the same.
@@ -24,6 +25,7 @@ from ._files import check_folder_writable, write_atomic
 from .methods import DEFAULT_METHOD, METHODS
 from .quantities import quantity
 from .model import ANALYTIC, holds
+from .records import POLARITIES, Record, newmark
 from .scene import Scene
 from .simulate import simulate
 from .tail import TAIL_QUANTITIES, StatisticsFailure, tail
@@ -224,6 +226,44 @@ def _parser() -> argparse.ArgumentParser:
                     help="scaled switch-off time instead of a scene (default 5)")
     an.add_argument("--times", type=_float, nargs="+", metavar="TAU",
                     help="scaled output times (with --tau0; default: the paper's)")
+
+    nm = sub.add_parser(
+        "newmark", help="Newmark's sliding block on a recorded ground motion",
+        description="Slide a rigid block on a recorded ground motion and print its "
+                    "displacement: one-way above --ky (SLAMMER's rigid block), two-way on a "
+                    "flat surface (--mu, --mu-static) or on an incline (--kd, --ku); yields "
+                    "in g (9.80665 m/s^2). The record: a text file of two columns (time, "
+                    "acceleration; pySLAMMER's CSV files), one column (with --dt), or a PEER "
+                    "NGA .AT2 file. Several yield values sweep them.")
+    nm.add_argument("record", metavar="RECORD", help="the record's file")
+    mode = nm.add_argument_group("the block (one of --ky, --mu, --kd with --ku)")
+    mode.add_argument("--ky", type=_float, nargs="+", metavar="KY",
+                      help="one-way yield acceleration(s), g")
+    mode.add_argument("--mu", type=_float, nargs="+", metavar="MU",
+                      help="two-way on a flat surface: kinetic friction coefficient(s)")
+    mode.add_argument("--mu-static", type=_float, nargs="+", metavar="MU",
+                      help="with --mu: static friction coefficient(s) (default: --mu)")
+    mode.add_argument("--kd", type=_float, nargs="+", metavar="KD",
+                      help="incline: downslope yield acceleration(s), g")
+    mode.add_argument("--ku", type=_float, nargs="+", metavar="KU",
+                      help="incline: upslope yield acceleration(s), g")
+    nm.add_argument("--method", choices=("exact", "slammer"), default="exact",
+                    help="exact: the record joined by straight lines, integrated exactly "
+                         "(default); slammer: pySLAMMER 0.2.2's recursion, bit for bit")
+    nm.add_argument("--polarity", choices=POLARITIES, default="normal",
+                    help="the record as given, negated, or both (default: normal)")
+    nm.add_argument("--dt", type=_float, help="sampling interval, s (a one-column file)")
+    nm.add_argument("--units", choices=("g", "m/s2", "cm/s2"), default="g",
+                    help="the record's units (default: g)")
+    scale = nm.add_mutually_exclusive_group()
+    scale.add_argument("--scale", type=_float, metavar="FACTOR", help="multiply the record")
+    scale.add_argument("--pga", type=_float, metavar="G", help="scale the record to this PGA, g")
+    nm.add_argument("--figure", metavar="FILE",
+                    help="write the figure (record, velocity, displacement) of one case to "
+                         "FILE (.png, .pdf or .svg)")
+    nm.add_argument("--save", metavar="FILE", help="write the result to a netCDF file "
+                                                     "(crandall.io.load_newmark reads it)")
+    nm.add_argument("--threads", type=_positive_int, help="threads for a sweep (default: all)")
     return parser
 
 
@@ -683,6 +723,49 @@ def scenes_command() -> int:
     return 0
 
 
+def _one(values):
+    return None if values is None else (values[0] if len(values) == 1 else values)
+
+
+def newmark_command(args) -> int:
+    """``crandall newmark RECORD ...``: the table of displacements, and the files asked for."""
+    record = Record.read(args.record, dt=args.dt, units=args.units)
+    if args.scale is not None:
+        record = record.scaled(args.scale)
+    elif args.pga is not None:
+        record = record.scaled(pga=args.pga)
+    result = newmark(record, ky=_one(args.ky), mu=_one(args.mu),
+                     mu_static=_one(args.mu_static), kd=_one(args.kd), ku=_one(args.ku),
+                     method=args.method, polarity=args.polarity,
+                     threads=args.threads if args.threads else None)
+    if args.figure is not None and result.dims:
+        raise ValueError("--figure draws one case: give one yield value and one polarity")
+    print(f"{record!r}")
+    sense = ("relative to the foundation" if result.mode == "flat" else "positive downslope")
+    print(f"{result.mode} block, method {result.method}; displacements in m, {sense}")
+    names = list(result.yields)
+    header = "  ".join(f"{n:>9}" for n in names)
+    print(f"{header}  {'polarity':>8}  {'displacement':>13}  {'max':>11}  {'min':>11}  "
+          f"{'slips':>5}")
+    for k in range(result.table.shape[1]):
+        for p, pol in enumerate(result.polarities):
+            d, hi, lo, n = result.table[0, k, p]
+            ys = "  ".join(f"{result.yields[n][k]:>9.4g}" for n in names)
+            print(f"{ys}  {pol:>8}  {d:>13.6g}  {hi:>11.5g}  {lo:>11.5g}  {int(n):>5}")
+    if args.save:
+        result.save(args.save)
+        print(f"wrote {args.save}")
+    if args.figure:
+        fmt = os.path.splitext(args.figure)[1].lstrip(".").lower()
+        if fmt not in plots.FORMATS:
+            raise ValueError(f"--figure: the file must end in one of "
+                             f"{', '.join('.' + f for f in plots.FORMATS)}")
+        fig = plots.newmark(result)
+        write_atomic(args.figure, lambda f: fig.savefig(f, format=fmt))
+        print(f"wrote {args.figure}")
+    return 0
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point of the ``crandall`` console script; returns the exit status."""
     args = _parser().parse_args(argv)
@@ -710,6 +793,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                                 figure_format=args.figure_format, dpi=args.dpi)
         if args.command == "scenes":
             return scenes_command()
+        if args.command == "newmark":
+            return newmark_command(args)
         return analytic_command(args.scene, tau0=args.tau0, times=args.times)
     except (ValueError, StatisticsFailure) as exc:
         # StatisticsFailure: an estimator found no usable answer; its message says what to do.

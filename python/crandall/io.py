@@ -15,9 +15,10 @@ from typing import Union
 
 from ._dataset import STATISTICS, save, sweep, to_pandas, to_xarray
 from ._dataset import read as _read
+from .records import load_newmark
 from .results import AccuracyResult, Result
 
-__all__ = ["to_xarray", "to_pandas", "save", "load", "sweep", "STATISTICS"]
+__all__ = ["to_xarray", "to_pandas", "save", "load", "load_newmark", "sweep", "STATISTICS"]
 
 
 def load(path: Union[str, "os.PathLike[str]"]) -> Result:
@@ -40,7 +41,23 @@ def load(path: Union[str, "os.PathLike[str]"]) -> Result:
         missing, of the wrong type, inconsistent with the others (shapes, the scene's output
         times, counts against paths) or not finite: the message names the file and the field.
     """
-    fields = _read(path)
+    try:
+        fields = _read(path)
+    except ValueError as exc:
+        if _is_newmark(path):
+            raise ValueError(f"path: {os.fspath(path)} is a saved Newmark result: read it with "
+                             "crandall.io.load_newmark") from exc
+        raise
     if fields.pop("kind", None) == "accuracy":
         return AccuracyResult(**fields)
     return Result(**fields)
+
+
+def _is_newmark(path) -> bool:
+    try:
+        import xarray as xr
+
+        with xr.open_dataset(os.fspath(path), engine="scipy") as ds:
+            return "crandall_newmark" in ds.attrs
+    except Exception:  # noqa: BLE001 - any unreadable file is simply not one
+        return False

@@ -29,6 +29,7 @@ from . import paper
 from .paper import CURVES, Curve, curve, scaled_factors
 from .quantities import quantity
 from .model import ANALYTIC, holds
+from .records import NewmarkResult
 from .results import MIN_CARRIERS, Result
 from .scene import Scene
 from .spec import MAX_SEED, check_int
@@ -46,6 +47,8 @@ __all__ = [
     "figures",
     "write_figures",
     "paths",
+    "newmark",
+    "newmark_sweep",
     "UNITS",
     "FORMATS",
 ]
@@ -730,3 +733,92 @@ def write_figures(result: Result, folder, *, paths: int = 200_000, units: str = 
         write_atomic(path, lambda f, fig=fig: fig.savefig(f, dpi=dpi, format=format))
         written.append(path)
     return written
+
+
+def newmark(result: NewmarkResult):
+    """A Newmark block on one record, as pySLAMMER draws it: the ground acceleration (g) with
+    the yields, the sliding velocity (m/s) and the sliding displacement (m) against time, the
+    slides shaded; the title names the record, the yields, the PGA and the method.
+
+    Parameters
+    ----------
+    result : NewmarkResult
+        One case of :func:`crandall.newmark` (one record, one yield, one polarity).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if not isinstance(result, NewmarkResult) or result.dims:
+        raise ValueError("result must be one case of crandall.newmark (one record, one yield "
+                         "and one polarity); a sweep keeps no histories: plots.newmark_sweep")
+    t = result.time
+    fig = _figure(width=7.0, height=6.2)
+    axes = fig.subplots(3, 1, sharex=True)
+    rec = result.records[0]
+    axes[0].plot(t, result.acceleration, color="C0", lw=0.6, label="ground acceleration")
+    ys = result.yields
+    if result.mode == "one-way":
+        levels = [(ys["ky"][0], "ky")]
+    elif result.mode == "flat":
+        levels = [(ys["mu_static"][0], "mu_static"), (-ys["mu_static"][0], None)]
+    else:
+        levels = [(ys["kd"][0], "kd"), (-ys["ku"][0], "-ku")]
+    for value, label in levels:
+        if math.isfinite(value):
+            axes[0].axhline(value, color="k", lw=0.8, ls="--", label=label)
+    axes[0].set_ylabel("acceleration (g)")
+    axes[0].legend(loc="upper right", fontsize=8)
+    axes[1].plot(t, result.velocity, color="k", lw=0.9)
+    axes[1].set_ylabel("sliding velocity (m/s)")
+    axes[2].plot(t, result.sliding_displacement, color="k", lw=1.2)
+    axes[2].set_ylabel("sliding displacement (m)")
+    axes[2].set_xlabel("time (s)")
+    for onset, stop, _, _ in result.events:
+        for ax in axes[1:]:
+            ax.axvspan(onset, stop, color="C1", alpha=0.15, lw=0)
+    for ax in axes:
+        ax.grid(alpha=0.3)
+    axes[0].set_xlim(t[0], t[-1])
+    sense = "downslope" if result.mode != "flat" else "relative to the foundation"
+    fig.suptitle(f"{rec['name']}: {result.label}, PGA {rec['pga']:.3g} g, "
+                 f"{result.polarities[0]} polarity\n{result.method} method: {sense} "
+                 f"{result.displacement:.4g} m, {result.slips} slides", fontsize=10)
+    return fig
+
+
+def newmark_sweep(result: NewmarkResult):
+    """A sweep of one-way or incline yields: the displacement at the record's end against the
+    yield (log scale), a line per record (and polarity: normal solid, inverse dashed).
+
+    Parameters
+    ----------
+    result : NewmarkResult
+        :func:`crandall.newmark` with an array of yields.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if not isinstance(result, NewmarkResult) or "yield" not in result.dims:
+        raise ValueError("result must be a sweep of crandall.newmark over an array of yields")
+    name = {"one-way": "ky", "flat": "mu", "incline": "kd"}[result.mode]
+    x = result.yields[name]
+    fig = _figure(width=7.0, height=4.8)
+    ax = fig.subplots()
+    for i, rec in enumerate(result.records):
+        for p, pol in enumerate(result.polarities):
+            y = np.abs(result.table[i, :, p, 0])
+            ok = y > 0
+            ax.plot(x[ok], y[ok], ls="-" if pol == "normal" else "--", lw=1.0,
+                    color=f"C{i % 10}", label=rec["name"] if p == 0 else None)
+    ax.set_yscale("log")
+    ax.set_xlabel(f"{name} (g)")
+    ax.set_ylabel("|displacement| at the record's end (m)")
+    ax.grid(alpha=0.3, which="both")
+    if len(result.records) <= 20:
+        ax.legend(fontsize=6, ncol=2, loc="lower left")
+    ax.set_title(f"{result.method} method, {len(result.records)} records x {x.size} yields x "
+                 f"{len(result.polarities)} polarities (solid normal, dashed inverse)",
+                 fontsize=9)
+    return fig

@@ -205,6 +205,12 @@ class Scene:
     ----------
     mu : float
         Coefficient of kinetic friction, >= 0 (0: a free Brownian body, which never stops).
+    ky : float, optional
+        Newmark's name for ``mu`` (give one of them): the yield acceleration of a one-way
+        sliding block, in units of the scene's ``g``. Under white noise the one-way block's
+        downslope displacement is this scene's distance S with ``mu = ky`` (docs/records.md);
+        records give ky in standard gravity, so pass ``g=9.80665`` (the default g is 9.81) for
+        the same ky g in m s^-2.
     h : float or sequence of float
         Intensity of the white-noise acceleration of the foundation, m s^-3/2, >= 0
         (0: the body stays at rest). A sequence, with ``t0`` a sequence of the same length:
@@ -278,7 +284,7 @@ class Scene:
     def __init__(
         self,
         *,
-        mu: float,
+        mu: Optional[float] = None,
         h: Any = None,
         t0: Any = None,
         envelope: Any = None,
@@ -290,8 +296,14 @@ class Scene:
         observe: Optional[Sequence[str]] = None,
         distributions: Any = None,
         bins: Any = None,
+        ky: Optional[float] = None,
     ) -> None:
-        mu = _number("mu", mu)
+        if mu is not None and ky is not None:
+            raise ParameterError("mu, ky", "mu, ky: give one of them (ky is Newmark's name for "
+                                           "mu: the yield acceleration in units of g)")
+        if mu is None and ky is None:
+            raise ParameterError("mu", "mu: missing (or ky, Newmark's name for it)")
+        mu = _number("ky", ky) if mu is None else _number("mu", mu)
         envelope = _envelope(envelope, h, t0)
         if envelope is not None:
             try:
