@@ -38,7 +38,7 @@ from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 import numpy as np
 
-from . import _core, bias
+from . import _core, bias, pieces
 from ._resources import available_memory
 from .checkpoint import json_state, read_json_state
 from .driver import Estimator, Progress, Task, drive
@@ -1210,7 +1210,6 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
         # An envelope's pieces, refined until their error (as estimated) is at most half of
         # every target (crandall.pieces); the levels then meet the rest, with the pieces'
         # error counted in each statistic's bias.
-        from . import pieces
         targets = _targets(scene, chosen)
         scene, info = pieces.choose(scene, sorted({t.name for t in targets}),
                                     paths=pieces.PILOT_PATHS, seed=seed, threads=threads,

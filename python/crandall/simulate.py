@@ -18,7 +18,7 @@ import numpy as np
 
 from . import _dataset
 from . import checkpoint as _ckpt
-from . import engine
+from . import engine, pieces
 from ._resources import available_memory
 from .driver import Estimator, Progress, Task, Tasks, check_client, drive
 from .driver import threads as resolve_threads
@@ -103,7 +103,6 @@ def run_spec(scene, *, paths, seed, dt, method, threads):
         # An envelope's pieces, refined until their error (as estimated) is within the run's
         # standard errors (crandall.pieces): the same choice for the same spec, so resumed
         # runs and Dask tasks find the same pieces.
-        from . import pieces
         chosen, _ = pieces.choose(spec.scene, names_for(spec.scene.observe), paths=spec.paths,
                                   seed=spec.seed, threads=cores,
                                   target=pieces.stderr_target(spec.paths),
