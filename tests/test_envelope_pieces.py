@@ -277,3 +277,21 @@ def test_the_figures_draw_the_total_error_where_the_bias_is_known():
     assert "total error (stderr and bias)" in label
     np.testing.assert_allclose(half, 1.96 * r.error("velocity", "var"), rtol=1e-12)
     assert np.any(r.error("velocity", "var") > 3 * r.var_stderr("velocity"))
+
+
+def test_the_summary_says_when_the_stop_time_is_set_by_the_scene():
+    # Issue 31, item 11: the cabinet's stop time was "31.0259 s +- 7e-9", the envelope's end.
+    # Amin & Ang's envelope is cut where its variance is 1e-4 of the strong phase's: the
+    # paths stop within 1e-3 t0 of the end (3.6e-6 s at this seed), and the summary says the
+    # number is the scene's. A constant intensity ending at 8 s leaves the paths 0.015 s of
+    # coast on average (2e-3 t0): no such note.
+    env = envelopes.amin_ang(0.6, t1=2.0, t2=8.0, c=0.4, pieces=8).fixed()
+    sc = crandall.Scene(mu=0.35, envelope=env, times=[1.0, 5.0], observe=["velocity", "stop"])
+    r = crandall.simulate(sc, paths=2000, seed=1)
+    assert r.mean("stop_time") - sc.t0 < 1e-3 * sc.t0
+    assert "stop_time is set by the scene: the noise ends at t0 = 31.0259 s" in r.summary()
+    plain = crandall.Scene(mu=0.35, h=0.6, t0=8.0, times=[1.0, 5.0],
+                           observe=["velocity", "stop"])
+    p = crandall.simulate(plain, paths=2000, seed=1)
+    assert p.mean("stop_time") - plain.t0 > 1e-3 * plain.t0
+    assert "set by the scene" not in p.summary()

@@ -963,10 +963,35 @@ class Result:
                              f" ± {_fmt(self._var_stderr_quiet(n)[0], '.2g', self._few(n, 'var')[0])}"
                              f" (bias {shown(bias_of(n, 'var'), '.2g')})"
                              + (f"   [{u}]" if u else ""))
-        note = self._few_note()
-        if note:
-            lines.append(f"  {note}")
+        for note in (self._few_note(), self._scene_note()):
+            if note:
+                lines.append(f"  {note}")
         return "\n".join(lines)
+
+    #: A stop time this close to the end of the noise (relative to it) is said to be set by
+    #: the scene (:meth:`_scene_note`).
+    SET_BY_SCENE = 1e-3
+
+    def _scene_note(self) -> str:
+        """The summary's note when the mean stop time is the end of the noise, t0, to within
+        SET_BY_SCENE of it: the number then tells when the scene's shaking ends, not how the
+        friction stops the body ("" otherwise)."""
+        if "stop_time" not in self.names:
+            return ""
+        sc = self.scene
+        t0 = float(sc.t0)
+        mean = float(self._stats("stop_time")[0])
+        if not (math.isfinite(t0) and t0 > 0 and math.isfinite(mean)):
+            return ""
+        after = mean - t0
+        if not 0.0 <= after <= self.SET_BY_SCENE * t0:
+            return ""
+        unit = sc.units_of("stop_time")
+        u = f" {unit}" if unit else ""
+        return (f"stop_time is set by the scene: the noise ends at {sc.time_name}0 = "
+                f"{t0:.6g}{u} and the paths come to rest {after:.2g}{u} after it on average "
+                "(the shaking has died down so far by then that they stop at once): it "
+                "tells when the scene's shaking ends, not how the friction stops the body")
 
     def _few_note(self) -> str:
         """The tables' note on the standard errors marked FEW_MARK ("" if none)."""
