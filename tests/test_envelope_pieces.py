@@ -55,8 +55,11 @@ def test_the_piece_error_covers_the_error_against_many_pieces(pieces):
     # (not a bound) and at most 3 times the measured error (it is not vacuous). Measured at
     # this seed: stop-time mean 2.0e-3 reported against 1.63e-3 (4 pieces), 7.0e-4 against
     # 6.2e-4 (8 pieces).
-    ref = crandall.simulate(crandall.Scene(envelope=_env(256), **KW), paths=1 << 18, seed=99)
-    r = crandall.simulate(crandall.Scene(envelope=_env(pieces), **KW), paths=1 << 16, seed=5)
+    # Both kept at their pieces (fixed()): the estimate for n pieces is under test.
+    ref = crandall.simulate(crandall.Scene(envelope=_env(256).fixed(), **KW), paths=1 << 18,
+                            seed=99)
+    r = crandall.simulate(crandall.Scene(envelope=_env(pieces).fixed(), **KW), paths=1 << 16,
+                          seed=5)
     for name, stat in (("velocity", "var"), ("stop_time", "mean"), ("stop_time", "var")):
         se = r.stderr(name) if stat == "mean" else r.var_stderr(name)
         se_ref = ref.stderr(name) if stat == "mean" else ref.var_stderr(name)
@@ -228,13 +231,15 @@ def test_the_variance_at_the_stop_takes_its_piece_error_through_the_isometry():
     # The estimate is twice the difference (first order in the piece length), from the
     # isometry: on these samples, twice iso's mean.
     # The estimate: the difference between the pieces and their halves, both laid on the
-    # grid of the pieces halved twice (bias._coarse_on_fine), times the factor its
+    # grid of the pieces halved twice (bias._coarse_on_fine; the run's step, one grid),
+    # times the factor its
     # convergence gives (2 for first order, at most MAX_ORDER_FACTOR); here from the isometry.
     finest = bias._refined(bias._refined(sc))
     c = bias._samples(dataclasses.replace(spec, scene=bias._coarse_on_fine(sc, finest)),
-                      spec.paths, 1, True)
+                      spec.paths, 1, True, one_grid=True)
     m = bias._samples(dataclasses.replace(
-        spec, scene=bias._coarse_on_fine(bias._refined(sc), finest)), spec.paths, 1, True)
+        spec, scene=bias._coarse_on_fine(bias._refined(sc), finest)), spec.paths, 1, True,
+        one_grid=True)
     d1 = ((c[:, slot + 1, 0, VELOCITY] - m[:, slot + 1, 0, VELOCITY]) / sc.drift ** 2).mean()
     value, is_bound = bias._piece_errors(spec, ["distance_at_stop"], 1)[("distance_at_stop", "var")]
     assert not is_bound
@@ -245,8 +250,11 @@ def test_the_variance_at_the_stop_takes_its_piece_error_through_the_isometry():
     peaks = crandall.Scene(envelope=_env(4), **dict(kw, observe=["distance", "stop", "peaks"]))
     assert bias._isometry_names(peaks, ["distance_at_stop"]) == set()
     # The reported bias against a run of 256 pieces.
-    ref = crandall.simulate(crandall.Scene(envelope=_env(256), **kw), paths=1 << 16, seed=99)
-    r = crandall.simulate(sc, paths=1 << 14, seed=5)
+    # Both kept at their pieces (fixed()): the estimate for 4 pieces is under test.
+    ref = crandall.simulate(crandall.Scene(envelope=_env(256).fixed(), **kw), paths=1 << 16,
+                            seed=99)
+    r = crandall.simulate(crandall.Scene(envelope=_env(4).fixed(), **kw), paths=1 << 14,
+                          seed=5)
     true = abs(r.var("distance_at_stop") - ref.var("distance_at_stop"))
     se = math.hypot(r.var_stderr("distance_at_stop"), ref.var_stderr("distance_at_stop"))
     reported = r.bias("distance_at_stop", "var")

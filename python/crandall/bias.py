@@ -92,14 +92,17 @@ class _CoupledRun(Estimator):
 
     name = "bias"
 
-    def __init__(self, spec, paths: int, threads: int, quadratic: bool = False) -> None:
+    def __init__(self, spec, paths: int, threads: int, quadratic: bool = False,
+                 one_grid: bool = False) -> None:
         # The run's own options (every field of its spec), on coupled grids that include the
         # run's grid, with a stream of its own; with ``quadratic`` also the isometry's integral
         # int sigma^2 V^2 dt, in a slot after the stop's (it changes no other value).
         scene = spec.scene
         o = engine.plan_options(spec, histograms=False)
-        o.method = "richardson"
-        o.refinement = REFINEMENT[spec.method]
+        # One grid, the run's (the envelope's piece error compares schedules on one grid);
+        # else the three coupled grids of the grid's bias.
+        o.method = "exact" if one_grid else "richardson"
+        o.refinement = 0 if one_grid else REFINEMENT[spec.method]
         o.seed = bias_key(spec.seed)
         o.quadratic_variation = quadratic
         # At most BIAS_BYTES of per-path values (3 grids x 3 variables per output slot).
@@ -143,9 +146,11 @@ class _CoupledRun(Estimator):
         return self.samples
 
 
-def _samples(spec, paths: int, threads: int, quadratic: bool = False) -> np.ndarray:
-    """The coupled run's per-path values, (paths, slots, 3 grids, 3 variables)."""
-    return drive(_CoupledRun(spec, paths, threads, quadratic))[0]
+def _samples(spec, paths: int, threads: int, quadratic: bool = False,
+             one_grid: bool = False) -> np.ndarray:
+    """The coupled run's per-path values, (paths, slots, 3 grids, 3 variables); with
+    ``one_grid`` on the run's grid alone, (paths, slots, 1, 3 variables)."""
+    return drive(_CoupledRun(spec, paths, threads, quadratic, one_grid))[0]
 
 
 def _isometry_names(scene, names) -> set:
@@ -310,7 +315,8 @@ def piece_table(spec, names, threads: int, paths: Optional[int] = None):
     middle = _refined(scene)
     finest = _refined(middle)
     count = spec.paths if paths is None else paths
-    runs = [_samples(dataclasses.replace(spec, scene=s), count, threads, quadratic)
+    runs = [_samples(dataclasses.replace(spec, scene=s), count, threads, quadratic,
+                     one_grid=True)
             for s in (_coarse_on_fine(scene, finest), _coarse_on_fine(middle, finest), finest)]
     n = len(runs[0])
     out: Dict[Tuple[str, str], Tuple[np.ndarray, np.ndarray]] = {}
