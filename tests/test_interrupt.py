@@ -175,3 +175,29 @@ def test_ctrl_c_stops_a_tail_run_within_a_second(tmp_path):
     with np.load(path) as stored:
         state = json.loads(str(stored["state"]))
     assert state["samples"], "no finished replica was kept"
+
+
+# A Newmark sweep long enough to want stopping (4e9 record samples: about 16 s at 4 ns per
+# sample): the core gets it in calls of records.SWEEP_SAMPLES, and Ctrl-C between two.
+NEWMARK_SWEEP = textwrap.dedent(
+    """
+    import sys, numpy as np, crandall
+    a = 0.3 * np.sin(np.arange(200_000) * 0.05)
+    record = crandall.Record(a, 0.01, units="g", name="sine")
+    print("started", flush=True)
+    try:
+        crandall.newmark(record, ky=np.linspace(0.01, 0.29, 20_000), polarity="both",
+                         threads=1)
+    except KeyboardInterrupt:
+        print("interrupted", flush=True)
+        sys.exit(3)
+    """
+)
+
+
+@pytest.mark.skipif(not hasattr(signal, "SIGINT"), reason="needs POSIX signals")
+def test_ctrl_c_stops_a_long_newmark_sweep_within_a_second():
+    returncode, out, err, elapsed = _ctrl_c(NEWMARK_SWEEP, timeout=60)
+    assert returncode == 3, err
+    assert "interrupted" in out
+    assert elapsed < 1.0, f"took {elapsed:.2f} s to stop"
