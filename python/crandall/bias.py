@@ -111,6 +111,7 @@ class _CoupledRun(Estimator):
         o.paths = n
         self.plan = _core.Plan(o)
         self.threads = threads
+        self.one_grid = one_grid
         self.n = n
         # The values' layout (a stop slot may hold more than one), from one path.
         self.shape = (n,) + _core.run_samples(self.plan, 0, 1, 1).shape[1:]
@@ -140,7 +141,9 @@ class _CoupledRun(Estimator):
         self.done += task.size
 
     def progress(self) -> Progress:
-        return Progress(self.done, self.n, "bias estimate")
+        # The piece error's one-grid runs (before a run: its pilot) say what they are.
+        return Progress(self.done, self.n,
+                        "envelope pieces' error" if self.one_grid else "bias estimate")
 
     def result(self) -> np.ndarray:
         return self.samples
