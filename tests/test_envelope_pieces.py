@@ -303,3 +303,13 @@ def test_the_summary_says_when_the_stop_time_is_set_by_the_scene():
     p = crandall.simulate(plain, paths=2000, seed=1)
     assert p.mean("stop_time") - plain.t0 > 1e-3 * plain.t0
     assert "set by the scene" not in p.summary()
+
+
+def test_the_pieces_pilot_counts_against_max_seconds():
+    # A run to an accuracy bounded by max_seconds: the pilot that refines the pieces is part
+    # of the run, refused naming max_seconds when it alone outlasts the bound.
+    sc = crandall.Scene(envelope=_env(4), **KW)
+    with pytest.raises(crandall.errors.ParameterError,
+                       match="max_seconds: choosing the envelope's pieces took"):
+        crandall.simulate(sc, rel_error=1e-3, seed=4, statistics=["velocity:var"],
+                          max_seconds=1e-3)

@@ -1206,6 +1206,7 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                              "give envelopes.from_function(...) again")
     chosen = _check_statistics(scene, statistics)
     piece_bias = None
+    began = time.perf_counter()
     if scene.envelope is not None:
         # An envelope's pieces, refined until their error (as estimated) is at most half of
         # every target (crandall.pieces); the levels then meet the rest, with the pieces'
@@ -1215,7 +1216,8 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                                     paths=pieces.PILOT_PATHS, seed=seed, threads=threads,
                                     target=pieces.accuracy_target(scene, eps, rel),
                                     step_length=default_dt(scene),
-                                    stats={(t.name, t.stat) for t in targets})
+                                    stats={(t.name, t.stat) for t in targets},
+                                    max_seconds=max_seconds)
         if info is not None:
             piece_bias = info["table"]
     engine = _Engine(scene, eps=eps, rel=rel, seed=seed, threads=threads, statistics=chosen)
@@ -1224,7 +1226,8 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
             float(piece_bias[(t.name, t.stat)][0][t.time_index if t.time_index is not None
                                                   else 0])
             for t in engine.targets]
-    engine.max_seconds = max_seconds
+    # The pieces' pilot counts against the run's bound.
+    engine.max_seconds = max(max_seconds - (time.perf_counter() - began), 1e-9)
     engine.checkpoint = checkpoint
     engine.task_threads = task_threads
     engine.checkpoint_seconds = CHECKPOINT_SECONDS

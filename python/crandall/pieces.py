@@ -23,12 +23,14 @@ run resumed from its checkpoint, or a Dask task, finds the same pieces.
 from __future__ import annotations
 
 import math
+import time
 import warnings
 from typing import Callable, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
 from . import bias
+from .errors import ParameterError
 from .model import ENVELOPE
 from .quantities import quantity
 from .results import StatisticsWarning
@@ -97,14 +99,16 @@ def accuracy_target(scene, eps: Optional[float], rel: Optional[float]) -> Target
 
 def choose(scene, names: Sequence[str], *, paths: int, seed: int, threads: int,
            target: Target, step_length: float, stats: Optional[set] = None,
-           dt: Optional[float] = None, method: str = "richardson") -> Tuple[object, Optional[Dict]]:
+           dt: Optional[float] = None, method: str = "richardson",
+           max_seconds: float = math.inf) -> Tuple[object, Optional[Dict]]:
     """The scene with the pieces its run needs, and what the choice found (None when the
     scene has no envelope to refine): ``pieces`` given and chosen, ``worst``, the largest
     resolved piece error over its target on the chosen pieces, and ``table``, the chosen
     pieces' errors per (name, stat) (crandall.bias.piece_table). ``stats``: the (name, stat)
     pairs that count (all of ``names``' means and variances if None); ``step_length``: the
     run's step (pieces are not refined below it on average); ``dt``, ``method``: the run's
-    (the pilot's coupled grids are its bias estimate's)."""
+    (the pilot's coupled grids are its bias estimate's). ``max_seconds``: a pilot still
+    refining after that long is a ParameterError naming it (a run to an accuracy's bound)."""
     env = scene.envelope
     if (ENVELOPE not in scene.effects or env is None or env.function is None or paths < 2
             or not env.refine):
@@ -119,7 +123,15 @@ def choose(scene, names: Sequence[str], *, paths: int, seed: int, threads: int,
     stalled = False
     # A rough pilot while the pieces are far from enough, the full one to confirm.
     pilot = min(paths, SCOUT_PATHS)
+    started = time.perf_counter()
     while True:
+        spent = time.perf_counter() - started
+        if spent > max_seconds:
+            raise ParameterError(
+                "max_seconds", f"max_seconds: choosing the envelope's pieces took {spent:.3g} "
+                f"s (now {env.pieces * factor} pieces), beyond max_seconds={max_seconds!r}; "
+                "raise max_seconds, ask for a larger target, or keep the pieces given "
+                "(envelope.fixed())")
         current = with_pieces(scene, env.pieces * factor)
         spec = RunSpec.create(current, paths=pilot, seed=seed, dt=dt,
                               method=method if method in bias.REFINEMENT else "richardson")
