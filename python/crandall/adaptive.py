@@ -49,7 +49,7 @@ from .results import AccuracyResult, StatisticsWarning
 from .scene import Scene
 from .streams import level_key
 from .engine import scene_options
-from .spec import MAX_SEED, check_int, default_dt, grid_error
+from .spec import MAX_SEED, check_int, check_scene, default_dt, grid_error
 
 __all__ = ["AdaptiveResult", "simulate_to_error", "BASE_DT_FACTOR", "BASE_MIN_STEPS",
            "BATCH_PATHS", "PILOT_PATHS", "MAX_LEVELS", "STATS"]
@@ -343,7 +343,7 @@ class _Engine(Estimator):
 
     def __init__(self, scene: Scene, *, eps: Optional[float], rel: Optional[float], seed: int,
                  threads: int, statistics: Optional[set] = None) -> None:
-        self.scene = scene
+        self.scene = check_scene(scene)  # here too: the Dask task builds its own engine
         self.eps, self.rel = eps, rel
         self.seed = seed
         self.threads = threads
@@ -1181,6 +1181,7 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                       max_seconds: float = MAX_SECONDS) -> AccuracyResult:
     """Run ``scene`` until every statistic's estimated total error is within the target
     (see :func:`crandall.simulate`)."""
+    check_scene(scene)
     if progress is not None and not isinstance(progress, bool):
         raise ValueError(f"progress must be True, False or None, got {progress!r}")
     max_seconds = _check_target("max_seconds", max_seconds)

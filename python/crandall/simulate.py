@@ -30,7 +30,7 @@ from .results import MONOMIALS, Result, StatisticsWarning
 from .scene import Scene
 from .spec import MAX_PATHS, RunSpec, as_seed, default_dt
 from .errors import ParameterError, UnresolvableGrid
-from .model import EXACT_STEP, check_simulated, holds
+from .model import EXACT_STEP, holds
 
 __all__ = ["simulate", "simulate_many", "default_dt", "METHODS", "MAX_PATHS"]
 
@@ -481,9 +481,8 @@ def _exact_part(scene: Scene, statistics) -> Optional[Scene]:
 
 def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, client, progress,
               error, rel_error, statistics, max_seconds):
-    """simulate's work, for one scene as given."""
-    if isinstance(scene, Scene):
-        check_simulated(scene)
+    """simulate's work, for one scene as given (checked by the spec, or by the run to an
+    accuracy: :func:`crandall.spec.check_scene`)."""
     if error is not None or rel_error is not None:
         for name, value in (("paths", paths), ("dt", dt), ("method", method)):
             if value is not None:
@@ -494,8 +493,6 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
             raise ParameterError("checkpoint", f"checkpoint must be a path, got {checkpoint!r}")
         if seed is None:
             seed = int(np.random.SeedSequence().entropy % (1 << 64))
-        if not isinstance(scene, Scene):
-            raise ValueError(f"scene must be a crandall.Scene, got {type(scene).__name__}")
         threads, task_threads = resolve_threads(threads)
         return simulate_to_error(scene, error=error, rel_error=rel_error, seed=seed,
                                  threads=threads, statistics=statistics,

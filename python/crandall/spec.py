@@ -18,9 +18,10 @@ import numpy as np
 
 from .methods import DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, METHODS
 from .errors import ParameterError, UnresolvableGrid
+from .model import check_simulated
 from .scene import Scene
 
-__all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int"]
+__all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int", "check_scene"]
 
 #: Most paths one run may have: path indices and chunk counts stay well inside 64 bits.
 MAX_PATHS = 1 << 63
@@ -80,9 +81,21 @@ def default_dt(scene: Scene) -> float:
     return horizon / DEFAULT_STEPS_FREE if horizon > 0 else 1.0
 
 
-def _check_scene(scene) -> Scene:
+def check_scene(scene) -> Scene:
+    """``scene`` if it is a :class:`Scene` whose every effect the core simulates
+    (:func:`crandall.model.check_simulated`); else a ParameterError naming ``scene``.
+
+    The one check every entry point passes before anything else is worked out or any path
+    drawn: a spec (:class:`RunSpec`, so ``simulate``, ``simulate_many``, the fixed-step Dask
+    task, the bias estimate's and the envelope pieces' runs), a run to an accuracy and its Dask
+    task (``adaptive``), a tail run and its Dask task (``tail._Problem``) and
+    ``crandall.paths``. An effect the core does not simulate would otherwise be run, silently,
+    as the paper's scene.
+    """
     if not isinstance(scene, Scene):
-        raise ValueError(f"scene must be a crandall.Scene, got {type(scene).__name__}")
+        raise ParameterError("scene", f"scene must be a crandall.Scene, got "
+                                      f"{type(scene).__name__}")
+    check_simulated(scene)
     return scene
 
 
@@ -133,7 +146,7 @@ class RunSpec:
     min_steps: int = 0
 
     def __post_init__(self) -> None:
-        _check_scene(self.scene)
+        check_scene(self.scene)
         fields = {"paths": check_int("paths", self.paths, 1, MAX_PATHS),
                   "seed": check_int("seed", self.seed, 0, MAX_SEED),
                   "dt": _check_dt(self.dt),
@@ -156,7 +169,7 @@ class RunSpec:
         ValueError
             Naming the first bad argument, in the order scene, paths, seed, dt, method.
         """
-        _check_scene(scene)
+        check_scene(scene)
         check_int("paths", paths, 1, MAX_PATHS)  # before any default is worked out
         if seed is None:
             seed = int(np.random.SeedSequence().entropy % (1 << 64))

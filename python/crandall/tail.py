@@ -44,7 +44,7 @@ from .driver import threads as resolve_threads
 from .errors import ParameterError
 from .results import StatisticsWarning
 from .scene import Scene
-from .spec import as_seed, check_int, default_dt
+from .spec import as_seed, check_int, check_scene, default_dt
 
 __all__ = ["tail", "TailResult", "TAIL_QUANTITIES", "TAIL_METHODS"]
 
@@ -123,8 +123,7 @@ class _Problem:
 
     def __init__(self, scene: Scene, quantity: str, time: Optional[float], dt: Optional[float],
                  breaks: Sequence[float] = (), coarse: bool = False):
-        if not isinstance(scene, Scene):
-            raise ParameterError("scene", f"scene must be a crandall.Scene, got {type(scene).__name__}")
+        check_scene(scene)  # tail() and its Dask task (sample) both start here
         if not isinstance(quantity, str) or quantity not in TAIL_QUANTITIES:
             raise ParameterError("quantity", f"quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
         self.scene, self.q = scene, TAIL_QUANTITIES[quantity]

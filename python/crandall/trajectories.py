@@ -22,7 +22,7 @@ from ._resources import available_memory
 from .driver import threads as resolve_threads
 from .errors import ParameterError
 from .scene import Scene
-from .spec import as_seed, check_int, default_dt
+from .spec import as_seed, check_int, check_scene, default_dt
 
 __all__ = ["paths", "MAX_VALUES"]
 
@@ -87,8 +87,7 @@ def paths(scene: Scene, n: int, *, seed: Any = None, times: Optional[Sequence[fl
         the shaking), each with its units; attributes: the scene (JSON), seed, dt.
     """
     xr = _require_xarray()
-    if not isinstance(scene, Scene):
-        raise ParameterError("scene", f"scene must be a crandall.Scene, got {type(scene).__name__}")
+    check_scene(scene)
     n = _checked("n", n, 1, 100_000)
     points = _checked("points", points, 2, 100_000)
     seed = as_seed(seed)
