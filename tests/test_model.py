@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import crandall
-from crandall import adaptive, engine, model, plots
+from crandall import adaptive, engine, model, plots, streams
 from crandall.errors import ParameterError
 from crandall.scene import Scene
 from crandall.spec import RunSpec
@@ -55,7 +55,7 @@ _PLAIN = dict(mu=0.5, h=1.0, t0=1.0, times=[0.5, 1.0])
 _SPEC = RunSpec(Scene(**_PLAIN), 100, 1, 0.01, "exact").to_dict()
 _ACCURACY_TASK = {"scene": Scene(**_PLAIN).to_dict(), "eps": 0.1, "rel": None, "seed": 1,
                   "threads": 1, "statistics": ["velocity:mean"], "centre": [0.0], "beta": None,
-                  "use_controls": False, "random_stream": engine.RANDOM_STREAM}
+                  "use_controls": False, "random_stream": streams.RANDOM_STREAM}
 _TAIL_TASK = {"scene": Scene(**_PLAIN).to_dict(), "quantity": "distance_at_stop", "time": None,
               "dt": 0.01, "levels": [0.5], "particles": 10, "key": 1, "proposal": None}
 
@@ -72,9 +72,10 @@ ENTRY_POINTS = {
     "RunSpec.create": lambda sc: RunSpec.create(sc, paths=100, seed=1),
     "RunSpec.from_dict": lambda sc: RunSpec.from_dict(_SPEC),
     "fixed-step Dask task": lambda sc: engine.run_chunks(_SPEC, 0, 1, 1,
-                                                         engine.RANDOM_STREAM),
+                                                         streams.RANDOM_STREAM),
     "accuracy Dask task": lambda sc: adaptive.batch_task(_ACCURACY_TASK, 0, 0, 10),
-    "tail Dask task": lambda sc: tail_module.sample(_TAIL_TASK, 0, 1),
+    "tail Dask task": lambda sc: tail_module.sample(_TAIL_TASK, 0, 1, None,
+                                                    streams.RANDOM_STREAM),
 }
 
 

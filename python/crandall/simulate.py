@@ -28,7 +28,7 @@ from .methods import DEFAULT_METHOD, GRIDS, METHODS
 from .quantities import names_for, quantity, simulated_variables
 from .results import MONOMIALS, Result, StatisticsWarning
 from .scene import Scene
-from .spec import MAX_PATHS, RunSpec, as_seed, default_dt
+from .spec import MAX_PATHS, RunSpec, as_seed, default_dt, draw_seed
 from .errors import ParameterError, UnresolvableGrid
 from .model import EXACT_STEP, holds
 
@@ -492,7 +492,7 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
         if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
             raise ParameterError("checkpoint", f"checkpoint must be a path, got {checkpoint!r}")
         if seed is None:
-            seed = int(np.random.SeedSequence().entropy % (1 << 64))
+            seed = draw_seed()
         threads, task_threads = resolve_threads(threads)
         return simulate_to_error(scene, error=error, rel_error=rel_error, seed=seed,
                                  threads=threads, statistics=statistics,

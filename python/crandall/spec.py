@@ -9,8 +9,9 @@ enter it. A new run option is a new field here (docs/architecture.md).
 
 from __future__ import annotations
 
-import math
 import dataclasses
+import math
+import numbers
 from dataclasses import dataclass
 from typing import Any, Dict, Optional
 
@@ -21,7 +22,8 @@ from .errors import ParameterError, UnresolvableGrid
 from .model import check_simulated
 from .scene import Scene
 
-__all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int", "check_scene"]
+__all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int", "check_scene", "check_positive",
+           "draw_seed"]
 
 #: Most paths one run may have: path indices and chunk counts stay well inside 64 bits.
 MAX_PATHS = 1 << 63
@@ -39,6 +41,13 @@ def check_int(name: str, value, minimum: int, maximum: Optional[int] = None) -> 
     if maximum is not None and value > maximum:
         raise ParameterError(name, f"{name} must be <= {maximum}, got {value}")
     return value
+
+
+def draw_seed() -> int:
+    """A seed drawn from the operating system's entropy, 0 <= seed < 2**64: what every entry
+    point (``simulate``, ``simulate_many``, runs to an accuracy, ``tail``, ``crandall.paths``,
+    ``crandall tail``) takes for ``seed=None``, and records so that the run can be repeated."""
+    return int(np.random.SeedSequence().entropy % (1 << 64))
 
 
 def as_seed(seed):
@@ -99,13 +108,16 @@ def check_scene(scene) -> Scene:
     return scene
 
 
-def _check_dt(dt) -> float:
-    if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
-        raise ValueError(f"dt must be a number, got {dt!r}")
-    dt = float(dt)
-    if not math.isfinite(dt) or dt <= 0:
-        raise ValueError(f"dt must be finite and > 0, got {dt!r}")
-    return dt
+def check_positive(name: str, value) -> float:
+    """``value`` as a float, finite and > 0 (a step, a target error, a time bound); else a
+    ParameterError naming ``name``. A bool or a string is not a number here (float() would
+    take True as 1 and "1" as 1.0)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise ParameterError(name, f"{name} must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or value <= 0:
+        raise ParameterError(name, f"{name} must be finite and > 0, got {value!r}")
+    return value
 
 
 def check_method(method) -> str:
@@ -149,7 +161,7 @@ class RunSpec:
         check_scene(self.scene)
         fields = {"paths": check_int("paths", self.paths, 1, MAX_PATHS),
                   "seed": check_int("seed", self.seed, 0, MAX_SEED),
-                  "dt": _check_dt(self.dt),
+                  "dt": check_positive("dt", self.dt),
                   "method": check_method(self.method),
                   "min_steps": check_int("min_steps", self.min_steps, 0)}
         for name, value in fields.items():
@@ -172,7 +184,7 @@ class RunSpec:
         check_scene(scene)
         check_int("paths", paths, 1, MAX_PATHS)  # before any default is worked out
         if seed is None:
-            seed = int(np.random.SeedSequence().entropy % (1 << 64))
+            seed = draw_seed()
         check_int("seed", seed, 0, MAX_SEED)
         min_steps = 0
         if dt is None:

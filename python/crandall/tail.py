@@ -44,7 +44,8 @@ from .driver import threads as resolve_threads
 from .errors import ParameterError
 from .results import StatisticsWarning
 from .scene import Scene
-from .spec import as_seed, check_int, check_scene, default_dt
+from .spec import (MAX_SEED, as_seed, check_int, check_positive, check_scene, default_dt,
+                   draw_seed)
 
 __all__ = ["tail", "TailResult", "TAIL_QUANTITIES", "TAIL_METHODS"]
 
@@ -148,13 +149,7 @@ class _Problem:
         self.time = time
         self.horizon = horizon
         self.coast = (time - horizon) if time is not None else 0.0  # noiseless time after the grid
-        if dt is None:
-            dt = default_dt(scene)
-        if not _real(dt):
-            raise ParameterError("dt", f"dt must be a number, got {dt!r}")
-        dt = float(dt)
-        if not (math.isfinite(dt) and dt > 0):
-            raise ParameterError("dt", f"dt must be finite and > 0, got {dt}")
+        dt = check_positive("dt", default_dt(scene) if dt is None else dt)
         self.dt = dt
         self.args = (scene, quantity, time, dt)
         # The intervals between the pieces' ends and the extra breaks; coarse: one exact step
@@ -860,13 +855,17 @@ def pareto_shape(largest: np.ndarray) -> float:
 
 
 def sample(job: Dict[str, Any], index: int, threads: int = 0,
-           deadline: Optional[float] = None) -> Dict[str, Any]:
+           deadline: Optional[float] = None,
+           random_stream: Optional[int] = None) -> Dict[str, Any]:
     """Sample ``index`` of a tail run described by ``job`` (plain data: the scene's dict, the
     quantity, time, grid step, levels, particles, key and, for importance sampling, the
     proposal): a splitting replica, or a batch of ``particles`` weighted paths. A pure function
     of (job, index): the Dask task of a tail run. A replica still running at ``deadline`` (a
     ``time.time()``, the run's max_seconds) stops between its iterations and returns only
-    ``timed_out`` and how far it got (no sample: the run leaves it out)."""
+    ``timed_out`` and how far it got (no sample: the run leaves it out). ``random_stream``:
+    the client's, given to a Dask task (:func:`crandall.streams.check_random_stream`)."""
+    if random_stream is not None:
+        _streams.check_random_stream(random_stream)
     problem = _Problem(Scene.from_dict(job["scene"]), job["quantity"], job["time"], job["dt"])
     lv = np.asarray(job["levels"], dtype=float)
     n, key = job["particles"], job["key"]
@@ -1224,7 +1223,8 @@ class _TailRun(Estimator):
         self.samples, self.digest = samples, digest
 
     def _tasks(self, first: int, last: int):
-        return [Task(sample, (self.job, i, self.task_threads, self.deadline),
+        return [Task(sample, (self.job, i, self.task_threads, self.deadline,
+                             _streams.RANDOM_STREAM),
                      functools.partial(sample, self.job, i, self.threads, self.deadline), 1)
                 for i in range(first, last)]
 
@@ -1542,8 +1542,8 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     threads, task_threads = resolve_threads(threads)
     seed = as_seed(seed)
     if seed is None:
-        seed = int(np.random.SeedSequence().entropy % (1 << 64))
-    check_int("seed", seed, 0, (1 << 64) - 1)
+        seed = draw_seed()
+    check_int("seed", seed, 0, MAX_SEED)
     splitting = method == "splitting"
     check_client(client)
     if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
