@@ -51,7 +51,7 @@ from .streams import RANDOM_STREAM, check_random_stream, level_key
 from .engine import scene_options
 from .spec import MAX_SEED, check_int, check_positive, check_scene, default_dt, grid_error
 
-__all__ = ["AdaptiveResult", "simulate_to_error", "BASE_DT_FACTOR", "BASE_MIN_STEPS",
+__all__ = ["simulate_to_error", "BASE_DT_FACTOR", "BASE_MIN_STEPS",
            "BATCH_PATHS", "PILOT_PATHS", "MAX_LEVELS", "STATS"]
 
 #: The base grid (level 0): steps of at most BASE_DT_FACTOR times the default step
@@ -1155,10 +1155,6 @@ def _result(engine: _Engine, wall: float) -> AccuracyResult:
                  "dt": lev.plan.options.dt / 2 ** lev.level}
                 for lev in engine.levels if lev.sums is not None],
         path_steps=engine.path_steps, rounds=engine.round_count, wall_time=wall)
-
-
-#: The result of a run to an accuracy (the name earlier versions gave it).
-AdaptiveResult = AccuracyResult
 
 
 def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
