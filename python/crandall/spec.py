@@ -23,7 +23,7 @@ from .model import check_simulated
 from .scene import Scene
 
 __all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int", "check_scene", "check_positive",
-           "draw_seed"]
+           "draw_seed", "is_real"]
 
 #: Most paths one run may have: path indices and chunk counts stay well inside 64 bits.
 MAX_PATHS = 1 << 63
@@ -108,11 +108,16 @@ def check_scene(scene) -> Scene:
     return scene
 
 
+def is_real(value) -> bool:
+    """Whether ``value`` is a real number (a bool or a string is not: NumPy and float() would
+    take True as 1 and "1" as 1.0)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
 def check_positive(name: str, value) -> float:
     """``value`` as a float, finite and > 0 (a step, a target error, a time bound); else a
-    ParameterError naming ``name``. A bool or a string is not a number here (float() would
-    take True as 1 and "1" as 1.0)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+    ParameterError naming ``name``. A bool or a string is not a number (:func:`is_real`)."""
+    if not is_real(value):
         raise ParameterError(name, f"{name} must be a number, got {value!r}")
     value = float(value)
     if not math.isfinite(value) or value <= 0:

@@ -25,7 +25,6 @@ import functools
 import hashlib
 import json
 import math
-import numbers
 import os
 import time as _time
 import warnings
@@ -45,7 +44,7 @@ from .errors import ParameterError
 from .results import StatisticsWarning
 from .scene import Scene
 from .spec import (MAX_SEED, as_seed, check_int, check_positive, check_scene, default_dt,
-                   draw_seed)
+                   draw_seed, is_real)
 
 __all__ = ["tail", "TailResult", "TAIL_QUANTITIES", "TAIL_METHODS"]
 
@@ -140,7 +139,7 @@ class _Problem:
         else:
             if time is None:
                 raise ParameterError("time", f"time: {quantity} is a quantity at an output time; give time=")
-            if not _real(time):
+            if not is_real(time):
                 raise ParameterError("time", f"time must be a number, got {time!r}")
             time = float(time)
             if not (math.isfinite(time) and time >= 0):
@@ -1346,10 +1345,6 @@ class _TailRun(Estimator):
         return self.samples
 
 
-def _real(value) -> bool:
-    """Whether ``value`` is a real number (a bool or a string is not: NumPy and float() would
-    take True as 1 and "1" as 1.0)."""
-    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
 def _check_memory(paths: int, path_bytes: int, threads: int, name: str, what: str,
                   advice: str) -> None:
     """Refuse, before they are allocated, ``paths`` paths stored whole on a grid of
@@ -1400,7 +1395,7 @@ def _levels(levels) -> np.ndarray:
             items = levels = list(levels)  # also takes a generator once
         except TypeError:
             items = [levels]
-    bad = next((x for x in items if not (_real(x) or isinstance(x, (list, tuple, np.ndarray)))),
+    bad = next((x for x in items if not (is_real(x) or isinstance(x, (list, tuple, np.ndarray)))),
                None)
     if bad is not None:
         raise ParameterError("levels", f"levels must be a number or a sequence of numbers, got "
@@ -1532,7 +1527,7 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
                                  f"{problem.noisy_steps}")
     if method not in TAIL_METHODS:
         raise ParameterError("method", f"method must be one of {', '.join(TAIL_METHODS)}; got {method!r}")
-    if not (_real(rel_error) and MIN_REL_ERROR <= rel_error < 1):
+    if not (is_real(rel_error) and MIN_REL_ERROR <= rel_error < 1):
         raise ParameterError("rel_error", f"rel_error must be in [{MIN_REL_ERROR:g}, 1), got "
                                           f"{rel_error!r}")
     rel_error = float(rel_error)
