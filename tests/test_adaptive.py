@@ -11,7 +11,8 @@ import pytest
 
 import crandall
 from crandall import _core, analytic
-from crandall.adaptive import AdaptiveResult, Z95
+from crandall.adaptive import Z95
+from crandall.results import AccuracyResult
 
 TAU0 = 5.0
 SCENE = crandall.Scene.scaled(tau0=TAU0, times=[1.0, 5.0],
@@ -28,7 +29,7 @@ def run():
 COLUMNS = ["mean", "var", "stderr", "var_stderr", "bias_mean", "bias_var"]
 
 
-def _table(r: AdaptiveResult):
+def _table(r: AccuracyResult):
     return r.to_pandas()[COLUMNS].to_numpy()
 
 

@@ -575,3 +575,22 @@ def test_statistics_failure_is_reachable_from_the_package():
     # crandall.tail is the function, so the tail module's exception is exported beside it.
     assert crandall.StatisticsFailure is sys.modules["crandall.tail"].StatisticsFailure
     assert issubclass(crandall.StatisticsFailure, RuntimeError)
+
+
+def test_the_user_facing_types_are_exported():
+    import sys
+    # What the entry points return and raise is reachable as crandall.NAME and listed in
+    # __all__ (crandall.tail is the function, so the tail module's types sit beside it).
+    for name in ("Result", "AccuracyResult", "TailResult", "ParameterError",
+                 "StatisticsWarning", "StatisticsFailure"):
+        assert name in crandall.__all__, name
+    assert all(hasattr(crandall, name) for name in crandall.__all__)
+    scene = crandall.Scene.scaled(tau0=1.0, times=[0.5], observe=["velocity"])
+    assert type(crandall.simulate(scene, error=0.1, seed=1, threads=1)) is crandall.AccuracyResult
+    assert issubclass(crandall.AccuracyResult, crandall.Result)
+    calm = crandall.Scene(mu=0.5, h=0.0, t0=1.0, times=[0.5])  # no noise: P is 0 or 1 at once
+    assert type(crandall.tail(calm, "stop_time", [0.1], seed=1)) is crandall.TailResult
+    assert crandall.TailResult is sys.modules["crandall.tail"].TailResult
+    with pytest.raises(crandall.ParameterError) as exc:
+        crandall.simulate(scene, paths=0, seed=1)
+    assert exc.value.name == "paths" and isinstance(exc.value, ValueError)

@@ -5,12 +5,18 @@ initial states and intensity schedules to come, which no identity supports yet."
 
 from __future__ import annotations
 
+import importlib
+
 import numpy as np
 import pytest
 
 import crandall
-from crandall import model, plots
+from crandall import adaptive, engine, model, plots, streams
+from crandall.errors import ParameterError
 from crandall.scene import Scene
+from crandall.spec import RunSpec
+
+tail_module = importlib.import_module("crandall.tail")  # crandall.tail is the function
 
 
 class _StubScene(Scene):
@@ -43,6 +49,58 @@ def test_an_effect_the_core_does_not_simulate_is_refused():
         crandall.simulate(_stub(), paths=100, seed=1)
     with pytest.raises(ValueError, match="scene: holds stub"):
         crandall.simulate(_stub(), error=0.1, seed=1)
+
+
+_PLAIN = dict(mu=0.5, h=1.0, t0=1.0, times=[0.5, 1.0])
+_SPEC = RunSpec(Scene(**_PLAIN), 100, 1, 0.01, "exact").to_dict()
+_ACCURACY_TASK = {"scene": Scene(**_PLAIN).to_dict(), "eps": 0.1, "rel": None, "seed": 1,
+                  "threads": 1, "statistics": ["velocity:mean"], "centre": [0.0], "beta": None,
+                  "use_controls": False, "random_stream": streams.RANDOM_STREAM}
+_TAIL_TASK = {"scene": Scene(**_PLAIN).to_dict(), "quantity": "distance_at_stop", "time": None,
+              "dt": 0.01, "levels": [0.5], "particles": 10, "key": 1, "proposal": None}
+
+#: Every entry point that draws paths of a scene, given the scene (as an object or, for the
+#: Dask tasks and the spec's plain data, rebuilt from its dict).
+ENTRY_POINTS = {
+    "simulate": lambda sc: crandall.simulate(sc, paths=100, seed=1, threads=1),
+    "simulate(error=)": lambda sc: crandall.simulate(sc, error=0.1, seed=1, threads=1),
+    "simulate(rel_error=)": lambda sc: crandall.simulate(sc, rel_error=0.1, seed=1, threads=1),
+    "simulate_many": lambda sc: crandall.simulate_many([sc], paths=100, seed=1, threads=1),
+    "tail": lambda sc: crandall.tail(sc, "distance_at_stop", [0.5], seed=1, threads=1),
+    "paths": lambda sc: crandall.paths(sc, n=2, seed=1, threads=1),
+    "RunSpec": lambda sc: RunSpec(sc, 100, 1, 0.01, "exact"),
+    "RunSpec.create": lambda sc: RunSpec.create(sc, paths=100, seed=1),
+    "RunSpec.from_dict": lambda sc: RunSpec.from_dict(_SPEC),
+    "fixed-step Dask task": lambda sc: engine.run_chunks(_SPEC, 0, 1, 1,
+                                                         streams.RANDOM_STREAM),
+    "accuracy Dask task": lambda sc: adaptive.batch_task(_ACCURACY_TASK, 0, 0, 10),
+    "tail Dask task": lambda sc: tail_module.sample(_TAIL_TASK, 0, 1, None,
+                                                    streams.RANDOM_STREAM),
+}
+
+
+@pytest.fixture
+def every_scene_holds_a_stub(monkeypatch):
+    """Every scene, also one rebuilt from plain data by a Dask task, holds the effect "stub"
+    (no dynamics of its own), which the core is not declared to simulate."""
+    monkeypatch.setattr(Scene, "effects", property(lambda self: frozenset({"stub"})))
+
+
+@pytest.mark.parametrize("entry", sorted(ENTRY_POINTS))
+def test_every_entry_point_refuses_an_effect_the_core_does_not_simulate(
+        entry, every_scene_holds_a_stub):
+    with pytest.raises(ParameterError,
+                       match="scene: holds stub, which this crandall does not simulate") as exc:
+        ENTRY_POINTS[entry](Scene(**_PLAIN))
+    assert exc.value.name == "scene"
+
+
+@pytest.mark.parametrize("entry", ["RunSpec", "RunSpec.from_dict", "fixed-step Dask task",
+                                   "tail Dask task", "paths"])
+def test_every_entry_point_runs_the_stub_once_it_is_declared_simulated(
+        entry, every_scene_holds_a_stub, stub_simulated):
+    # The refusal above comes from the declaration alone: declared, the same calls run.
+    ENTRY_POINTS[entry](Scene(**_PLAIN))
 
 
 def test_nothing_is_reported_exact_for_an_effect_no_identity_supports(stub_simulated):

@@ -1,16 +1,14 @@
 """Provenance: the random-stream version and the grid travel with every result, checkpoint and
 saved file, and numbers of another stream are never mixed in (docs/random-numbers.md)."""
 
-import importlib
 import json
 
 import numpy as np
 import pytest
 
 import crandall
-from crandall import _core
-
-_simulate_module = importlib.import_module("crandall.simulate")  # the module, not the function
+from crandall import _core, engine
+from crandall.spec import RunSpec
 SCENE = crandall.Scene.scaled(tau0=1.0, times=[0.5, 1.0])
 
 
@@ -61,8 +59,8 @@ def test_checkpoint_of_another_stream_is_refused(tmp_path):
 
 
 def test_worker_of_another_stream_refuses_the_task():
-    args = (SCENE.to_dict(), 100, 1, 0.01, "exact", 0, 1, 1, 0)
-    parts = _simulate_module.run_chunks(*args, _core.RANDOM_STREAM)
+    args = (RunSpec(SCENE, 100, 1, 0.01, "exact").to_dict(), 0, 1, 1)
+    parts = engine.run_chunks(*args, _core.RANDOM_STREAM)
     assert len(parts) == 1
     with pytest.raises(ValueError, match="random_stream"):
-        _simulate_module.run_chunks(*args, _core.RANDOM_STREAM + 1)
+        engine.run_chunks(*args, _core.RANDOM_STREAM + 1)

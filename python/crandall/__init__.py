@@ -18,16 +18,18 @@ from . import bias as _bias  # installs the results' bias estimator
 from ._lazy import lazy_submodules as _lazy_submodules
 from .io import load
 from .records import NewmarkResult, Record, newmark
-from .results import Result, StatisticsWarning
+from .errors import ParameterError
+from .results import AccuracyResult, Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene
 from .simulate import METHODS, default_dt, simulate, simulate_many
 from .tail import StatisticsFailure, TailResult, tail
 from .trajectories import paths
 from .units import Scaling
 
-__all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS",
-           "StatisticsWarning", "StatisticsFailure", "tail", "TailResult", "paths",
-           "Record", "newmark", "NewmarkResult"]
+__all__ = ["load", "Scene", "Result", "AccuracyResult", "simulate", "simulate_many", "default_dt",
+           "Scaling", "OBSERVABLES", "METHODS", "ParameterError", "StatisticsWarning",
+           "StatisticsFailure", "tail", "TailResult", "paths", "Record", "newmark",
+           "NewmarkResult"]
 
 # The analytic layer and the envelopes need scipy: imported when first read
 # (crandall.envelopes.amin_ang(...), crandall.analytic.physical(...)), not by `import crandall`.

@@ -47,11 +47,11 @@ from .quantities import VELOCITY, DISTANCE, core_flags, names_for, quantity
 from .model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds, isometry_applies, ito_constant
 from .results import AccuracyResult, StatisticsWarning
 from .scene import Scene
-from .streams import level_key
+from .streams import RANDOM_STREAM, check_random_stream, level_key
 from .engine import scene_options
-from .spec import MAX_SEED, check_int, default_dt, grid_error
+from .spec import MAX_SEED, check_int, check_positive, check_scene, default_dt, grid_error
 
-__all__ = ["AdaptiveResult", "simulate_to_error", "BASE_DT_FACTOR", "BASE_MIN_STEPS",
+__all__ = ["simulate_to_error", "BASE_DT_FACTOR", "BASE_MIN_STEPS",
            "BATCH_PATHS", "PILOT_PATHS", "MAX_LEVELS", "STATS"]
 
 #: The base grid (level 0): steps of at most BASE_DT_FACTOR times the default step
@@ -343,7 +343,7 @@ class _Engine(Estimator):
 
     def __init__(self, scene: Scene, *, eps: Optional[float], rel: Optional[float], seed: int,
                  threads: int, statistics: Optional[set] = None) -> None:
-        self.scene = scene
+        self.scene = check_scene(scene)  # here too: the Dask task builds its own engine
         self.eps, self.rel = eps, rel
         self.seed = seed
         self.threads = threads
@@ -722,7 +722,7 @@ class _Engine(Estimator):
                 "seed": self.seed, "threads": self.task_threads,
                 "statistics": [f"{t.name}:{t.stat}" for t in self.targets],
                 "centre": [float(c) for c in self.centre], "beta": self.beta,
-                "use_controls": self.use_controls, "random_stream": int(_core.RANDOM_STREAM)}
+                "use_controls": self.use_controls, "random_stream": RANDOM_STREAM}
 
     def _level(self, level: int) -> _Level:
         while len(self.levels) <= level:
@@ -1104,11 +1104,7 @@ ALPHA_MIN, ALPHA_MAX = 1.0, 3.0
 
 def batch_task(config: Dict, level: int, first: int, count: int) -> np.ndarray:
     """A Dask worker's task: the flat sums of one batch of a run to an accuracy."""
-    if config["random_stream"] != int(_core.RANDOM_STREAM):
-        raise ValueError(
-            f"random_stream: this worker's crandall draws random stream {_core.RANDOM_STREAM}, "
-            f"the client's draws stream {config['random_stream']}; install the same crandall "
-            "version on every worker")
+    check_random_stream(config["random_stream"])
     scene = Scene.from_dict(config["scene"])
     engine = _Engine(scene, eps=config["eps"], rel=config["rel"], seed=config["seed"],
                      threads=config["threads"],
@@ -1161,19 +1157,6 @@ def _result(engine: _Engine, wall: float) -> AccuracyResult:
         path_steps=engine.path_steps, rounds=engine.round_count, wall_time=wall)
 
 
-#: The result of a run to an accuracy (the name earlier versions gave it).
-AdaptiveResult = AccuracyResult
-
-
-def _check_target(name: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
-        raise ValueError(f"{name} must be a number, got {value!r}")
-    value = float(value)
-    if not (math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-    return value
-
-
 def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                       rel_error: Optional[float] = None, seed: int, threads: int,
                       statistics=None, checkpoint=None, client=None,
@@ -1181,13 +1164,14 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                       max_seconds: float = MAX_SECONDS) -> AccuracyResult:
     """Run ``scene`` until every statistic's estimated total error is within the target
     (see :func:`crandall.simulate`)."""
+    check_scene(scene)
     if progress is not None and not isinstance(progress, bool):
         raise ValueError(f"progress must be True, False or None, got {progress!r}")
-    max_seconds = _check_target("max_seconds", max_seconds)
+    max_seconds = check_positive("max_seconds", max_seconds)
     if (error is None) == (rel_error is None):
         raise ValueError("error: give exactly one of error= and rel_error=")
-    eps = _check_target("error", error) if error is not None else None
-    rel = _check_target("rel_error", rel_error) if rel_error is not None else None
+    eps = check_positive("error", error) if error is not None else None
+    rel = check_positive("rel_error", rel_error) if rel_error is not None else None
     seed = check_int("seed", seed, 0, MAX_SEED)
     if "peaks" in scene.observe:
         raise ValueError("observe: 'peaks' is not available with error= or rel_error= (the "

@@ -28,6 +28,7 @@ from .model import ANALYTIC, holds
 from .records import POLARITIES, Record, newmark
 from .scene import Scene
 from .simulate import simulate
+from .spec import draw_seed
 from .tail import TAIL_QUANTITIES, StatisticsFailure, tail
 
 __all__ = ["main", "run", "PAPER_SEED", "DEFAULT_OUT", "DEFAULT_TAIL_OUT"]
@@ -642,7 +643,7 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
         raise ValueError(f"--quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
     earlier = _check_out(out, overwrite, _TAIL_OUTPUTS) if files else []
     if seed is None:
-        seed = int(np.random.SeedSequence().entropy % (1 << 63))
+        seed = draw_seed()
         print(f"seed: {seed}")
     levels = [float(x) for x in levels]
     curve_levels = list(levels)

@@ -19,12 +19,11 @@ from . import _core
 from .bins import REACH, VARIABLE_COUNT, Axis, axes as _scene_axes
 from .quantities import core_flags
 from .spec import RunSpec, grid_error
+from .streams import RANDOM_STREAM, check_random_stream
 
 __all__ = ["make_plan", "plan_options", "scene_options", "run_chunk", "run_chunks", "velocity_samples", "histogram_axes",
            "axis_edges", "plain_axes", "Chunk", "RANDOM_STREAM", "CHUNK_PATHS"]
 
-#: Version of the random stream this build draws (docs/random-numbers.md).
-RANDOM_STREAM: int = int(_core.RANDOM_STREAM)
 #: Paths per chunk: the unit of work, of checkpoints and of Dask tasks.
 CHUNK_PATHS: int = int(_core.CHUNK_PATHS)
 
@@ -165,11 +164,8 @@ def run_chunks(spec: Union[RunSpec, Dict[str, Any]], first: int, last: int, thre
     mixes two streams' numbers. ``axes``: the caller's histogram axes (plain dicts of
     :class:`~crandall.bins.Axis`), so that every worker bins on the caller's edges.
     """
-    if random_stream is not None and random_stream != RANDOM_STREAM:
-        raise ValueError(
-            f"random_stream: this worker's crandall draws random stream {RANDOM_STREAM}, "
-            f"the client's draws stream {random_stream}; install the same crandall version on "
-            "every worker")
+    if random_stream is not None:
+        check_random_stream(random_stream)
     if not isinstance(spec, RunSpec):
         spec = RunSpec.from_dict(spec)
     plan = make_plan(spec, histogram_axes(spec, axes))

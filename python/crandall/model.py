@@ -22,6 +22,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import FrozenSet
 
+from .errors import ParameterError
 from .quantities import DISTANCE, VELOCITY, quantity
 
 __all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ISOMETRY", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
@@ -108,11 +109,12 @@ def holds(scene, identity: Identity) -> bool:
 
 def check_simulated(scene) -> None:
     """Refuse, naming the effects, a scene that holds an effect the core does not simulate
-    (its paths would be the paper's scene's, silently)."""
+    (its paths would be the paper's scene's, silently): a :class:`ParameterError` naming
+    ``scene``. Every entry point reaches it through :func:`crandall.spec.check_scene`."""
     missing = sorted(frozenset(scene.effects) - SIMULATED)
     if missing:
-        raise ValueError(f"scene: holds {', '.join(missing)}, which this crandall does not "
-                         "simulate")
+        raise ParameterError("scene", f"scene: holds {', '.join(missing)}, which this crandall "
+                             "does not simulate")
 
 
 def exact_in_law(name: str, scene) -> bool:

@@ -1083,10 +1083,6 @@ class Result:
     kind = "fixed_step"
 
 
-#: The fields of an estimate of a run to an accuracy, per statistic and slot.
-ESTIMATE_FIELDS = ("value", "stderr", "bias")
-
-
 class AccuracyResult(Result):
     """Statistics of a run to a requested accuracy (``crandall.simulate(scene, error=...)``).
 

@@ -1,8 +1,9 @@
-"""Running scenes: the public entry points and the orchestration of a run's chunks.
+"""Running scenes: the public entry points and the fixed-step estimator.
 
 :func:`simulate` and :func:`simulate_many` check their arguments into a
-:class:`~crandall.spec.RunSpec`, then run its chunks locally or as Dask tasks
-(:func:`crandall.engine.run_chunks`), merge them in chunk order, keep the checkpoint and show
+:class:`~crandall.spec.RunSpec` and hand a :class:`FixedStep` per scene to the driver
+(:mod:`crandall.driver`), which runs its chunks here or as Dask tasks
+(:func:`crandall.engine.run_chunks`), merges them in chunk order, keeps the checkpoint and shows
 the progress bar. The chunks themselves come from :mod:`crandall.engine`.
 """
 
@@ -28,9 +29,9 @@ from .methods import DEFAULT_METHOD, GRIDS, METHODS
 from .quantities import names_for, quantity, simulated_variables
 from .results import MONOMIALS, Result, StatisticsWarning
 from .scene import Scene
-from .spec import MAX_PATHS, RunSpec, as_seed, default_dt
+from .spec import MAX_PATHS, RunSpec, as_seed, default_dt, draw_seed
 from .errors import ParameterError, UnresolvableGrid
-from .model import EXACT_STEP, check_simulated, holds
+from .model import EXACT_STEP, holds
 
 __all__ = ["simulate", "simulate_many", "default_dt", "METHODS", "MAX_PATHS"]
 
@@ -75,23 +76,6 @@ def _check_memory(scene: Scene, threads: int, method: str = DEFAULT_METHOD) -> N
         )
 
 
-def make_plan(scene: Scene, *, paths: int, seed: int, dt: float, method: str,
-              min_steps: int = 0) -> "_core.Plan":
-    """The core's validated plan for a scene (see :func:`crandall.engine.make_plan`)."""
-    return engine.make_plan(RunSpec(scene, paths, seed, dt, method, min_steps))
-
-
-def validate_run(scene, paths, seed, dt, method, threads):
-    """Check simulate's arguments; return them normalised (seed drawn if None), and the
-    graded grid's ``min_steps`` (``DEFAULT_MIN_STEPS`` with the default dt, else 0).
-
-    See :meth:`RunSpec.create` (where the checks live) and :func:`run_spec`.
-    """
-    spec, threads = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
-                             threads=threads)
-    return spec.paths, spec.seed, spec.dt, spec.method, threads, spec.min_steps
-
-
 def run_spec(scene, *, paths, seed, dt, method, threads):
     """simulate's arguments checked: the run's spec, and the thread count (not part of it:
     results do not depend on it; the driver checks it against the memory the accumulators
@@ -111,15 +95,6 @@ def run_spec(scene, *, paths, seed, dt, method, threads):
             spec = RunSpec.create(chosen, paths=spec.paths, seed=spec.seed, dt=dt,
                                   method=spec.method)
     return spec, cores
-
-
-def run_chunks(scene_dict, paths, seed, dt, method, first, last, threads, min_steps=0,
-               random_stream=None):
-    """The Dask task with the run's fields as positional arguments, as before run
-    specifications; :func:`crandall.engine.run_chunks` takes the spec itself."""
-    spec = RunSpec.from_dict({"scene": scene_dict, "paths": paths, "seed": seed, "dt": dt,
-                              "method": method, "min_steps": min_steps})
-    return engine.run_chunks(spec, first, last, threads, random_stream)
 
 
 class FixedStep(Estimator):
@@ -329,7 +304,7 @@ def simulate(
         root-mean-square error (discretisation bias and statistical error together) of every
         statistic the scene asks for (the mean and the variance of each observed quantity at
         each output time and at the stop) is at most ``error``, in the scene's units. Returns a
-        :class:`crandall.adaptive.AdaptiveResult`, whose ``error``, ``bias``, ``stderr`` and
+        :class:`crandall.AccuracyResult`, whose ``error``, ``bias``, ``stderr`` and
         ``interval`` report it. Not with ``paths``, ``dt``, ``method`` or ``client``; with
         ``checkpoint`` the run's state is kept in that file (crandall's checkpoint format,
         replaced atomically at most every second and at the end of every round) and a rerun with the same
@@ -481,9 +456,8 @@ def _exact_part(scene: Scene, statistics) -> Optional[Scene]:
 
 def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, client, progress,
               error, rel_error, statistics, max_seconds):
-    """simulate's work, for one scene as given."""
-    if isinstance(scene, Scene):
-        check_simulated(scene)
+    """simulate's work, for one scene as given (checked by the spec, or by the run to an
+    accuracy: :func:`crandall.spec.check_scene`)."""
     if error is not None or rel_error is not None:
         for name, value in (("paths", paths), ("dt", dt), ("method", method)):
             if value is not None:
@@ -493,9 +467,7 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
         if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
             raise ParameterError("checkpoint", f"checkpoint must be a path, got {checkpoint!r}")
         if seed is None:
-            seed = int(np.random.SeedSequence().entropy % (1 << 64))
-        if not isinstance(scene, Scene):
-            raise ValueError(f"scene must be a crandall.Scene, got {type(scene).__name__}")
+            seed = draw_seed()
         threads, task_threads = resolve_threads(threads)
         return simulate_to_error(scene, error=error, rel_error=rel_error, seed=seed,
                                  threads=threads, statistics=statistics,

@@ -9,8 +9,9 @@ enter it. A new run option is a new field here (docs/architecture.md).
 
 from __future__ import annotations
 
-import math
 import dataclasses
+import math
+import numbers
 from dataclasses import dataclass
 from typing import Any, Dict, Optional
 
@@ -18,9 +19,11 @@ import numpy as np
 
 from .methods import DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, METHODS
 from .errors import ParameterError, UnresolvableGrid
+from .model import check_simulated
 from .scene import Scene
 
-__all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int"]
+__all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int", "check_scene", "check_positive",
+           "draw_seed", "is_real"]
 
 #: Most paths one run may have: path indices and chunk counts stay well inside 64 bits.
 MAX_PATHS = 1 << 63
@@ -38,6 +41,13 @@ def check_int(name: str, value, minimum: int, maximum: Optional[int] = None) -> 
     if maximum is not None and value > maximum:
         raise ParameterError(name, f"{name} must be <= {maximum}, got {value}")
     return value
+
+
+def draw_seed() -> int:
+    """A seed drawn from the operating system's entropy, 0 <= seed < 2**64: what every entry
+    point (``simulate``, ``simulate_many``, runs to an accuracy, ``tail``, ``crandall.paths``,
+    ``crandall tail``) takes for ``seed=None``, and records so that the run can be repeated."""
+    return int(np.random.SeedSequence().entropy % (1 << 64))
 
 
 def as_seed(seed):
@@ -80,19 +90,39 @@ def default_dt(scene: Scene) -> float:
     return horizon / DEFAULT_STEPS_FREE if horizon > 0 else 1.0
 
 
-def _check_scene(scene) -> Scene:
+def check_scene(scene) -> Scene:
+    """``scene`` if it is a :class:`Scene` whose every effect the core simulates
+    (:func:`crandall.model.check_simulated`); else a ParameterError naming ``scene``.
+
+    The one check every entry point passes before anything else is worked out or any path
+    drawn: a spec (:class:`RunSpec`, so ``simulate``, ``simulate_many``, the fixed-step Dask
+    task, the bias estimate's and the envelope pieces' runs), a run to an accuracy and its Dask
+    task (``adaptive``), a tail run and its Dask task (``tail._Problem``) and
+    ``crandall.paths``. An effect the core does not simulate would otherwise be run, silently,
+    as the paper's scene.
+    """
     if not isinstance(scene, Scene):
-        raise ValueError(f"scene must be a crandall.Scene, got {type(scene).__name__}")
+        raise ParameterError("scene", f"scene must be a crandall.Scene, got "
+                                      f"{type(scene).__name__}")
+    check_simulated(scene)
     return scene
 
 
-def _check_dt(dt) -> float:
-    if isinstance(dt, bool) or not isinstance(dt, (int, float, np.integer, np.floating)):
-        raise ValueError(f"dt must be a number, got {dt!r}")
-    dt = float(dt)
-    if not math.isfinite(dt) or dt <= 0:
-        raise ValueError(f"dt must be finite and > 0, got {dt!r}")
-    return dt
+def is_real(value) -> bool:
+    """Whether ``value`` is a real number (a bool or a string is not: NumPy and float() would
+    take True as 1 and "1" as 1.0)."""
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
+def check_positive(name: str, value) -> float:
+    """``value`` as a float, finite and > 0 (a step, a target error, a time bound); else a
+    ParameterError naming ``name``. A bool or a string is not a number (:func:`is_real`)."""
+    if not is_real(value):
+        raise ParameterError(name, f"{name} must be a number, got {value!r}")
+    value = float(value)
+    if not math.isfinite(value) or value <= 0:
+        raise ParameterError(name, f"{name} must be finite and > 0, got {value!r}")
+    return value
 
 
 def check_method(method) -> str:
@@ -133,10 +163,10 @@ class RunSpec:
     min_steps: int = 0
 
     def __post_init__(self) -> None:
-        _check_scene(self.scene)
+        check_scene(self.scene)
         fields = {"paths": check_int("paths", self.paths, 1, MAX_PATHS),
                   "seed": check_int("seed", self.seed, 0, MAX_SEED),
-                  "dt": _check_dt(self.dt),
+                  "dt": check_positive("dt", self.dt),
                   "method": check_method(self.method),
                   "min_steps": check_int("min_steps", self.min_steps, 0)}
         for name, value in fields.items():
@@ -156,10 +186,10 @@ class RunSpec:
         ValueError
             Naming the first bad argument, in the order scene, paths, seed, dt, method.
         """
-        _check_scene(scene)
+        check_scene(scene)
         check_int("paths", paths, 1, MAX_PATHS)  # before any default is worked out
         if seed is None:
-            seed = int(np.random.SeedSequence().entropy % (1 << 64))
+            seed = draw_seed()
         check_int("seed", seed, 0, MAX_SEED)
         min_steps = 0
         if dt is None:

@@ -17,6 +17,9 @@ only, so chunks, threads, Dask tasks and resumed checkpoints give the same paths
 - sample paths to draw (crandall.paths): :func:`paths_key` (seed), the stream 2^20 + 2, path i
   the core's path index i.
 
+Every Dask task checks first that its worker draws the client's random stream
+(:func:`check_random_stream`): a cluster never mixes two streams' numbers.
+
 Derived keys are splitmix64 of (seed, stream), in the manner of numpy's SeedSequence.spawn:
 each is a pure function of the seed and the stream's number, and distinct streams are
 decorrelated. A new estimator takes a stream number of its own here.
@@ -24,8 +27,15 @@ decorrelated. A new estimator takes a stream number of its own here.
 
 from __future__ import annotations
 
+from . import _core
+from .errors import ParameterError
+
 __all__ = ["key", "level_key", "bias_key", "tail_key", "paths_key", "BIAS_STREAM",
-           "TAIL_STREAM", "PATHS_STREAM"]
+           "TAIL_STREAM", "PATHS_STREAM", "RANDOM_STREAM", "check_random_stream"]
+
+#: Version of the random stream this build draws (docs/random-numbers.md): the same seed gives
+#: the same numbers in every crandall that draws the same stream.
+RANDOM_STREAM: int = int(_core.RANDOM_STREAM)
 
 _MASK = (1 << 64) - 1
 #: The stream of a fixed-step run's bias estimate (beyond the levels of a run to an accuracy).
@@ -43,6 +53,18 @@ def key(seed: int, stream: int) -> int:
     z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & _MASK
     z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & _MASK
     return z ^ (z >> 31)
+
+
+def check_random_stream(stream) -> None:
+    """Refuse a task whose client draws another random stream than this worker (``stream``:
+    the client's :data:`RANDOM_STREAM`), naming ``random_stream``. Every Dask task calls it
+    first: the fixed-step chunks (``engine.run_chunks``), a run to an accuracy's batches
+    (``adaptive.batch_task``) and a tail run's samples (``tail.sample``)."""
+    if stream != RANDOM_STREAM:
+        raise ParameterError(
+            "random_stream", f"random_stream: this worker's crandall draws random stream "
+            f"{RANDOM_STREAM}, the client's draws stream {stream}; install the same crandall "
+            "version on every worker")
 
 
 def level_key(seed: int, level: int) -> int:

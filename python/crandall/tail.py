@@ -25,7 +25,6 @@ import functools
 import hashlib
 import json
 import math
-import numbers
 import os
 import time as _time
 import warnings
@@ -44,7 +43,8 @@ from .driver import threads as resolve_threads
 from .errors import ParameterError
 from .results import StatisticsWarning
 from .scene import Scene
-from .spec import as_seed, check_int, default_dt
+from .spec import (MAX_SEED, as_seed, check_int, check_positive, check_scene, default_dt,
+                   draw_seed, is_real)
 
 __all__ = ["tail", "TailResult", "TAIL_QUANTITIES", "TAIL_METHODS"]
 
@@ -123,8 +123,7 @@ class _Problem:
 
     def __init__(self, scene: Scene, quantity: str, time: Optional[float], dt: Optional[float],
                  breaks: Sequence[float] = (), coarse: bool = False):
-        if not isinstance(scene, Scene):
-            raise ParameterError("scene", f"scene must be a crandall.Scene, got {type(scene).__name__}")
+        check_scene(scene)  # tail() and its Dask task (sample) both start here
         if not isinstance(quantity, str) or quantity not in TAIL_QUANTITIES:
             raise ParameterError("quantity", f"quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
         self.scene, self.q = scene, TAIL_QUANTITIES[quantity]
@@ -140,7 +139,7 @@ class _Problem:
         else:
             if time is None:
                 raise ParameterError("time", f"time: {quantity} is a quantity at an output time; give time=")
-            if not _real(time):
+            if not is_real(time):
                 raise ParameterError("time", f"time must be a number, got {time!r}")
             time = float(time)
             if not (math.isfinite(time) and time >= 0):
@@ -149,13 +148,7 @@ class _Problem:
         self.time = time
         self.horizon = horizon
         self.coast = (time - horizon) if time is not None else 0.0  # noiseless time after the grid
-        if dt is None:
-            dt = default_dt(scene)
-        if not _real(dt):
-            raise ParameterError("dt", f"dt must be a number, got {dt!r}")
-        dt = float(dt)
-        if not (math.isfinite(dt) and dt > 0):
-            raise ParameterError("dt", f"dt must be finite and > 0, got {dt}")
+        dt = check_positive("dt", default_dt(scene) if dt is None else dt)
         self.dt = dt
         self.args = (scene, quantity, time, dt)
         # The intervals between the pieces' ends and the extra breaks; coarse: one exact step
@@ -861,13 +854,17 @@ def pareto_shape(largest: np.ndarray) -> float:
 
 
 def sample(job: Dict[str, Any], index: int, threads: int = 0,
-           deadline: Optional[float] = None) -> Dict[str, Any]:
+           deadline: Optional[float] = None,
+           random_stream: Optional[int] = None) -> Dict[str, Any]:
     """Sample ``index`` of a tail run described by ``job`` (plain data: the scene's dict, the
     quantity, time, grid step, levels, particles, key and, for importance sampling, the
     proposal): a splitting replica, or a batch of ``particles`` weighted paths. A pure function
     of (job, index): the Dask task of a tail run. A replica still running at ``deadline`` (a
     ``time.time()``, the run's max_seconds) stops between its iterations and returns only
-    ``timed_out`` and how far it got (no sample: the run leaves it out)."""
+    ``timed_out`` and how far it got (no sample: the run leaves it out). ``random_stream``:
+    the client's, given to a Dask task (:func:`crandall.streams.check_random_stream`)."""
+    if random_stream is not None:
+        _streams.check_random_stream(random_stream)
     problem = _Problem(Scene.from_dict(job["scene"]), job["quantity"], job["time"], job["dt"])
     lv = np.asarray(job["levels"], dtype=float)
     n, key = job["particles"], job["key"]
@@ -1225,7 +1222,8 @@ class _TailRun(Estimator):
         self.samples, self.digest = samples, digest
 
     def _tasks(self, first: int, last: int):
-        return [Task(sample, (self.job, i, self.task_threads, self.deadline),
+        return [Task(sample, (self.job, i, self.task_threads, self.deadline,
+                             _streams.RANDOM_STREAM),
                      functools.partial(sample, self.job, i, self.threads, self.deadline), 1)
                 for i in range(first, last)]
 
@@ -1347,10 +1345,6 @@ class _TailRun(Estimator):
         return self.samples
 
 
-def _real(value) -> bool:
-    """Whether ``value`` is a real number (a bool or a string is not: NumPy and float() would
-    take True as 1 and "1" as 1.0)."""
-    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
 def _check_memory(paths: int, path_bytes: int, threads: int, name: str, what: str,
                   advice: str) -> None:
     """Refuse, before they are allocated, ``paths`` paths stored whole on a grid of
@@ -1401,7 +1395,7 @@ def _levels(levels) -> np.ndarray:
             items = levels = list(levels)  # also takes a generator once
         except TypeError:
             items = [levels]
-    bad = next((x for x in items if not (_real(x) or isinstance(x, (list, tuple, np.ndarray)))),
+    bad = next((x for x in items if not (is_real(x) or isinstance(x, (list, tuple, np.ndarray)))),
                None)
     if bad is not None:
         raise ParameterError("levels", f"levels must be a number or a sequence of numbers, got "
@@ -1533,7 +1527,7 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
                                  f"{problem.noisy_steps}")
     if method not in TAIL_METHODS:
         raise ParameterError("method", f"method must be one of {', '.join(TAIL_METHODS)}; got {method!r}")
-    if not (_real(rel_error) and MIN_REL_ERROR <= rel_error < 1):
+    if not (is_real(rel_error) and MIN_REL_ERROR <= rel_error < 1):
         raise ParameterError("rel_error", f"rel_error must be in [{MIN_REL_ERROR:g}, 1), got "
                                           f"{rel_error!r}")
     rel_error = float(rel_error)
@@ -1543,8 +1537,8 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
     threads, task_threads = resolve_threads(threads)
     seed = as_seed(seed)
     if seed is None:
-        seed = int(np.random.SeedSequence().entropy % (1 << 64))
-    check_int("seed", seed, 0, (1 << 64) - 1)
+        seed = draw_seed()
+    check_int("seed", seed, 0, MAX_SEED)
     splitting = method == "splitting"
     check_client(client)
     if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):

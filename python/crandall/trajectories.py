@@ -22,7 +22,7 @@ from ._resources import available_memory
 from .driver import threads as resolve_threads
 from .errors import ParameterError
 from .scene import Scene
-from .spec import as_seed, check_int, default_dt
+from .spec import MAX_SEED, as_seed, check_int, check_positive, check_scene, default_dt, draw_seed
 
 __all__ = ["paths", "MAX_VALUES"]
 
@@ -87,14 +87,13 @@ def paths(scene: Scene, n: int, *, seed: Any = None, times: Optional[Sequence[fl
         the shaking), each with its units; attributes: the scene (JSON), seed, dt.
     """
     xr = _require_xarray()
-    if not isinstance(scene, Scene):
-        raise ParameterError("scene", f"scene must be a crandall.Scene, got {type(scene).__name__}")
-    n = _checked("n", n, 1, 100_000)
-    points = _checked("points", points, 2, 100_000)
+    check_scene(scene)
+    n = check_int("n", n, 1, 100_000)
+    points = check_int("points", points, 2, 100_000)
     seed = as_seed(seed)
     if seed is None:
-        seed = int(np.random.SeedSequence().generate_state(1, np.uint64)[0])
-    seed = _checked("seed", seed, 0, 2 ** 64 - 1)
+        seed = draw_seed()
+    seed = check_int("seed", seed, 0, MAX_SEED)
     asked = None
     if times is not None:
         if isinstance(times, (str, bytes)):
@@ -118,9 +117,7 @@ def paths(scene: Scene, n: int, *, seed: Any = None, times: Optional[Sequence[fl
         dt = default_dt(scene)
         if horizon > 0:
             dt = min(dt, horizon / points)
-    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not (math.isfinite(dt) and dt > 0):
-        raise ParameterError("dt", f"dt must be a finite number > 0, got {dt!r}")
-    dt = float(dt)
+    dt = check_positive("dt", dt)
     extra = asked if asked is not None else np.linspace(0.0, horizon, points)
     grid = _grid(scene, horizon, dt, extra) if horizon > 0 else np.array([0.0])
     need = n * grid.size * 3 * 8
@@ -174,13 +171,6 @@ def paths(scene: Scene, n: int, *, seed: Any = None, times: Optional[Sequence[fl
                "units_system": scene.units})
     ds["stop_time"] = ("path", stop, {"units": unit["stop_time"], "long_name": "stop time"})
     return ds
-
-
-def _checked(name: str, value, lo: int, hi: int) -> int:
-    try:
-        return check_int(name, value, lo, hi)
-    except ValueError as exc:
-        raise ParameterError(name, str(exc)) from None
 
 
 def _require_xarray():
