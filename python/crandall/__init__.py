@@ -22,12 +22,13 @@ from .results import Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene
 from .simulate import METHODS, default_dt, simulate, simulate_many
 from .tail import StatisticsFailure, TailResult, tail
+from .fragility import FragilityResult, fragility
 from .trajectories import paths
 from .units import Scaling
 
 __all__ = ["load", "Scene", "Result", "simulate", "simulate_many", "default_dt", "Scaling", "OBSERVABLES", "METHODS",
            "StatisticsWarning", "StatisticsFailure", "tail", "TailResult", "paths",
-           "Record", "newmark", "NewmarkResult"]
+           "Record", "newmark", "NewmarkResult", "fragility", "FragilityResult"]
 
 # The analytic layer and the envelopes need scipy: imported when first read
 # (crandall.envelopes.amin_ang(...), crandall.analytic.physical(...)), not by `import crandall`.
