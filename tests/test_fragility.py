@@ -191,7 +191,7 @@ def test_files_table_and_figure(tmp_path):
     r.reliable[0, 1] = False
     path = tmp_path / "fragility.nc"
     r.save(path)
-    back = F.load(path)
+    back = crandall.FragilityResult.load(path)
     for name in ("values", "thresholds", "probability", "stderr", "low", "high", "reliable", "run"):
         assert np.array_equal(getattr(back, name), getattr(r, name)), name
     assert (back.quantity, back.axis, back.units) == (r.quantity, r.axis, r.units)

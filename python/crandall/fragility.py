@@ -622,6 +622,11 @@ class FragilityResult:
                         method=self.method, rel_error_target=self.rel_error_target)
         return ds
 
+    @classmethod
+    def load(cls, path: Union[str, "os.PathLike[str]"]) -> "FragilityResult":
+        """Read a file written by :meth:`save`."""
+        return load(path)
+
     def save(self, path: Union[str, "os.PathLike[str]"]) -> None:
         """Write a netCDF file (netCDF-3 by SciPy, as crandall's results), replaced
         atomically; :func:`load` reads it back."""
