@@ -72,7 +72,7 @@ def test_points_of_one_scaled_duration_share_a_run_that_agrees_with_separate_run
     scenes = [crandall.Scene(mu=m, h=h, t0=T0, times=[T0]) for h, m in points]
     thr = np.array([2.5, 3.0])
     runs = F.plan(SCENE, "stop_time", thr, scenes)
-    assert [run.points for run in runs] == [[0, 1], [2]] and runs[0].shared
+    assert [run.points for run in runs] == [[0, 1], [2]] and all(r.scaled for r in runs)
     args = dict(rel_error=0.1, seed=7, threads=1, progress=False, time=None, dt=T0 / 50,
                 method="splitting", max_seconds=600.0)
     values = np.array([1.0, 2.0, 1.5])
@@ -103,7 +103,7 @@ def test_the_identity_is_refused_for_an_envelope_a_start_in_motion_and_a_schedul
         two = [F.point_scene(F.point_scene(scene, "intensity", 2 * F.scene_intensity(scene)),
                              "mu", 2 * MU), scene]
         runs = F.plan(scene, "stop_time", np.array([2.5]), two)
-        assert [run.points for run in runs] == [[0], [1]] and not any(r.shared for r in runs)
+        assert [run.points for run in runs] == [[0], [1]] and not any(r.scaled for r in runs)
     # The envelope's scale is its h; the schedule's pieces scale together.
     assert F.point_scene(env, "intensity", 2.0).params["envelope"]["h"] == 2.0
     assert F.point_scene(pieces, "intensity", 2.0).params["h"] == [2.0, 1.0]

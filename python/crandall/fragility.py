@@ -122,7 +122,8 @@ def _run_seed(seed: int, run: int) -> int:
 @dataclass
 class _Run:
     """One tail run: the grid points it serves and, per point, the index of each threshold in
-    its levels; ``scene``, ``time``, ``dt`` as handed to crandall.tail."""
+    its levels; ``scene``, ``time``, ``dt`` as handed to crandall.tail; ``scaled``: a run of the
+    scaled scene through :data:`crandall.model.SCALING` (for one point or several)."""
 
     points: List[int]
     scene: Scene
@@ -130,7 +131,7 @@ class _Run:
     index: Dict[int, np.ndarray]
     time: Optional[float]
     dt: Optional[float]
-    shared: bool
+    scaled: bool
 
 
 def plan(scene: Scene, quantity: str, thresholds: np.ndarray, scenes: Sequence[Scene], *,
@@ -199,7 +200,7 @@ def fragility(scene: Scene, quantity: str, thresholds, *, intensities=None, mu=N
         The fragility's seed; run r gets a seed drawn from (seed, r), so the result is a pure
         function of it (a seed is drawn and kept in ``result.seed`` when not given).
     threads, progress, time, dt, method, max_seconds
-        As for :func:`crandall.tail` (``dt`` in seconds; on shared runs converted to scaled
+        As for :func:`crandall.tail` (``dt`` in seconds; on scaled runs converted to scaled
         time; ``max_seconds`` bounds each run).
     share : bool, default True
         Share runs through :data:`crandall.model.SCALING` where it holds (False: one run per
@@ -257,11 +258,11 @@ def run_grid(scene: Scene, quantity: str, thr: np.ndarray, scenes: Sequence[Scen
             res = tail(run.scene, quantity, run.levels, time=run.time, rel_error=rel_error,
                        seed=_run_seed(seed, r), dt=run.dt, threads=threads, progress=progress,
                        method=method, max_seconds=max_seconds)
-        # The tail's warnings, said of the grid points they concern (a shared run's levels
+        # The tail's warnings, said of the grid points they concern (a scaled run's levels
         # are in scaled units).
         where = (f"fragility at {'h' if axis == 'intensity' else 'mu'} = "
                  f"{', '.join(f'{values[j]:.4g}' for j in run.points)}"
-                 f"{' (one scaled run: its levels in scaled units)' if run.shared else ''}")
+                 f"{' (a scaled run: its levels in scaled units)' if run.scaled else ''}")
         for w in caught:
             warnings.warn(f"{where}: {w.message}", w.category, stacklevel=3)
         lo, hi = res.interval()
@@ -275,7 +276,7 @@ def run_grid(scene: Scene, quantity: str, thr: np.ndarray, scenes: Sequence[Scen
         quantity=quantity, axis=axis, values=values, thresholds=thr,
         units=TAIL_QUANTITIES[quantity].unit,
         probability=prob, stderr=err, low=low, high=high, reliable=reliable, run=which,
-        shared=any(run.shared for run in runs), seed=seed, scene=scene.to_dict(),
+        shared=any(len(run.points) > 1 for run in runs), seed=seed, scene=scene.to_dict(),
         seconds=float(sum(x.seconds for x in results)),
         steps=int(sum(x.steps for x in results)), method=method, rel_error_target=float(rel_error))
 
