@@ -2,7 +2,8 @@
 intensity h, at d = 0.5, 1 and 2 m, each grid point a splitting run to a 10 % relative error
 (crandall.fragility, one thread), the lognormal fit per threshold, and the annual rate of
 exceeding each d under an illustrative hazard curve of h (a power law, lambda(h) = 1e-2
-(h / 0.5)^-3 per year: not a site's). Writes bench/out/fragility.{json,png} (with --publish
+(h / 0.5)^-3 per year: not a site's), through the fit and through the grid's estimates (with
+the most the shaking outside the grid could add). Writes bench/out/fragility.{json,png} (with --publish
 also bench/results/, the figure the README shows).
 
     python bench/fragility.py [--publish] [--seed N]
@@ -38,9 +39,11 @@ def main() -> None:
     seconds = time.perf_counter() - start
     fit = result.fit_lognormal()
     hazard = result.hazard((HAZARD_H, HAZARD_RATE), fit=fit)
+    grid = result.hazard((HAZARD_H, HAZARD_RATE), use="estimates")
     print(result)
     print(fit)
     print(hazard)
+    print(grid)
     data = {
         "scene": "crate", "quantity": "distance_at_stop", "seed": args.seed,
         "seconds": seconds, "intensities": INTENSITIES, "thresholds": THRESHOLDS,
@@ -53,6 +56,8 @@ def main() -> None:
                 "chi2": fit.chi2.tolist(), "dof": fit.dof.tolist()},
         "hazard_curve": "1e-2 (h / 0.5)^-3 per year (illustrative)",
         "hazard": {"rate": hazard.rate.tolist(), "stderr": hazard.stderr.tolist()},
+        "hazard_estimates": {"rate": grid.rate.tolist(), "stderr": grid.stderr.tolist(),
+                             "outside": grid.outside.tolist()},
     }
 
     def plot(_, path):

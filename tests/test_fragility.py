@@ -159,6 +159,37 @@ def test_the_hazard_of_a_lognormal_curve_under_a_power_law():
         assert hz.low[0] < hz.rate[0] < hz.high[0]
 
 
+def test_the_hazard_from_the_grid_estimates_of_a_power_law_curve():
+    # P(x) = (x / 4)^3 on [0.2, 4] (linear in (ln x, ln P), as the estimates are interpolated)
+    # and lambda(x) = k0 x^-2: int_0.2^4 P |d lambda| + lambda(4) P(4)
+    #   = 2 k0 4^-3 (4 - 0.2) + k0 / 16.
+    k0, top = 1e-3, 4.0
+    exact = 2 * k0 * top ** -3 * (top - 0.2) + k0 * top ** -2
+    xs = np.geomspace(0.2, top, 9)
+    im = np.geomspace(0.2, top, 5)
+    curve = (im, k0 * im ** -2.0)
+    rng = np.random.default_rng(4)
+    for rel in (1e-9, 0.05, 0.05, 0.05):
+        p = (xs / top) ** 3 * np.exp(rel * rng.standard_normal(xs.size))
+        r = F.FragilityResult(quantity="distance_at_stop", axis="intensity", values=xs,
+                              thresholds=[1.0], probability=p[:, None], stderr=rel * p[:, None],
+                              low=p[:, None], high=p[:, None], reliable=np.ones((9, 1), bool))
+        hz = r.hazard(curve, use="estimates")
+        if rel < 1e-6:
+            assert hz.rate[0] == pytest.approx(exact, rel=1e-5) and hz.outside[0] < 1e-12
+        else:
+            assert abs(hz.rate[0] - exact) <= Z * hz.stderr[0], (hz.rate, hz.stderr, exact)
+    # A hazard curve wider than the grid: the part above is counted with P at the grid's end,
+    # the part below left out; `outside` is the most they could add.
+    wide = (np.geomspace(0.1, 8.0, 6), k0 * np.geomspace(0.1, 8.0, 6) ** -2.0)
+    r.probability[:] = ((xs / top) ** 3 * 0.5)[:, None]
+    hz = r.hazard(wide, use="estimates")
+    inside = 0.5 * (2 * k0 * top ** -3 * (top - 0.2) + k0 * top ** -2)
+    assert hz.rate[0] == pytest.approx(inside, rel=1e-5)
+    most = 0.5 * k0 * top ** -2 + 0.5 * (0.2 / top) ** 3 * (k0 * 0.1 ** -2 - k0 * 0.2 ** -2)
+    assert hz.outside[0] == pytest.approx(most, rel=1e-6)
+
+
 def test_refusals_name_the_parameter():
     cases = [
         (dict(thresholds=[]), "thresholds"),
@@ -183,6 +214,9 @@ def test_refusals_name_the_parameter():
         with pytest.raises(ParameterError) as info:
             r.hazard(curve)
         assert info.value.name == "curve"
+    with pytest.raises(ParameterError) as info:
+        r.hazard(([1.0, 2.0], [1e-2, 1e-3]), use="grid")
+    assert info.value.name == "use"
 
 
 def test_files_table_and_figure(tmp_path):

@@ -333,12 +333,20 @@ class Hazard:
     stderr: np.ndarray
     low: np.ndarray
     high: np.ndarray
+    #: With ``use="estimates"``: the most the shaking outside the grid could add (its part
+    #: below the grid is left out, above it counted with P at the grid's end); 0 for the fit.
+    outside: Optional[np.ndarray] = None
+    #: "fit" or "estimates" (:meth:`FragilityResult.hazard`).
+    use: str = "fit"
 
     def __str__(self) -> str:
-        lines = [f"{'threshold':>12} {'rate / yr':>11} {'stderr':>10} {'95% interval':>23}"]
+        lines = [f"annual rate of exceedance ({'the lognormal fit' if self.use == 'fit' else 'the grid estimates'})",
+                 f"{'threshold':>12} {'rate / yr':>11} {'stderr':>10} {'95% interval':>23}"
+                 + (f" {'outside grid, up to':>20}" if self.use == "estimates" else "")]
         for k, d in enumerate(self.thresholds):
+            extra = f" {self.outside[k]:20.3g}" if self.use == "estimates" else ""
             lines.append(f"{d:12.6g} {self.rate[k]:11.4g} {self.stderr[k]:10.3g} "
-                         f"[{self.low[k]:9.4g}, {self.high[k]:9.4g}]")
+                         f"[{self.low[k]:9.4g}, {self.high[k]:9.4g}]{extra}")
         return "\n".join(lines)
 
 
@@ -366,6 +374,18 @@ def _hazard_curve(curve) -> Tuple[np.ndarray, np.ndarray]:
 #: The hazard integral's largest sub-grid step in ln x (the trapezoid rule's relative error
 #: is then about 1e-5 for a power law of exponent 2.5: tests/test_fragility.py).
 _HAZARD_STEP = 0.002
+
+
+def _sub_grid(lx, lr, lo, hi, extra=()):
+    """ln x on [lo, hi] in steps of at most _HAZARD_STEP through every point of ``lx`` and
+    ``extra`` inside, and lambda there (interpolated linearly in (ln x, ln lambda))."""
+    knots = np.unique(np.concatenate([[lo, hi], lx[(lx > lo) & (lx < hi)],
+                                      np.asarray(extra, dtype=float)[(np.asarray(extra) > lo)
+                                                                     & (np.asarray(extra) < hi)]]))
+    pieces = [np.linspace(a, b, max(1, int(math.ceil((b - a) / _HAZARD_STEP))) + 1)[:-1]
+              for a, b in zip(knots[:-1], knots[1:])]
+    sub = np.concatenate(pieces + [knots[-1:]])
+    return sub, np.exp(np.interp(sub, lx, lr))
 
 
 @dataclass
@@ -514,7 +534,7 @@ class FragilityResult:
 
     # -- the hazard ------------------------------------------------------------------------
 
-    def hazard(self, curve, fit: Optional[LognormalFit] = None) -> Hazard:
+    def hazard(self, curve, fit: Optional[LognormalFit] = None, use: str = "fit") -> Hazard:
         """The annual rate of exceeding each threshold at a site whose hazard curve is
         ``curve = (im, rate)``: ``rate[i]`` the annual rate of shaking stronger than
         ``im[i]`` (the intensity h of this result's grid, in m s^-3/2; increasing, the rates
@@ -522,51 +542,97 @@ class FragilityResult:
 
             lambda_D(d) = int P(D > d | x) |d lambda(x)|
 
-        over the curve's range, lambda interpolated linearly in (ln x, ln lambda) between its
-        points (exact for a power law), P the fitted lognormal curve (:meth:`fit_lognormal`, or
-        ``fit``), on a sub-grid of steps of at most 0.002 in ln x (trapezoid rule on P against
-        the falls of lambda); shaking beyond the curve's last point counts with P at that
-        point (a lower bound of its part, lambda(im[-1]) P(im[-1])), shaking below its first
-        point not at all. Uncertainty: the fit's covariance of (ln median, beta) carried
-        through by the delta method (the gradient by central differences); the 95 % interval
-        is rate * exp(+-1.96 stderr / rate).
+        lambda interpolated linearly in (ln x, ln lambda) between the curve's points (exact
+        for a power law), on a sub-grid of steps of at most 0.002 in ln x (the trapezoid rule
+        on P against the falls of lambda). Two ways of taking P:
+
+        ``use="fit"`` (default): the fitted lognormal curve (:meth:`fit_lognormal`, or
+        ``fit``), over the hazard curve's range; shaking beyond its last point counts with P
+        at that point, shaking below its first not at all. Uncertainty: the fit's
+        covariance of (ln median, beta) by the delta method (central differences). Where
+        the curve is not lognormal (chi2 / dof well above 1) this is the fitted curve's rate.
+
+        ``use="estimates"``: the grid's own estimates, ln P interpolated linearly in ln x
+        between grid points (reliable, P > 0), over the part of the hazard curve inside the
+        grid; shaking above that part counts with P at its upper end, shaking below it not
+        at all (both lower bounds, with P growing with h: ``Hazard.outside`` is the most
+        they could add, (1 - P(b)) lambda(b) + P(a) (lambda(im[0]) - lambda(a)) for the part
+        [a, b]). Uncertainty: each estimate's standard error, through the integral's
+        derivative in it (central differences), added linearly within one tail run (the
+        estimates of one run are correlated, by an unknown amount: the sum is the bound)
+        and in quadrature across runs (independent).
+
+        The 95 % interval is rate * exp(+-1.96 stderr / rate).
         """
         if self.axis != "intensity":
             raise ParameterError("curve", "curve: a hazard curve is one of the intensity; this "
                                           "fragility is over mu")
+        if use not in ("fit", "estimates"):
+            raise ParameterError("use", f"use must be 'fit' or 'estimates', got {use!r}")
         im, rate = _hazard_curve(curve)
-        fit = self.fit_lognormal() if fit is None else fit
-        from scipy.special import ndtr
-
         lx, lr = np.log(im), np.log(rate)
-        parts = []
-        for a, b, ra, rb in zip(lx[:-1], lx[1:], lr[:-1], lr[1:]):
-            m = max(1, int(math.ceil((b - a) / _HAZARD_STEP)))
-            t = np.linspace(0.0, 1.0, m + 1)
-            parts.append((a + (b - a) * t, ra + (rb - ra) * t))
-        sub_x = np.concatenate([p[0][:-1] for p in parts] + [lx[-1:]])
-        lam = np.exp(np.concatenate([p[1][:-1] for p in parts] + [lr[-1:]]))
-        drop = lam[:-1] - lam[1:]
-
-        def integral(lnmed, beta):
-            p = ndtr(fit.sign * (sub_x - lnmed) / beta)
-            return float(np.sum(0.5 * (p[:-1] + p[1:]) * drop) + p[-1] * lam[-1])
-
         n = len(self.thresholds)
-        out = np.full(n, np.nan)
-        err = np.full(n, np.nan)
-        for k in range(n):
-            if not np.isfinite(fit.median[k]):
-                continue
-            a, b = math.log(fit.median[k]), fit.beta[k]
-            out[k] = integral(a, b)
-            ha, hb = 1e-6 * max(1.0, abs(a)), 1e-6 * b
-            grad = np.array([(integral(a + ha, b) - integral(a - ha, b)) / (2 * ha),
-                             (integral(a, b + hb) - integral(a, b - hb)) / (2 * hb)])
-            err[k] = math.sqrt(max(float(grad @ fit.covariance[k] @ grad), 0.0))
+        out, err = np.full(n, np.nan), np.full(n, np.nan)
+        outside = np.zeros(n)
+        if use == "fit":
+            fit = self.fit_lognormal() if fit is None else fit
+            from scipy.special import ndtr
+
+            sub_x, lam = _sub_grid(lx, lr, lx[0], lx[-1])
+            drop = lam[:-1] - lam[1:]
+
+            def integral(lnmed, beta):
+                p = ndtr(fit.sign * (sub_x - lnmed) / beta)
+                return float(np.sum(0.5 * (p[:-1] + p[1:]) * drop) + p[-1] * lam[-1])
+
+            for k in range(n):
+                if not np.isfinite(fit.median[k]):
+                    continue
+                a, b = math.log(fit.median[k]), fit.beta[k]
+                out[k] = integral(a, b)
+                ha, hb = 1e-6 * max(1.0, abs(a)), 1e-6 * b
+                grad = np.array([(integral(a + ha, b) - integral(a - ha, b)) / (2 * ha),
+                                 (integral(a, b + hb) - integral(a, b - hb)) / (2 * hb)])
+                err[k] = math.sqrt(max(float(grad @ fit.covariance[k] @ grad), 0.0))
+        else:
+            gx = np.log(self.values)
+            for k in range(n):
+                p, se = self.probability[:, k], self.stderr[:, k]
+                use_k = self.reliable[:, k] & (p > 0) & np.isfinite(p) & np.isfinite(se)
+                if use_k.sum() < 2:
+                    continue
+                px, lp, sk, runs = gx[use_k], np.log(p[use_k]), se[use_k], self.run[use_k]
+                lo_x, hi_x = max(px[0], lx[0]), min(px[-1], lx[-1])
+                if not hi_x > lo_x:
+                    continue
+                sub_x, lam = _sub_grid(lx, lr, lo_x, hi_x, extra=px)
+                drop = lam[:-1] - lam[1:]
+
+                def integral(logp):
+                    q = np.exp(np.interp(sub_x, px, logp))
+                    return float(np.sum(0.5 * (q[:-1] + q[1:]) * drop) + q[-1] * lam[-1])
+
+                out[k] = integral(lp)
+                grad = np.zeros(len(lp))
+                for i in range(len(lp)):
+                    h = 1e-6
+                    up, down = lp.copy(), lp.copy()
+                    up[i] += h
+                    down[i] -= h
+                    # d/dP_i = d/d(ln P_i) / P_i
+                    grad[i] = (integral(up) - integral(down)) / (2 * h) / math.exp(lp[i])
+                var = 0.0
+                for r in np.unique(runs):
+                    var += float(np.sum(np.abs(grad[runs == r]) * sk[runs == r])) ** 2
+                err[k] = math.sqrt(var)
+                p_lo = math.exp(np.interp(lo_x, px, lp))
+                p_hi = math.exp(np.interp(hi_x, px, lp))
+                lam_lo = math.exp(np.interp(lo_x, lx, lr))
+                outside[k] = (max(1.0 - p_hi, 0.0) * lam[-1]
+                              + p_lo * (rate[0] - lam_lo))
         with np.errstate(divide="ignore", invalid="ignore"):
             spread = np.exp(_Z95 * err / out)
-        return Hazard(self.thresholds.copy(), out, err, out / spread, out * spread)
+        return Hazard(self.thresholds.copy(), out, err, out / spread, out * spread, outside, use)
 
     # -- tables, files ---------------------------------------------------------------------
 
