@@ -235,8 +235,9 @@ def test_files_table_and_figure(tmp_path):
     matplotlib.use("Agg")
     from crandall import plots
     curve = (np.geomspace(0.1, 10, 5), 1e-2 * np.geomspace(0.1, 10, 5) ** -2.0)
-    fig = plots.fragility(r, hazard=curve)
-    assert len(fig.axes) == 2
+    for use in ("fit", "estimates"):
+        fig = plots.fragility(r, hazard=curve, use=use)
+        assert len(fig.axes) == 2
 
 
 def test_reproducible_and_on_the_command_line(capsys):

@@ -826,12 +826,13 @@ def newmark_sweep(result: NewmarkResult):
     return fig
 
 
-def fragility(result: FragilityResult, hazard=None):
+def fragility(result: FragilityResult, hazard=None, use: str = "fit"):
     """Fragility curves: P(Q > threshold) against the grid's intensity (or mu), a line per
     threshold with its 95 % band (log probability; unreliable points hollow), the lognormal
     fit (:meth:`FragilityResult.fit_lognormal`) dashed; with ``hazard`` (a hazard curve
     ``(im, rate)`` of the intensity) a second panel: the annual rate of exceeding each
-    threshold (:meth:`FragilityResult.hazard`) with its 95 % interval.
+    threshold (:meth:`FragilityResult.hazard`, through the fit or, ``use="estimates"``, the
+    grid's estimates) with its 95 % interval.
 
     Returns
     -------
@@ -866,7 +867,7 @@ def fragility(result: FragilityResult, hazard=None):
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
     if hazard is not None:
-        hz = result.hazard(hazard, fit=fit)
+        hz = result.hazard(hazard, fit=fit, use=use)
         ax2 = axes[1]
         ok = np.isfinite(hz.rate)
         ax2.errorbar(hz.thresholds[ok], hz.rate[ok],
@@ -875,6 +876,7 @@ def fragility(result: FragilityResult, hazard=None):
         ax2.set_xscale("log")
         ax2.set_yscale("log")
         ax2.set_xlabel(f"threshold{f' [{result.units}]' if result.units else ''}")
-        ax2.set_ylabel("annual rate of exceedance")
+        ax2.set_ylabel("annual rate of exceedance"
+                       + (" (lognormal fit)" if use == "fit" else " (grid estimates)"))
         ax2.grid(alpha=0.3, which="both")
     return fig
