@@ -86,6 +86,7 @@ def test_points_of_one_scaled_duration_share_a_run_that_agrees_with_separate_run
             both = math.hypot(shared.stderr[j, k], separate.stderr[j, k])
             assert abs(shared.probability[j, k] - separate.probability[j, k]) <= Z * both
             assert abs(separate.probability[j, k] - stop_sf(h, m, t)) <= Z * separate.stderr[j, k]
+            assert abs(shared.probability[j, k] - stop_sf(h, m, t)) <= Z * shared.stderr[j, k]
     # One scaled run: the stop time's scaled unit is the same at both points, so the two
     # points read the same levels of it.
     assert np.array_equal(shared.probability[0], shared.probability[1])
