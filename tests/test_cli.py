@@ -51,7 +51,7 @@ def test_console_script_is_declared():
 
 
 @pytest.mark.parametrize("args", [["--help"], ["run", "--help"], ["analytic", "--help"], ["tail", "--help"],
-                                  ["scenes", "--help"]])
+                                  ["scenes", "--help"], ["fragility", "--help"]])
 def test_help_everywhere(args):
     proc = crandall_cmd(*args)
     assert proc.returncode == 0, proc.stderr

@@ -24,6 +24,7 @@ SHRINK = [
     ("paths=10**6", "paths=20_000"),
     ("error=1e-3, seed=1, statistics", "error=2e-2, seed=1, statistics"),
     ('[0.5, 1.0], rel_error=0.2, seed=1)', '[0.5, 1.0], rel_error=0.5, seed=1, particles=50)'),
+    ('[1.0, 1.4, 2.0], rel_error=0.2, seed=1)', '[1.0, 1.4, 2.0], rel_error=0.5, seed=1, dt=0.04)'),
     ('Client("tcp://scheduler:8786")',
      'Client(LocalCluster(n_workers=1, threads_per_worker=1, processes=False, '
      'dashboard_address=":0"))'),

@@ -23,13 +23,14 @@ from .results import AccuracyResult, Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene
 from .simulate import METHODS, default_dt, simulate, simulate_many
 from .tail import StatisticsFailure, TailResult, tail
+from .fragility import FragilityResult, fragility
 from .trajectories import paths
 from .units import Scaling
 
 __all__ = ["load", "Scene", "Result", "AccuracyResult", "simulate", "simulate_many", "default_dt",
            "Scaling", "OBSERVABLES", "METHODS", "ParameterError", "StatisticsWarning",
            "StatisticsFailure", "tail", "TailResult", "paths", "Record", "newmark",
-           "NewmarkResult"]
+           "NewmarkResult", "fragility", "FragilityResult"]
 
 # The analytic layer and the envelopes need scipy: imported when first read
 # (crandall.envelopes.amin_ang(...), crandall.analytic.physical(...)), not by `import crandall`.

@@ -1,5 +1,5 @@
 """The ``crandall`` command line: ``crandall run [SCENE]``, ``crandall tail [SCENE]``,
-``crandall analytic [SCENE]``, ``crandall scenes`` (the shipped scenes, by name) and
+``crandall fragility [SCENE]``, ``crandall analytic [SCENE]``, ``crandall scenes`` (the shipped scenes, by name) and
 ``crandall newmark RECORD`` (Newmark's sliding block on a recorded ground motion).
 
 ``crandall run`` without a scene file simulates the paper's setting (``crandall.paper``) and
@@ -30,6 +30,7 @@ from .scene import Scene
 from .simulate import simulate
 from .spec import draw_seed
 from .tail import TAIL_QUANTITIES, StatisticsFailure, tail
+from .fragility import fragility
 
 __all__ = ["main", "run", "PAPER_SEED", "DEFAULT_OUT", "DEFAULT_TAIL_OUT"]
 
@@ -87,6 +88,14 @@ def _float(text: str) -> float:
         return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+
+
+def _floats(text: str) -> List[float]:
+    """A comma-separated list of numbers (``0.5,1,2``)."""
+    try:
+        return [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a comma-separated list of numbers: {text!r}") from None
 
 
 def _progress_options(parser: argparse.ArgumentParser) -> None:
@@ -209,6 +218,38 @@ def _parser() -> argparse.ArgumentParser:
     tl.add_argument("--dpi", type=_positive_int, default=150, metavar="N",
                     help="the resolution of a png figure (default: 150)")
     _progress_options(tl)
+
+    fr = sub.add_parser(
+        "fragility", help="fragility curves: P(Q > threshold) over a grid of intensities or mu",
+        description="Estimate P(Q > threshold) of one quantity at each threshold over a grid "
+                    "of intensities h (or of frictions mu), each grid point a tail run with "
+                    "its 95 % interval (points of one scaled duration share one run on the "
+                    "paper's scene); print the table and the lognormal fit per threshold.")
+    fr.add_argument("scene", nargs="?", metavar="SCENE",
+                    help="scene file (TOML), or the name of a shipped scene; default: the "
+                         "crate (crandall scenes lists them)")
+    fr.add_argument("--quantity", required=True, metavar="Q",
+                    help="a tail quantity: distance_at_stop, stop_time, residual_displacement, ...")
+    fr.add_argument("--thresholds", type=_floats, required=True, metavar="D1,D2,...",
+                    help="thresholds in the scene's units, increasing, > 0")
+    grid = fr.add_argument_group("the grid (one of them)")
+    grid.add_argument("--intensities", type=_floats, metavar="H1,H2,...",
+                      help="intensities h, m s^-3/2 (an envelope's scale)")
+    grid.add_argument("--mu", type=_floats, metavar="MU1,MU2,...", help="frictions mu")
+    fr.add_argument("--time", type=_float, metavar="T", help="output time of velocity and speed")
+    fr.add_argument("--method", choices=("splitting", "importance"), default="splitting",
+                    help="splitting (default) or importance sampling")
+    fr.add_argument("--rel-error", type=_float, default=0.1, metavar="R",
+                    help="target relative error of each run (default 0.1)")
+    fr.add_argument("--seed", type=_positive_int, metavar="S", help="seed (default: drawn and printed)")
+    fr.add_argument("--dt", type=_float, metavar="DT", help="grid step, s (default: each point's "
+                                                          "default step)")
+    fr.add_argument("--threads", type=_positive_int, metavar="T", help="threads (default: all cores)")
+    fr.add_argument("--max-seconds", type=_float, default=3600.0, metavar="S",
+                    help="bound on each run's time (default 3600)")
+    fr.add_argument("--save", metavar="PATH", help="write the result (netCDF)")
+    fr.add_argument("--figure", metavar="PATH", help="draw the curves with their fit (png, pdf, svg)")
+    _progress_options(fr)
 
     sub.add_parser(
         "scenes", help="list the scenes shipped with crandall",
@@ -715,6 +756,35 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
     return 0
 
 
+def fragility_command(args) -> int:
+    """``crandall fragility``: the table over the grid and the lognormal fit per threshold."""
+    scene = _read_scene(args.scene if args.scene is not None else "crate")
+    seed = args.seed
+    if seed is None:
+        seed = int(np.random.SeedSequence().entropy % (1 << 63))
+        print(f"seed: {seed}")
+    if args.figure is not None:
+        fmt = os.path.splitext(args.figure)[1].lstrip(".").lower()
+        if fmt not in plots.FORMATS:
+            raise ValueError(f"--figure: the file must end in one of "
+                             f"{', '.join('.' + f for f in plots.FORMATS)}")
+    result = fragility(scene, args.quantity, args.thresholds, intensities=args.intensities,
+                       mu=args.mu, rel_error=args.rel_error, seed=seed, threads=args.threads,
+                       progress=args.progress, time=args.time, dt=args.dt, method=args.method,
+                       max_seconds=args.max_seconds)
+    print(result)
+    print("lognormal fit per threshold (95 % intervals):")
+    print(result.fit_lognormal())
+    if args.save:
+        result.save(args.save)
+        print(f"wrote {args.save}")
+    if args.figure:
+        fig = plots.fragility(result)
+        write_atomic(args.figure, lambda f: fig.savefig(f, format=fmt))
+        print(f"wrote {args.figure}")
+    return 0
+
+
 def scenes_command() -> int:
     """``crandall scenes``: the shipped scenes, a name and its title a line."""
     listed = Scene.shipped()
@@ -792,6 +862,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                                 mc_paths=args.mc_paths, out=args.out, overwrite=args.overwrite,
                                 files=not args.no_files, progress=args.progress,
                                 figure_format=args.figure_format, dpi=args.dpi)
+        if args.command == "fragility":
+            return fragility_command(args)
         if args.command == "scenes":
             return scenes_command()
         if args.command == "newmark":

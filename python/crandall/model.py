@@ -25,7 +25,7 @@ from typing import FrozenSet
 from .errors import ParameterError
 from .quantities import DISTANCE, VELOCITY, quantity
 
-__all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ISOMETRY", "ZERO_FRICTION", "ANALYTIC", "SIMULATED",
+__all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ISOMETRY", "ZERO_FRICTION", "ANALYTIC", "SCALING", "SIMULATED",
            "holds", "isometry_applies", "check_simulated", "exact_in_law"]
 
 
@@ -88,6 +88,17 @@ SCHEDULE = Identity(
     "approximation)", frozenset({INITIAL_STATE, PIECEWISE_INTENSITY}))
 #: The analytic layer's closed forms (crandall.analytic): the paper's scene only.
 ANALYTIC = Identity("analytic", "the closed forms of crandall.analytic (the paper's scene)")
+
+#: The scaling of eq8: t = tau 2 h^2 / c^2, V = U1 h^2 / c, U and S = U2, U3 times 2 h^4 / c^3
+#: (c = mu g). From rest under one intensity h until t0, the scaled motion is the paper's
+#: eq3 with tau0 = t0 c^2 / (2 h^2) alone, so P(Q > q) of any quantity depends on q over its
+#: scale and on tau0 only (for the distance: on d c^3 / h^4 and t0 c^2 / h^2). Grid points
+#: (h, mu) with the same tau0 are one scaled run (crandall.fragility shares it). Not for a
+#: start in motion (v0 / (h^2 / c) is one more number), a piecewise schedule (its pieces'
+#: relative intensities and ends are more) or an envelope (its shape's times are more).
+SCALING = Identity(
+    "scaling", "from rest under one intensity, P(Q > q) depends on q over its scaled unit "
+    "and on tau0 = t0 (mu g)^2 / (2 h^2) only")
 
 #: The effects the core simulates: a start from any state, and a piecewise intensity (no step
 #: straddles a piece's end), also as an envelope's pieces.

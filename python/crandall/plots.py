@@ -25,6 +25,7 @@ from scipy.stats import beta
 from . import analytic, distributions
 from ._files import write_atomic
 from .engine import velocity_samples
+from .fragility import FragilityResult
 from . import paper
 from .paper import CURVES, Curve, curve, scaled_factors
 from .quantities import quantity
@@ -49,6 +50,7 @@ __all__ = [
     "paths",
     "newmark",
     "newmark_sweep",
+    "fragility",
     "UNITS",
     "FORMATS",
 ]
@@ -821,4 +823,60 @@ def newmark_sweep(result: NewmarkResult):
     ax.set_title(f"{result.method} method, {len(result.records)} records x {x.size} yields x "
                  f"{len(result.polarities)} polarities (solid normal, dashed inverse)",
                  fontsize=9)
+    return fig
+
+
+def fragility(result: FragilityResult, hazard=None, use: str = "fit"):
+    """Fragility curves: P(Q > threshold) against the grid's intensity (or mu), a line per
+    threshold with its 95 % band (log probability; unreliable points hollow), the lognormal
+    fit (:meth:`FragilityResult.fit_lognormal`) dashed; with ``hazard`` (a hazard curve
+    ``(im, rate)`` of the intensity) a second panel: the annual rate of exceeding each
+    threshold (:meth:`FragilityResult.hazard`, through the fit or, ``use="estimates"``, the
+    grid's estimates) with its 95 % interval.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if not isinstance(result, FragilityResult):
+        raise ValueError(f"result must be a crandall.FragilityResult, got {type(result).__name__}")
+    fig = _figure(width=6.4 if hazard is None else 11.0)
+    axes = fig.subplots(1, 1 if hazard is None else 2, squeeze=False)[0]
+    ax = axes[0]
+    fit = result.fit_lognormal()
+    x = result.values
+    fine = np.geomspace(x[0], x[-1], 200) if x[0] > 0 else np.linspace(x[0], x[-1], 200)
+    unit = f" {result.units}" if result.units else ""
+    for k, d in enumerate(result.thresholds):
+        color = f"C{k % 10}"
+        p = result.probability[:, k]
+        ok = result.reliable[:, k] & (p > 0)
+        ax.fill_between(x, np.maximum(result.low[:, k], 1e-300), result.high[:, k], color=color,
+                        alpha=0.2, lw=0)
+        ax.plot(x[ok], p[ok], "o-", color=color, ms=4, label=f"> {d:.3g}{unit}")
+        bad = ~result.reliable[:, k] & (p > 0)
+        if bad.any():
+            ax.plot(x[bad], p[bad], ls="none", marker="o", ms=5, mfc="none", mec=color)
+        if np.isfinite(fit.median[k]):
+            ax.plot(fine, fit.probability(fine, k), "--", color=color, lw=1.0,
+                    label=f"lognormal: median {fit.median[k]:.3g}, beta {fit.beta[k]:.2f}")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(result.axis_label)
+    ax.set_ylabel(f"P({result.quantity} > threshold)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    if hazard is not None:
+        hz = result.hazard(hazard, fit=fit, use=use)
+        ax2 = axes[1]
+        ok = np.isfinite(hz.rate)
+        ax2.errorbar(hz.thresholds[ok], hz.rate[ok],
+                     yerr=[hz.rate[ok] - hz.low[ok], hz.high[ok] - hz.rate[ok]], **_SIM)
+        ax2.plot(hz.thresholds[ok], hz.rate[ok], **_CURVE)
+        ax2.set_xscale("log")
+        ax2.set_yscale("log")
+        ax2.set_xlabel(f"threshold{f' [{result.units}]' if result.units else ''}")
+        ax2.set_ylabel("annual rate of exceedance"
+                       + (" (lognormal fit)" if use == "fit" else " (grid estimates)"))
+        ax2.grid(alpha=0.3, which="both")
     return fig
