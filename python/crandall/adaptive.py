@@ -391,6 +391,9 @@ class _Engine(Estimator):
         self.checkpoint = None  # where the driver keeps the state (for messages only)
         self.text = ""  # the progress bar's text
         self.max_seconds = MAX_SECONDS
+        #: Seconds spent before the levels (an envelope's pieces' pilot), counted against
+        #: max_seconds.
+        self.pilot_seconds = 0.0
         #: Per target, the error of an envelope's pieces (core units; crandall.pieces), or
         #: None.
         self.piece_bias: Optional[List[float]] = None
@@ -940,7 +943,7 @@ class _Engine(Estimator):
                 seconds = sum(max(n - lev.sums.n, 0) * self.path_seconds(lev.level)
                               for n, lev in zip(want, self.levels))
             self._show(worst, seconds)
-            if elapsed + seconds > self.max_seconds:
+            if self.pilot_seconds + elapsed + seconds > self.max_seconds:
                 raise self._too_long(seconds, left, f"after {self.round_count} rounds",
                                      self._drivers(asks))
             if deeper and len(self.levels) <= MAX_LEVELS:
@@ -1210,8 +1213,9 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
             float(piece_bias[(t.name, t.stat)][0][t.time_index if t.time_index is not None
                                                   else 0])
             for t in engine.targets]
+    engine.max_seconds = max_seconds
     # The pieces' pilot counts against the run's bound.
-    engine.max_seconds = max(max_seconds - (time.perf_counter() - began), 1e-9)
+    engine.pilot_seconds = time.perf_counter() - began if piece_bias is not None else 0.0
     engine.checkpoint = checkpoint
     engine.task_threads = task_threads
     engine.checkpoint_seconds = CHECKPOINT_SECONDS
