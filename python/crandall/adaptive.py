@@ -1201,7 +1201,7 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
         targets = _targets(scene, chosen)
         scene, info = pieces.choose(scene, sorted({t.name for t in targets}),
                                     paths=pieces.PILOT_PATHS, seed=seed, threads=threads,
-                                    target=pieces.accuracy_target(scene, eps, rel),
+                                    target=pieces.accuracy_target(scene, eps, rel, REL_FLOOR),
                                     step_length=default_dt(scene),
                                     stats={(t.name, t.stat) for t in targets},
                                     max_seconds=max_seconds)

@@ -48,8 +48,8 @@ SCOUT_PATHS = 1024
 MAX_FACTOR = 1024
 
 #: A statistic's target in the core's units: (name, stat, slot, its pilot value, the pilot's
-#: per-path values) -> the largest piece error allowed.
-Target = Callable[[str, str, int, float, np.ndarray], float]
+#: per-path values, its largest size over the slots) -> the largest piece error allowed.
+Target = Callable[[str, str, int, float, np.ndarray, float], float]
 
 
 def with_pieces(scene, pieces: int):
@@ -69,7 +69,7 @@ def with_pieces(scene, pieces: int):
 def stderr_target(paths: int) -> Target:
     """A run of ``paths`` paths: the piece error at most its statistic's standard error,
     predicted from the pilot's per-path values."""
-    def target(name, stat, slot, value, x):
+    def target(name, stat, slot, value, x, size):
         n = len(x)
         c = x - x.mean()
         m2 = float(np.mean(c * c))
@@ -80,20 +80,30 @@ def stderr_target(paths: int) -> Target:
     return target
 
 
-def accuracy_target(scene, eps: Optional[float], rel: Optional[float]) -> Target:
+def _value(stat: str, x: np.ndarray) -> float:
+    """The statistic of per-path values ``x``."""
+    return float(np.mean(x)) if stat == "mean" else float(np.var(x, ddof=1))
+
+
+def _scale(stat: str, value: float, x: np.ndarray) -> float:
+    """A statistic's size as a relative target measures it (crandall.adaptive's tolerance):
+    its absolute value, for a mean at least the quantity's spread."""
+    return max(abs(value), float(np.std(x))) if stat == "mean" else abs(value)
+
+
+def accuracy_target(scene, eps: Optional[float], rel: Optional[float],
+                    floor: float = 0.0) -> Target:
     """A run to an accuracy: the piece error at most half the statistic's target (in the
     core's units, as crandall.adaptive measures it: a mean that is 0 by symmetry against
-    the quantity's spread), so that the levels have the rest."""
-    def target(name, stat, slot, value, x):
+    the quantity's spread, and never less than ``floor`` times the statistic's largest size
+    over the output times, adaptive.REL_FLOOR), so that the levels have the rest."""
+    def target(name, stat, slot, value, x, size):
         if eps is not None:
             f = abs(quantity(name).factor(scene))
             if f == 0.0:
                 return math.inf
             return 0.5 * eps / (f if stat == "mean" else f * f)
-        scale = abs(value)
-        if stat == "mean":
-            scale = max(scale, float(np.std(x)))
-        return 0.5 * rel * scale
+        return 0.5 * rel * max(_scale(stat, value, x), floor * size)
     return target
 
 
@@ -144,6 +154,13 @@ def choose(scene, names: Sequence[str], *, paths: int, seed: int, threads: int,
             # as they were; the run's own grid decides whether it can run at all.
             return scene, None
         worst, which = 0.0, ""
+        # Per statistic its largest size over the slots (a relative target's floor).
+        sizes = {}
+        for (name, stat), (errors, _) in table.items():
+            if name in values:
+                sizes[(name, stat)] = max(
+                    (_scale(stat, _value(stat, values[name][:, k]), values[name][:, k])
+                     for k in range(len(errors))), default=0.0)
         for (name, stat), (errors, bounds) in table.items():
             if stats is not None and (name, stat) not in stats:
                 continue
@@ -151,8 +168,7 @@ def choose(scene, names: Sequence[str], *, paths: int, seed: int, threads: int,
                 if bound or not e > 0:
                     continue
                 x = values[name][:, slot]
-                value = float(np.mean(x)) if stat == "mean" else float(np.var(x, ddof=1))
-                allowed = target(name, stat, slot, value, x)
+                allowed = target(name, stat, slot, _value(stat, x), x, sizes[(name, stat)])
                 ratio = e / allowed if allowed > 0 else math.inf
                 if ratio > worst:
                     at = ("" if quantity(name).at_stop
