@@ -19,6 +19,7 @@ from ._lazy import lazy_submodules as _lazy_submodules
 from .io import load
 from .records import NewmarkResult, Record, newmark
 from .errors import ParameterError
+from .excitation import CloughPenzien, KanaiTajimi, WhiteNoise
 from .results import AccuracyResult, Result, StatisticsWarning
 from .scene import OBSERVABLES, Scene
 from .simulate import METHODS, default_dt, simulate, simulate_many
@@ -30,7 +31,8 @@ from .units import Scaling
 __all__ = ["load", "Scene", "Result", "AccuracyResult", "simulate", "simulate_many", "default_dt",
            "Scaling", "OBSERVABLES", "METHODS", "ParameterError", "StatisticsWarning",
            "StatisticsFailure", "tail", "TailResult", "paths", "Record", "newmark",
-           "NewmarkResult", "fragility", "FragilityResult"]
+           "NewmarkResult", "fragility", "FragilityResult", "KanaiTajimi", "CloughPenzien",
+           "WhiteNoise"]
 
 # The analytic layer and the envelopes need scipy: imported when first read
 # (crandall.envelopes.amin_ang(...), crandall.analytic.physical(...)), not by `import crandall`.

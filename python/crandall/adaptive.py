@@ -44,7 +44,7 @@ from .checkpoint import json_state, read_json_state
 from .driver import Estimator, Progress, Task, drive
 from .errors import ParameterError
 from .quantities import VELOCITY, DISTANCE, core_flags, names_for, quantity
-from .model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds, isometry_applies, ito_constant
+from .model import EXACT_STEP, ITO_DISTANCE, LEVELS, ZERO_FRICTION, holds, isometry_applies, ito_constant
 from .results import AccuracyResult, StatisticsWarning
 from .scene import Scene
 from .streams import RANDOM_STREAM, check_random_stream, level_key
@@ -343,7 +343,8 @@ class _Engine(Estimator):
 
     def __init__(self, scene: Scene, *, eps: Optional[float], rel: Optional[float], seed: int,
                  threads: int, statistics: Optional[set] = None) -> None:
-        self.scene = check_scene(scene)  # here too: the Dask task builds its own engine
+        # here too: the Dask task builds its own engine
+        self.scene = check_scene(scene, LEVELS, "a run to an accuracy (error=, rel_error=)")
         self.eps, self.rel = eps, rel
         self.seed = seed
         self.threads = threads
@@ -1167,7 +1168,7 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                       max_seconds: float = MAX_SECONDS) -> AccuracyResult:
     """Run ``scene`` until every statistic's estimated total error is within the target
     (see :func:`crandall.simulate`)."""
-    check_scene(scene)
+    check_scene(scene, LEVELS, "a run to an accuracy (error=, rel_error=)")
     if progress is not None and not isinstance(progress, bool):
         raise ValueError(f"progress must be True, False or None, got {progress!r}")
     max_seconds = check_positive("max_seconds", max_seconds)

@@ -26,7 +26,7 @@ from .errors import ParameterError
 from .quantities import DISTANCE, VELOCITY, quantity
 
 __all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ISOMETRY", "ZERO_FRICTION", "ANALYTIC", "SCALING", "SIMULATED",
-           "holds", "isometry_applies", "check_simulated", "exact_in_law"]
+           "FILTERED_EXCITATION", "STATIC_FRICTION", "LEVELS", "TAIL_MODEL", "require", "holds", "isometry_applies", "check_simulated", "exact_in_law"]
 
 
 #: The body starts with a velocity v0 or a displacement u0 (Scene(v0=, u0=)).
@@ -37,6 +37,12 @@ PIECEWISE_INTENSITY = "piecewise_intensity"
 #: The pieces stand for a smooth envelope (Scene(envelope=...)): the scene's intensity is the
 #: envelope, which the pieces only approximate.
 ENVELOPE = "envelope"
+#: The ground acceleration is a linear filter of white noise (Scene(excitation=KanaiTajimi(...)),
+#: crandall.excitation): the body's velocity is no longer a diffusion, it sticks and slips.
+FILTERED_EXCITATION = "filtered_excitation"
+#: Static friction above the kinetic (Scene(mu_static=)): a body at rest stays at rest while
+#: the ground's acceleration is at most mu_static g (with a filtered excitation only).
+STATIC_FRICTION = "static_friction"
 
 
 @dataclass(frozen=True)
@@ -78,14 +84,16 @@ ISOMETRY = Identity(
 #: Without friction the dissipated energy is 0 on every path.
 ZERO_FRICTION = Identity(
     "zero_friction", "without friction (mu = 0) the dissipated energy is 0 on every path",
-    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
+    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE, FILTERED_EXCITATION,
+               STATIC_FRICTION}))
 #: The simulated schedule is the scene's intensity. Not for an envelope: its pieces keep the
 #: envelope's mean h^2 on each piece but not its law, so a statistic of the pieces (even one
 #: exact in law for them) differs from the envelope's by the piece error, which
 #: crandall.bias estimates by halving the pieces and reports in the bias.
 SCHEDULE = Identity(
     "schedule", "the simulated pieces are the scene's intensity (not an envelope's "
-    "approximation)", frozenset({INITIAL_STATE, PIECEWISE_INTENSITY}))
+    "approximation)", frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, FILTERED_EXCITATION,
+                                 STATIC_FRICTION}))
 #: The analytic layer's closed forms (crandall.analytic): the paper's scene only.
 ANALYTIC = Identity("analytic", "the closed forms of crandall.analytic (the paper's scene)")
 
@@ -100,6 +108,18 @@ SCALING = Identity(
     "scaling", "from rest under one intensity, P(Q > q) depends on q over its scaled unit "
     "and on tau0 = t0 (mu g)^2 / (2 h^2) only")
 
+#: Runs to an accuracy (crandall.adaptive): their levels' bias order (ALPHA), their exact
+#: and Ito targets and their control variates are those of the white-noise skeleton.
+LEVELS = Identity(
+    "levels", "runs to an accuracy: the multilevel estimator built on the white-noise "
+    "skeleton", frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
+#: Tail probabilities (crandall.tail): the sign-drift model of the velocity (a diffusion
+#: whose drift is -c sign(V)), its coast, its transition density and its scores.
+TAIL_MODEL = Identity(
+    "tail_model", "tail probabilities: the velocity is a diffusion with drift -c sign(V) "
+    "(its scores, coast and transition density)",
+    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
+
 #: The effects the core simulates: a start from any state, and a piecewise intensity (no step
 #: straddles a piece's end), also as an envelope's pieces.
 SIMULATED: FrozenSet[str] = frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE})
@@ -111,6 +131,15 @@ def isometry_applies(q, scene) -> bool:
     friction whose effects the isometry supports."""
     return (q.variable == DISTANCE and q.at_stop and q.power == 1 and not q.magnitude
             and scene.drift > 0 and holds(scene, ISOMETRY))
+
+
+def require(scene, identity: Identity, what: str) -> None:
+    """Refuse, naming ``scene`` and the effects, a scene for which ``what`` (an estimator or
+    a formula resting on ``identity``) does not hold."""
+    missing = sorted(frozenset(scene.effects) - identity.supports)
+    if missing:
+        raise ParameterError("scene", f"scene: {what} is not available for a scene with "
+                             f"{', '.join(missing)} ({identity.what} does not hold there)")
 
 
 def holds(scene, identity: Identity) -> bool:

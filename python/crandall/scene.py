@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import numbers
@@ -10,6 +11,7 @@ from typing import Any, Dict, Iterable, Mapping, Optional, Sequence, Union
 
 import numpy as np
 
+from . import excitation as _excitation
 from . import scene_file
 from ._lazy import lazy_module
 from .bins import bins_to_plain, check_bins, check_distributions
@@ -231,6 +233,18 @@ class Scene:
         pieces, and the error of the pieces against the envelope (estimated with twice the
         pieces) is in ``Result.bias`` for every statistic (docs/scenes.md), however few of
         its pieces are shaken (one, or none: ``Scene.effects`` keeps ``"envelope"``).
+    excitation : crandall.excitation.Excitation or dict, optional
+        What shakes the foundation (docs/excitation.md): white noise of intensity ``h`` (the
+        default, the paper's model), or filtered white noise, ``crandall.KanaiTajimi(omega=,
+        zeta=)`` or ``crandall.CloughPenzien(...)``, whose driving noise has the intensity
+        ``h`` (or the envelope: it then modulates the driving noise). The filtered kinds may
+        carry the intensity themselves (``KanaiTajimi(omega=, zeta=, h=)`` or ``S0=``), in
+        place of the scene's ``h``. Plain data: ``{"kind": "kanai_tajimi", "omega": ...,
+        "zeta": ...}``.
+    mu_static : float, optional
+        Coefficient of static friction, >= mu (default: mu). Under a filtered excitation a
+        body at rest stays at rest while the ground's acceleration is at most mu_static g.
+        White noise never lets a body rest before it ends, so it is refused there.
     g : float, default 9.81
         Acceleration of gravity, m s^-2, > 0.
     mass : float, default 1.0
@@ -297,6 +311,8 @@ class Scene:
         distributions: Any = None,
         bins: Any = None,
         ky: Optional[float] = None,
+        excitation: Any = None,
+        mu_static: Optional[float] = None,
     ) -> None:
         if mu is not None and ky is not None:
             raise ParameterError("mu, ky", "mu, ky: give one of them (ky is Newmark's name for "
@@ -304,6 +320,15 @@ class Scene:
         if mu is None and ky is None:
             raise ParameterError("mu", "mu: missing (or ky, Newmark's name for it)")
         mu = _number("ky", ky) if mu is None else _number("mu", mu)
+        excitation = _excitation.from_dict(excitation)
+        if excitation.h is not None:
+            # The intensity given with the excitation is the scene's h (kept once: the plain
+            # data hold it as h, the excitation without it).
+            if h is not None or envelope is not None:
+                raise ParameterError("h", "h: the excitation carries its intensity "
+                                          f"(h = {excitation.h!r}); give it once")
+            h = excitation.h
+            excitation = dataclasses.replace(excitation, h=None)
         envelope = _envelope(envelope, h, t0)
         if envelope is not None:
             try:
@@ -323,6 +348,15 @@ class Scene:
         h, t0 = max(hs), ends[-1]
         g = _number("g", g, positive=True)
         mass = _number("mass", mass, positive=True)
+        if mu_static is not None:
+            mu_static = _number("mu_static", mu_static)
+            if mu_static < mu:
+                raise ParameterError("mu_static", f"mu_static must be >= mu = {mu!r} (static "
+                                     f"friction is at least the kinetic), got {mu_static!r}")
+            if mu_static != mu and not excitation.effects:
+                raise ParameterError("mu_static", "mu_static: under white noise a body at rest "
+                                     "leaves rest at once, so static friction has no effect; "
+                                     "it applies with a filtered excitation (excitation=)")
         if not math.isfinite(mu * g):
             raise ParameterError("mu, g", f"mu, g: the friction deceleration mu g = {mu!r} * {g!r} overflows "
                              "doubles")
@@ -334,10 +368,15 @@ class Scene:
             times=times,
             observe=observe,
             mass=mass,
-            params=({"mu": mu, "envelope": envelope.to_dict(), "g": g, "mass": mass}
-                    if envelope is not None else
-                    {"mu": mu, "h": list(hs) if piecewise else h,
-                     "t0": list(ends) if piecewise else t0, "g": g, "mass": mass}),
+            params=dict(({"mu": mu, "envelope": envelope.to_dict(), "g": g, "mass": mass}
+                         if envelope is not None else
+                         {"mu": mu, "h": list(hs) if piecewise else h,
+                          "t0": list(ends) if piecewise else t0, "g": g, "mass": mass}),
+                        # Only a scene that sets them lists them (the plain data, files and
+                        # checkpoints of white-noise scenes stay as they were).
+                        **({"excitation": excitation.to_dict()} if excitation.effects else {}),
+                        **({"mu_static": mu_static}
+                           if mu_static is not None and mu_static != mu else {})),
             scaling=_scaling(mu, h, g),
             pieces=tuple(zip(ends, hs)) if piecewise else None,
             distributions=distributions,
@@ -345,6 +384,8 @@ class Scene:
             v0=v0,
             u0=u0,
             envelope=envelope,
+            excitation=excitation,
+            static_drift=(mu_static if mu_static is not None else mu) * g,
         )
 
     @classmethod
@@ -407,7 +448,8 @@ class Scene:
         return self
 
     def _setup(self, *, units, drift, noise, t0, times, observe, mass, params, scaling,
-               distributions=None, bins=None, v0=0.0, u0=0.0, pieces=None, envelope=None):
+               distributions=None, bins=None, v0=0.0, u0=0.0, pieces=None, envelope=None,
+               excitation=None, static_drift=None):
         v0 = _number("v0", v0, signed=True)
         u0 = _number("u0", u0, signed=True)
         # Only a scene that starts away from rest at the origin lists its start (the plain
@@ -434,6 +476,12 @@ class Scene:
         #: pieces came to: an envelope left with one shaken piece (run as the one-intensity
         #: scene) or none is still approximated by its pieces, not the paper's scene.
         self.envelope = envelope
+        #: What shakes the foundation (crandall.excitation): white noise of the scene's
+        #: intensity (the paper's), or a filter of it.
+        self.excitation = excitation if excitation is not None else _excitation.WhiteNoise()
+        #: The static friction deceleration mu_static g (>= drift): a body at rest under a
+        #: filtered excitation stays at rest while |a_g| <= static_drift.
+        self.static_drift = float(drift if static_drift is None else static_drift)
         # Without friction a body that moves never stops; one at rest with no noise has
         # stopped.
         silent = noise == 0 and (pieces is None or all(n == 0 for _, n in pieces))
@@ -495,7 +543,10 @@ class Scene:
         constant intensity until t0): ``"initial_state"`` when it starts with a velocity or a
         displacement, ``"piecewise_intensity"`` when it is shaken by pieces of different
         intensities (or pauses between them), ``"envelope"`` when it is given as a smooth
-        envelope (``Scene(envelope=...)``, however few pieces remain shaken). Each identity or closed form that crandall uses lists the effects it
+        envelope (``Scene(envelope=...)``, however few pieces remain shaken),
+        ``"filtered_excitation"`` when the ground acceleration is a filter of the noise
+        (``Scene(excitation=KanaiTajimi(...))``), ``"static_friction"`` when ``mu_static``
+        exceeds ``mu``. Each identity or closed form that crandall uses lists the effects it
         still holds under (:mod:`crandall.model`) and is used only for scenes whose effects it
         supports."""
         out = set()
@@ -505,6 +556,9 @@ class Scene:
             out.add("piecewise_intensity")
         if self.envelope is not None:
             out.add("envelope")
+        out |= self.excitation.effects
+        if self.static_drift > self.drift:
+            out.add("static_friction")
         return frozenset(out)
 
     @property

@@ -32,7 +32,7 @@ RUN_SETTINGS = ("paths", "seed", "method", "dt")
 MAX_RANGE_TIMES = 10_000_000
 
 #: A scene's parameters besides times and observe, in SI and in scaled units.
-SI_KEYS = ("mu", "h", "t0", "envelope", "g", "mass")
+SI_KEYS = ("mu", "h", "t0", "envelope", "g", "mass", "excitation", "mu_static")
 SCALED_KEYS = ("tau0", "h")
 #: Keys of either kind of scene: the initial state (velocity v0 and displacement u0, in the
 #: scene's units), the output times and what to observe.
@@ -218,6 +218,9 @@ def read(path) -> SceneFile:
     if units == "SI" and "envelope" in sc:
         # A smooth envelope in place of h and t0 (crandall.envelopes): the scene checks it.
         required = ("mu", "envelope", "times")
+    elif units == "SI" and isinstance(sc.get("excitation"), dict) and "h" in sc["excitation"]:
+        # A filtered excitation given with its own intensity (crandall.excitation).
+        required = ("mu", "t0", "times")
     for k in required:
         if k not in sc:
             raise _file_error(path, f"scene.{k}", "missing")
@@ -238,6 +241,11 @@ def read(path) -> SceneFile:
                                             and all(isinstance(x, str) for x in v))):
                 raise _file_error(path, "scene.distributions",
                                   f"must be true, false or a list of names, got {v!r}")
+            kwargs[k] = v
+        elif k == "excitation":
+            if not isinstance(v, dict):
+                raise _file_error(path, "scene.excitation", "must be a table {kind, its "
+                                                            f"parameters}}, got {v!r}")
             kwargs[k] = v
         elif k == "envelope":
             if not isinstance(v, dict):

@@ -19,7 +19,7 @@ import numpy as np
 
 from .methods import DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, METHODS
 from .errors import ParameterError, UnresolvableGrid
-from .model import check_simulated
+from .model import Identity, check_simulated, require
 from .scene import Scene
 
 __all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int", "check_scene", "check_positive",
@@ -90,7 +90,7 @@ def default_dt(scene: Scene) -> float:
     return horizon / DEFAULT_STEPS_FREE if horizon > 0 else 1.0
 
 
-def check_scene(scene) -> Scene:
+def check_scene(scene, needs: Optional[Identity] = None, what: str = "") -> Scene:
     """``scene`` if it is a :class:`Scene` whose every effect the core simulates
     (:func:`crandall.model.check_simulated`); else a ParameterError naming ``scene``.
 
@@ -100,11 +100,17 @@ def check_scene(scene) -> Scene:
     task (``adaptive``), a tail run and its Dask task (``tail._Problem``) and
     ``crandall.paths``. An effect the core does not simulate would otherwise be run, silently,
     as the paper's scene.
+
+    ``needs``: the model an estimator rests on (``model.LEVELS`` for a run to an accuracy,
+    ``model.TAIL_MODEL`` for tails and sample paths), refused for a scene whose effects it does
+    not support (:func:`crandall.model.require`; ``what`` names the estimator).
     """
     if not isinstance(scene, Scene):
         raise ParameterError("scene", f"scene must be a crandall.Scene, got "
                                       f"{type(scene).__name__}")
     check_simulated(scene)
+    if needs is not None:
+        require(scene, needs, what)
     return scene
 
 

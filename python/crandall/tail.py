@@ -41,6 +41,7 @@ from .checkpoint import json_state, read_json_state
 from .driver import Estimator, Progress, Task, check_client, drive
 from .driver import threads as resolve_threads
 from .errors import ParameterError
+from .model import TAIL_MODEL
 from .results import StatisticsWarning
 from .scene import Scene
 from .spec import (MAX_SEED, as_seed, check_int, check_positive, check_scene, default_dt,
@@ -123,7 +124,8 @@ class _Problem:
 
     def __init__(self, scene: Scene, quantity: str, time: Optional[float], dt: Optional[float],
                  breaks: Sequence[float] = (), coarse: bool = False):
-        check_scene(scene)  # tail() and its Dask task (sample) both start here
+        # tail() and its Dask task (sample) both start here
+        check_scene(scene, TAIL_MODEL, "crandall.tail")
         if not isinstance(quantity, str) or quantity not in TAIL_QUANTITIES:
             raise ParameterError("quantity", f"quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
         self.scene, self.q = scene, TAIL_QUANTITIES[quantity]

@@ -21,6 +21,7 @@ from . import streams as _streams
 from ._resources import available_memory
 from .driver import threads as resolve_threads
 from .errors import ParameterError
+from .model import TAIL_MODEL
 from .scene import Scene
 from .spec import MAX_SEED, as_seed, check_int, check_positive, check_scene, default_dt, draw_seed
 
@@ -87,7 +88,7 @@ def paths(scene: Scene, n: int, *, seed: Any = None, times: Optional[Sequence[fl
         the shaking), each with its units; attributes: the scene (JSON), seed, dt.
     """
     xr = _require_xarray()
-    check_scene(scene)
+    check_scene(scene, TAIL_MODEL, "crandall.paths")
     n = check_int("n", n, 1, 100_000)
     points = check_int("points", points, 2, 100_000)
     seed = as_seed(seed)
