@@ -27,6 +27,7 @@ import numpy as np
 
 from ._lazy import lazy_module
 from .errors import ParameterError
+from .model import MOVING_AT_SWITCH_OFF, holds
 from .quantities import (DISPLACEMENT, DISTANCE, HISTOGRAM_VARIABLES, PEAK_DISPLACEMENT,
                          PEAK_SPEED, VELOCITY, find, names_for, quantity)
 
@@ -415,6 +416,9 @@ def _axes(scene, dist) -> List[Axis]:
             name = axis_name(at_stop, var)
             given = settings.get(name)
             symmetric = (_SYMMETRIC_STOP if at_stop else _SYMMETRIC)[var]
+            if name == "stop_time" and not holds(scene, MOVING_AT_SWITCH_OFF):
+                # Kept from the switch-off: a body at rest for good before it is negative.
+                symmetric = True
             m = given if isinstance(given, int) else per_octave
             if at_stop and var == VELOCITY:
                 scale = _usable(stop, unit["time"])

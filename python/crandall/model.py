@@ -26,7 +26,7 @@ from .errors import ParameterError
 from .quantities import DISTANCE, VELOCITY, quantity
 
 __all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ISOMETRY", "ZERO_FRICTION", "ANALYTIC", "SCALING", "SIMULATED",
-           "FILTERED_EXCITATION", "STATIC_FRICTION", "LEVELS", "TAIL_MODEL", "require", "holds", "isometry_applies", "check_simulated", "exact_in_law"]
+           "FILTERED_EXCITATION", "STATIC_FRICTION", "LEVELS", "TAIL_MODEL", "MOVING_AT_SWITCH_OFF", "require", "holds", "isometry_applies", "check_simulated", "exact_in_law"]
 
 
 #: The body starts with a velocity v0 or a displacement u0 (Scene(v0=, u0=)).
@@ -108,6 +108,12 @@ SCALING = Identity(
     "scaling", "from rest under one intensity, P(Q > q) depends on q over its scaled unit "
     "and on tau0 = t0 (mu g)^2 / (2 h^2) only")
 
+#: The body is in motion at the switch-off (white noise never lets it rest before), so the
+#: stop comes at or after t0: the stop time, kept from the switch-off, is >= 0. Under a
+#: filtered excitation a body may rest for good before t0 (its stop time is then earlier).
+MOVING_AT_SWITCH_OFF = Identity(
+    "moving_at_switch_off", "the stop comes at or after the switch-off t0",
+    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
 #: Runs to an accuracy (crandall.adaptive): their levels' bias order (ALPHA), their exact
 #: and Ito targets and their control variates are those of the white-noise skeleton.
 LEVELS = Identity(
