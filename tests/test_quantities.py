@@ -41,8 +41,10 @@ def test_core_flags():
                            "stop": True}
     assert f(["dissipated_energy"]) == {"velocity": False, "displacement": False,
                                         "distance": True, "stop": False}
+    # The kinetic energy also asks for the moments of V^2 (its variance's standard error).
     assert f(["kinetic_energy", "displacement"]) == {"velocity": True, "displacement": True,
-                                                     "distance": False, "stop": False}
+                                                     "distance": False, "stop": False,
+                                                     "energy": True}
 
 
 def test_units_and_long_names_come_from_the_table(physical_scene):

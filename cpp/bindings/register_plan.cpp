@@ -44,6 +44,7 @@ void register_plan(py::module_& m) {
       .def_readwrite("distance", &crandall::Options::distance)
       .def_readwrite("stop", &crandall::Options::stop)
       .def_readwrite("peaks", &crandall::Options::peaks)
+      .def_readwrite("energy", &crandall::Options::energy)
       // A list of BinEdges, index slot * 5 + variable (plan.hpp); assign a whole list (the
       // attribute returns a copy, so appending to it changes nothing).
       .def_readwrite("histogram_axes", &crandall::Options::histogram_axes)

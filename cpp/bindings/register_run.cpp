@@ -30,6 +30,7 @@ void register_run(py::module_& m) {
       .def_readonly("stop", &crandall::ChunkResult::stop)
       .def_readonly("peaks", &crandall::ChunkResult::peaks)
       .def_readonly("peaks_stop", &crandall::ChunkResult::peaks_stop)
+      .def_readonly("energy", &crandall::ChunkResult::energy)
       .def_property_readonly(
           "histogram_counts",
           [](const crandall::ChunkResult& r) {

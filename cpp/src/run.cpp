@@ -19,6 +19,7 @@ struct BlockOut {
   BlockSums times, stop;
   std::vector<BlockSums> coarse_times, coarse_stop;
   BlockSums peaks, peaks_stop;
+  BlockSums energy;
 };
 
 ChunkResult empty_result(const Options& o) {
@@ -27,6 +28,7 @@ ChunkResult empty_result(const Options& o) {
   r.stop = Moments(o.stop_slots());
   r.peaks = Moments(o.peaks ? o.times.size() : 0);
   r.peaks_stop = Moments(o.peaks && o.stop ? 1 : 0);
+  r.energy = Moments(o.energy ? o.times.size() : 0);
   return r;
 }
 
@@ -78,13 +80,14 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
         // order is the block order whatever the threads do.
         std::lock_guard<std::mutex> lock(merge_mutex);
         pending.emplace(b, BlockOut{ws.times, ws.stop, ws.coarse_times, ws.coarse_stop,
-                                    ws.peaks, ws.peaks_stop});
+                                    ws.peaks, ws.peaks_stop, ws.energy});
         for (auto it = pending.begin(); it != pending.end() && it->first == next_block;
              it = pending.erase(it), ++next_block) {
           it->second.times.merge_into(result.times);
           it->second.stop.merge_into(result.stop);
           it->second.peaks.merge_into(result.peaks);
           it->second.peaks_stop.merge_into(result.peaks_stop);
+          it->second.energy.merge_into(result.energy);
           for (std::size_t g = 0; g < coarse_result.size(); ++g) {
             it->second.coarse_times[g].merge_into(coarse_result[g].times);
             it->second.coarse_stop[g].merge_into(coarse_result[g].stop);

@@ -43,6 +43,8 @@ class Options:
     stop: bool
     #: Record the running maxima of |velocity| and |displacement| (ChunkResult.peaks).
     peaks: bool
+    #: Record the moments of V^2 per output time (ChunkResult.energy).
+    energy: bool
     #: Empty, or one axis per (slot, variable): (len(times) + stop) * 5, index slot * 5 +
     #: variable; an axis with 0 bins is not recorded.
     histogram_axes: List[BinEdges]
@@ -125,6 +127,8 @@ class ChunkResult:
     def peaks(self) -> Moments: ...
     @property
     def peaks_stop(self) -> Moments: ...
+    @property
+    def energy(self) -> Moments: ...
     @property
     def histogram_counts(self) -> List[npt.NDArray[np.uint64]]: ...
 

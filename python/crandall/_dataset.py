@@ -144,14 +144,19 @@ def to_xarray(result):
         accs.append(("peaks_", held.peaks, "slot"))
     if held.stop_peaks is not None:
         accs.append(("stop_peaks_", held.stop_peaks, "stop_peaks_slot"))
+    if held.energy is not None:
+        # The moments of (V^2, 0, 0): the kinetic energy's variance's standard error.
+        accs.append(("energy_", held.energy, "slot"))
     for prefix, acc, dim in accs:
         if acc.slots == 0:
             continue
         data_vars[prefix + "counts"] = ((dim,), acc.counts, {"long_name": "paths per slot",
                                                              "units": "1"})
+        what = ("(squared velocity, 0, 0)" if prefix == "energy_"
+                else "(velocity, displacement, distance)")
         data_vars[prefix + "means"] = ((dim, "variable"), acc.means,
-                                       {"long_name": "means of (velocity, displacement, "
-                                                     "distance), SI or scaled as the scene"})
+                                       {"long_name": f"means of {what}, SI or scaled as the "
+                                                     "scene"})
         data_vars[prefix + "central"] = ((dim, "monomial"), acc.central,
                                          {"long_name": "central sums, powers as in exponents"})
     if held.histograms is not None:
@@ -569,8 +574,15 @@ def _check_fields(ds, where: str) -> Dict[str, Any]:
                               ("stop_", 2 if "residual" in scene.observe else 1,
                                "stop" in scene.observe),
                               ("peaks_", slots, peaks and slots > 0),
-                              ("stop_peaks_", 1, peaks and "stop" in scene.observe)):
+                              ("stop_peaks_", 1, peaks and "stop" in scene.observe),
+                              ("energy_", slots, "kinetic_energy" in scene.observe
+                               and slots > 0)):
         names = [prefix + k for k in ("counts", "means", "central")]
+        if prefix == "energy_" and needed and not any(k in ds for k in names):
+            # Saved before crandall kept the moments of V^2: the kinetic energy's variance
+            # then has no standard error.
+            out[prefix + "moments"] = None
+            continue
         if not needed:
             extra = [k for k in names if k in ds]
             if extra:
@@ -654,7 +666,7 @@ def read(path: Union[str, "os.PathLike[str]"]) -> Dict[str, Any]:
                 steps_per_path=f["steps_per_path"],
                 random_stream=_core.RANDOM_STREAM, peaks=f["peaks_moments"],
                 stop_peaks=f["stop_peaks_moments"], histograms=f["histograms"],
-                wall_time=_wall_time(ds))
+                wall_time=_wall_time(ds), energy=f["energy_moments"])
 
 
 def _wall_time(ds):

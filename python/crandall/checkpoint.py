@@ -45,7 +45,8 @@ FORMAT = "crandall-checkpoint"
 # 3: the peaks' moments and the histograms' edges and counts, when the scene asks for them.
 # 4: one format for every estimator (runs to an accuracy and tails too); the identity names
 #    the estimator.
-FORMAT_VERSION = 4
+# 5: the moments of V^2 (energy_*), when the scene observes the kinetic energy.
+FORMAT_VERSION = 5
 #: The estimator of a fixed-step run (the identity's ``estimator`` field).
 PATHS = "paths"
 #: What each estimator's checkpoints are called in messages.
@@ -54,7 +55,7 @@ ESTIMATORS = {PATHS: "a fixed-step run (paths=)", "accuracy": "a run to an accur
 
 _ARRAYS = ("identity", "next_chunk", "times_counts", "times_means", "times_central",
            "stop_counts", "stop_means", "stop_central")
-_PEAK_ARRAYS = tuple(f"{p}_{k}" for p in ("peaks", "peaks_stop")
+_PEAK_ARRAYS = tuple(f"{p}_{k}" for p in ("peaks", "peaks_stop", "energy")
                      for k in ("counts", "means", "central"))
 # Histograms: the recorded axes' indices, their edges end to end (edge_sizes says where one
 # ends), their counts end to end (each axis has len(edges) + 2).
@@ -312,6 +313,9 @@ def restore(path, ident: Dict[str, Any], arrays: Dict[str, np.ndarray], chunks: 
         slots["peaks_"] = len(scene.get("times", ()))
         if stop:
             slots["peaks_stop_"] = 1
+    if "kinetic_energy" in observe:
+        # The moments of (V^2, 0, 0) per output time.
+        slots["energy_"] = len(scene.get("times", ()))
     indices, edges = histograms
     expected = set(_ARRAYS) | {p + k for p in slots for k in ("counts", "means", "central")}
     if indices:
@@ -335,7 +339,7 @@ def restore(path, ident: Dict[str, Any], arrays: Dict[str, np.ndarray], chunks: 
     moments = {p: _core.Moments(n, arrays[p + "counts"], arrays[p + "means"],
                                 arrays[p + "central"]) for p, n in slots.items()}
     return done, Chunk(moments["times_"], moments["stop_"], moments.get("peaks_"),
-                       moments.get("peaks_stop_"), counts)
+                       moments.get("peaks_stop_"), counts, moments.get("energy_"))
 
 
 def _read_histograms(where, arrays, indices, edges, paths):
@@ -374,7 +378,7 @@ def state(next_chunk: int, acc, histograms=((), ())) -> Dict[str, np.ndarray]:
     if acc is None:
         return arrays
     parts = [("times", acc.times), ("stop", acc.stop), ("peaks", acc.peaks),
-             ("peaks_stop", acc.peaks_stop)]
+             ("peaks_stop", acc.peaks_stop), ("energy", acc.energy)]
     for prefix, moments in parts:
         if moments is None:
             continue

@@ -34,7 +34,8 @@ class Chunk(NamedTuple):
     ``times`` and ``stop`` are the moments of (U1, U2, U3) per output time and at the stop;
     ``peaks`` and ``peaks_stop`` those of the running maxima (None unless the scene observes
     "peaks"); ``counts`` the histograms' counts, one uint64 array per recorded axis in the
-    order of :func:`histogram_axes` (None without distributions).
+    order of :func:`histogram_axes` (None without distributions); ``energy`` the moments of
+    V^2 (None unless the scene observes "kinetic_energy").
     """
 
     times: Any
@@ -42,6 +43,9 @@ class Chunk(NamedTuple):
     peaks: Any = None
     peaks_stop: Any = None
     counts: Optional[Tuple[np.ndarray, ...]] = None
+    #: The moments of (V^2, 0, 0) per output time (None unless the scene observes the
+    #: kinetic energy): its variance's standard error.
+    energy: Any = None
 
 
 def histogram_axes(spec: Union[RunSpec, Any], axes: Optional[Sequence] = None) -> List[Axis]:
@@ -148,7 +152,8 @@ def run_chunk(plan: "_core.Plan", chunk: int, threads: int,
     if recorded:
         every = part.histogram_counts
         counts = tuple(np.array(every[i], dtype=np.uint64) for i in recorded)
-    return Chunk(part.times, part.stop, peaks, peaks_stop, counts)
+    energy = part.energy if getattr(options, "energy", False) else None
+    return Chunk(part.times, part.stop, peaks, peaks_stop, counts, energy)
 
 
 def run_chunks(spec: Union[RunSpec, Dict[str, Any]], first: int, last: int, threads: int,

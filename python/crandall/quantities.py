@@ -228,4 +228,7 @@ def core_flags(observe: Iterable[str]) -> Dict[str, bool]:
         flags[PEAKS] = True
     if RESIDUAL in set(observe):
         flags[RESIDUAL] = True
+    if "kinetic_energy" in set(observe):
+        # The moments of V^2 (its variance's standard error needs E V^8).
+        flags["energy"] = True
     return flags

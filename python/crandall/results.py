@@ -177,6 +177,10 @@ class Accumulators(NamedTuple):
     #: The histograms (``crandall.bins.Histograms``: axis indices, edges, uint64 counts);
     #: None unless the scene asks for distributions.
     histograms: Optional[Histograms] = None
+    #: The moments of (V^2, 0, 0) per output time, from which the kinetic energy's variance
+    #: gets its standard error (it needs E V^8); None unless the scene observes
+    #: "kinetic_energy" (and in results saved before crandall kept them).
+    energy: Optional[object] = None
 
 
 class Result:
@@ -220,7 +224,8 @@ class Result:
                  method: Optional[str] = None, min_steps: int = 0,
                  random_stream: Optional[int] = None, peaks=None, stop_peaks=None,
                  histograms: Optional[Histograms] = None,
-                 wall_time: Optional[float] = None, spec: Optional[RunSpec] = None) -> None:
+                 wall_time: Optional[float] = None, spec: Optional[RunSpec] = None,
+                 energy=None) -> None:
         # The run's spec (given, or made from the fields): what Result.spec, saved files and
         # the bias estimate read, so that every run option travels with the result.
         if spec is None:
@@ -245,6 +250,7 @@ class Result:
         self._peaks = peaks
         self._stop_peaks = stop_peaks
         self._histograms = histograms
+        self._energy = energy if energy is not None and energy.slots else None
         self._wall_time = None if wall_time is None else float(wall_time)
         self._bias_cache = None
         self._warned: set = set()
@@ -263,7 +269,7 @@ class Result:
     def accumulators(self) -> Accumulators:
         """The raw accumulators of the run (see :class:`Accumulators`)."""
         return Accumulators(self._moments, self._stop, self._peaks, self._stop_peaks,
-                            self._histograms)
+                            self._histograms, self._energy)
 
     @property
     def times(self) -> np.ndarray:
@@ -298,6 +304,14 @@ class Result:
 
     def _factor(self, name: str) -> float:
         return quantity(name).factor(self.scene)
+
+    def _has_var_stderr(self, name: str) -> bool:
+        """Whether the variance of ``name`` has a standard error here: a quantity's own fourth
+        moments give it (power 1), and the kinetic energy's comes from the moments of V^2 the
+        run kept (:attr:`Accumulators.energy`)."""
+        known = find(name)
+        return known is None or known.has_var_stderr or (
+            self._energy is not None and known.power == 2 and not known.at_stop)
 
     def _stats(self, name: str):
         acc, raw, v, slot = self._source(name)
@@ -430,7 +444,9 @@ class Result:
         moment of fewer than MIN_CARRIERS paths (:meth:`carriers`) of a random quantity."""
         q = quantity(name)
         rows = 1 if q.at_stop else self.times.size
-        if stat != ("var" if q.power == 1 else "mean"):
+        # A quantity's variance rests on its fourth moment; the kinetic energy's mean and
+        # variance both rest on the velocity's (order 4 and 8) moments.
+        if q.power == 1 and stat != "var":
             return np.zeros(rows, dtype=bool)
         k = np.atleast_1d(self.carriers(name))
         _, _, n = self._stats(name)
@@ -462,7 +478,9 @@ class Result:
     def var_stderr(self, name: str) -> Stat:
         """Standard error of the sample variance, sqrt((m4 - m2^2) / n) from central moments.
 
-        Not available for the kinetic energy (it would need 8th moments of the velocity).
+        The kinetic energy's comes from the moments of V^2 the run keeps for it (the 8th
+        moment of the velocity); a result loaded from a file saved before crandall kept them
+        has none.
 
         NaN, with a :class:`StatisticsWarning`, where it cannot be estimated: fewer than 2
         paths; a fourth-moment term m4 - m2^2 that is negative beyond rounding (impossible for
@@ -473,11 +491,13 @@ class Result:
         switch-off, when almost every path is at rest), whose fourth moment those few paths
         decide. 0 only where the quantity is constant and the noise has not acted on it.
         """
-        known = find(name)
-        if known is not None and not known.has_var_stderr:
+        if not self._has_var_stderr(name):
             raise ValueError(f"name: the variance of {name} has no standard error "
                              "here (needs moments of order 8)")
         acc, _, v, slot = self._source(name)
+        if quantity(name).power == 2:
+            # The kinetic energy f V^2: the variance of W = V^2 from W's own moments.
+            acc, v = self._energy, 0
         n = acc.counts
         f = self._factor(name)
         rows = slice(None) if slot is None else slice(slot, slot + 1)
@@ -509,8 +529,7 @@ class Result:
     def _var_stderr_quiet(self, name: str) -> np.ndarray:
         """The variance's standard error for tables (NaN, without a warning, where it has none
         or cannot be estimated)."""
-        known = find(name)
-        if known is not None and not known.has_var_stderr:
+        if not self._has_var_stderr(name):
             return np.full(1 if quantity(name).at_stop else self.times.size, math.nan)
         with self._table():
             return np.atleast_1d(self.var_stderr(name))
@@ -873,8 +892,7 @@ class Result:
         if stat == "mean":
             se = self.stderr(name)
         else:
-            known = find(name)
-            if known is None or known.has_var_stderr:
+            if self._has_var_stderr(name):
                 se = self.var_stderr(name)
             else:
                 se = np.full(np.shape(b), np.nan)

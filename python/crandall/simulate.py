@@ -46,6 +46,8 @@ def _memory_need(scene: Scene, threads: int, method: str) -> int:
     slots = scene.times.size
     if "peaks" in scene.observe:
         per_slot *= 2  # the peaks' moments, laid out as the others
+    if "kinetic_energy" in scene.observe:
+        per_slot += 39 * 8  # the moments of V^2
     need = slots * per_slot * (grids * (2 * threads + 1) + 5) + threads * (16 << 20)
     if scene.distributions:
         # Histograms (the fine grid only): each thread's, the chunk's, the total and copies
@@ -191,6 +193,8 @@ class FixedStep(Estimator):
                 acc.peaks.merge(chunk.peaks)
             if acc.peaks_stop is not None:
                 acc.peaks_stop.merge(chunk.peaks_stop)
+            if acc.energy is not None:
+                acc.energy.merge(chunk.energy)
             if acc.counts is not None:
                 # Integer addition: exact and order-free, so any split of the paths into
                 # threads, chunks, checkpoints or Dask tasks gives the same counts.
@@ -204,6 +208,9 @@ class FixedStep(Estimator):
                            or ("stop" in self.scene.observe and chunk.peaks_stop is None)):
             raise ValueError("peaks: a chunk came back without the peaks this run records "
                              "(a Dask worker with another crandall version?)")
+        if "kinetic_energy" in self.scene.observe and chunk.energy is None:
+            raise ValueError("kinetic_energy: a chunk came back without the moments of V^2 "
+                             "this run records (a Dask worker with another crandall version?)")
         if self.indices:
             sizes = None if chunk.counts is None else [len(c) for c in chunk.counts]
             if sizes != [len(e) + 2 for e in self.edges]:
@@ -231,7 +238,8 @@ class FixedStep(Estimator):
                       random_stream=engine.RANDOM_STREAM,
                       peaks=acc.peaks if self.peaks else None,
                       stop_peaks=acc.peaks_stop if self.peaks and stop else None,
-                      histograms=hist, wall_time=time.perf_counter() - self.started)
+                      histograms=hist, wall_time=time.perf_counter() - self.started,
+                      energy=acc.energy)
 
     def _check_finite(self):
         # Means and variances must be numbers; only fourth moments may overflow (var_stderr

@@ -26,6 +26,8 @@ struct Workspace {
         peaks(plan.options().peaks ? plan.options().times.size() : 0),
         peaks_stop(plan.options().peaks && plan.options().stop ? 1 : 0),
         peak_active(active_monomials(plan.options().displacement, false)),
+        energy(plan.options().energy ? plan.options().times.size() : 0),
+        energy_active(active_monomials(false, false)),
         histograms(plan.recorded_axes()) {
     for (int j = 1; j < plan.options().grids(); ++j) {
       coarse_times.emplace_back(plan.options().times.size());
@@ -40,6 +42,7 @@ struct Workspace {
     for (auto& c : coarse_stop) c.reset();
     peaks.reset();
     peaks_stop.reset();
+    energy.reset();
   }
   BlockSums times, stop;
   // Richardson's coarser grids (steps twice and four times the fine one), empty for the other
@@ -51,6 +54,18 @@ struct Workspace {
   // as the first two variables of a BlockSums.
   BlockSums peaks, peaks_stop;
   std::vector<int> peak_active;
+  // Options::energy (no slots without): V^2 at each output time, as the first variable of a
+  // BlockSums, on the fine grid (the velocity is exact in law on every grid: nothing to
+  // extrapolate).
+  BlockSums energy;
+  std::vector<int> energy_active;
+  void add_energy(std::size_t slot, const double* x, int lanes) {
+    if (energy.counts.empty()) return;
+    double sq[kLanes];
+    const double zero[kLanes] = {};
+    for (int l = 0; l < lanes; ++l) sq[l] = x[l] * x[l];
+    energy.add(slot, sq, zero, zero, lanes, energy_active);
+  }
   // The thread's counts over all its blocks (Plan::recorded_axes); integer, so the threads'
   // histograms merge exactly in any order.
   Histograms histograms;
@@ -254,6 +269,7 @@ inline void add_after_switch_off(const Plan& plan, const double* x, const double
     }
     const auto slot = static_cast<std::size_t>(slots[j]);
     times.add(slot, cx, cu, cs, lanes, active);
+    if (ws != nullptr) ws->add_energy(slot, cx, lanes);
     if (recorder != nullptr) recorder->record(slot, grid, path0, cx, cu, cs, lanes);
     if (peaks) {
       if (pu != nullptr)
@@ -543,6 +559,7 @@ void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
       if constexpr (Observer::kActive) start += static_cast<double>(seg.steps) * step;
       if (seg.slot >= 0) {
         ws.times.add(static_cast<std::size_t>(seg.slot), x, u, s, lanes, ws.active);
+        ws.add_energy(static_cast<std::size_t>(seg.slot), x, lanes);
         ws.record(static_cast<std::size_t>(seg.slot), 0, path0, x, u, s, lanes);
         if constexpr (kPeaks)
           ws.peaks.add(static_cast<std::size_t>(seg.slot), pv, kDisp ? pu : zero, zero, lanes,

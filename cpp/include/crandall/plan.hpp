@@ -93,6 +93,10 @@ struct Options {
   // at, so a peak needs the fine grid: with peaks on, even a velocity-only scene takes steps
   // of at most dt (and min_steps), where it would otherwise jump one exact step per segment.
   bool peaks = false;
+  // The moments of the squared velocity V^2 at every output time (ChunkResult::energy), so
+  // that the kinetic energy's variance has a standard error: it needs E V^8, beyond the order
+  // 4 the velocity's own moments keep. Only a scene observing the kinetic energy sets it.
+  bool energy = false;
   // Distributions: empty (none; the kernel does no binning at all), or one axis per
   // (slot, variable) at index slot * kHistogramVariables + variable, where slot is the index of
   // an output time, or times.size() for the stop. An axis with no bins is not recorded.

@@ -25,6 +25,9 @@ struct ChunkResult {
   // extrapolated (Richardson's methods).
   Moments peaks;
   Moments peaks_stop;
+  // Options::energy: one slot per output time (none without): (V^2, 0, 0) on the fine grid,
+  // never extrapolated.
+  Moments energy;
   // Options::histogram_axes: for each axis its counts (cells(): underflow, the bins, overflow,
   // NaN), or nothing for an axis that is not recorded. Integer counts: chunks merge exactly by
   // adding them. From the fine grid for Richardson's methods (not extrapolated).
