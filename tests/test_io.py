@@ -1,6 +1,7 @@
 """Results that keep: xarray, pandas, netCDF save/load (exact)."""
 
 import json
+import warnings
 import math
 
 import numpy as np
@@ -54,7 +55,13 @@ def test_xarray_layout_units_and_scene(physical_result):
         np.testing.assert_array_equal(ds[f"{name}_var"].values, r.var(name))
         np.testing.assert_array_equal(ds[f"{name}_stderr"].values, r.stderr(name))
         np.testing.assert_array_equal(ds[f"{name}_var_stderr"].values, r.var_stderr(name))
-    assert np.isnan(ds["kinetic_energy_var_stderr"]).all()
+    # The kinetic energy's variance's standard error, from the moments of V^2 (NaN where few
+    # paths carry it: the result warns there, the file holds NaN).
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", crandall.StatisticsWarning)
+        np.testing.assert_array_equal(ds["kinetic_energy_var_stderr"].values,
+                                      r.var_stderr("kinetic_energy"))
+    assert np.isfinite(ds["kinetic_energy_var_stderr"].values[:3]).all()
     assert ds["stop_time_mean"].dims == () and ds["stop_time_mean"] == r.mean("stop_time")
     assert json.loads(ds.attrs["scene"]) == r.scene.to_dict()
     assert ds.attrs["scene_mu"] == 0.3 and ds.attrs["scene_mass"] == 100.0

@@ -43,7 +43,7 @@ def _stats(result, name):
     if result.kind == "accuracy":
         return result.table(name)[..., :len(STATISTICS)]
     out = [result.mean(name), result.var(name), result.std(name), result.stderr(name)]
-    if not quantity(name).has_var_stderr:
+    if not result._has_var_stderr(name):
         out.append(np.full_like(np.asarray(out[0], dtype=float), np.nan))
     else:
         out.append(result.var_stderr(name))
