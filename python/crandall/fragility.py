@@ -524,6 +524,8 @@ class FragilityResult:
     _axes = AXES
     #: The netCDF attribute that marks a saved result of this class.
     _file_attr = "crandall_fragility"
+    #: What the tables say of the intervals.
+    _intervals = "95 % intervals (the tail's)"
 
     quantity: str
     axis: str
@@ -824,7 +826,7 @@ class FragilityResult:
     def __str__(self) -> str:
         name = _SHORT[self.axis]
         by = "" if self.by is None else f"{self._by_label:>10} "
-        lines = [self._header(),
+        lines = [f"{self._header()}; {self._intervals}",
                  f"{name:>10} {by}{'threshold':>12} {'probability':>12} {'rel.err':>8} "
                  f"{'95% interval':>23}"]
         for i in np.ndindex(self.run.shape):
@@ -857,7 +859,7 @@ class FragilityResult:
             caption = ("" if self.by is None else
                        f"<caption>{html.escape(self._by_label)} = {self.by_values[j]:.4g}</caption>")
             tables.append(f"<table>{caption}<tr><th>{name}</th>{head}</tr>{''.join(rows)}</table>")
-        return (f"<div><p>{html.escape(self._header())}; 95 % intervals</p>"
+        return (f"<div><p>{html.escape(self._header())}; {html.escape(self._intervals)}</p>"
                 f"{''.join(tables)}</div>")
 
     def to_xarray(self):
