@@ -197,7 +197,7 @@ def test_refusals_name_the_parameter():
         (dict(thresholds=[-1.0, 1.0]), "thresholds"),
         (dict(thresholds=[2.0, 1.0]), "thresholds"),
         (dict(intensities=None), "intensities, mu"),
-        (dict(mu=[0.2]), "intensities, mu"),
+        (dict(mu=[0.2, 0.1]), "mu"),
         (dict(intensities=[]), "intensities"),
         (dict(intensities=[0.0, 1.0]), "intensities"),
         (dict(quantity="kinetic_energy"), "quantity"),
@@ -255,6 +255,98 @@ def test_reproducible_and_on_the_command_line(capsys):
     out = capsys.readouterr()
     assert code == 0, out.err
     assert "probability" in out.out and "lognormal" in out.out
-    assert cli.main(["fragility", "crate", "--quantity", "stop_time", "--thresholds", "2.5",
-                     "--intensities", "0.5", "--mu", "0.3"]) == 2
+    assert cli.main(["fragility", "crate", "--quantity", "stop_time", "--thresholds", "2.5"]) == 2
     assert "intensities, mu" in capsys.readouterr().err
+
+
+def test_a_grid_over_intensity_and_mu_shares_the_runs_of_one_scaled_duration():
+    # (h, mu) = (1.5, 0.3) and (2, 0.4) have one h / mu, so one tau0 = t0 (mu g)^2 / (2 h^2):
+    # one scaled run; (1.5, 0.4) and (2, 0.3) one each. P from 2e-5 to 0.11.
+    hs, ms, thr = [1.5, 2.0], [0.3, 0.4], [2.5, 2.8]
+    args = dict(intensities=hs, mu=ms, dt=T0 / 50, threads=1, progress=False)
+    r = crandall.fragility(SCENE, "stop_time", thr, seed=7, **args)
+    assert (r.axis, r.by) == ("intensity", "mu") and r.probability.shape == (2, 2, 2)
+    assert r.runs == 3 and r.shared and r.run[0, 0] == r.run[1, 1]
+    assert "3 tail runs for 4 points" in str(r)
+    # The stop time's scaled unit 2 h^2 / (mu g)^2 is the same at both points: one run, one
+    # level per threshold, the same numbers.
+    assert np.array_equal(r.probability[0, 0], r.probability[1, 1])
+    separate = crandall.fragility(SCENE, "stop_time", thr, seed=8, share=False, **args)
+    assert separate.runs == 4 and not separate.shared
+    for i, h in enumerate(hs):
+        for j, m in enumerate(ms):
+            for k, t in enumerate(thr):
+                exact = stop_sf(h, m, t)
+                assert abs(r.probability[i, j, k] - exact) <= Z * r.stderr[i, j, k], (h, m, t)
+                both = math.hypot(r.stderr[i, j, k], separate.stderr[i, j, k])
+                assert abs(r.probability[i, j, k] - separate.probability[i, j, k]) <= Z * both
+    # A section is the curve over h at one mu, its scene's mu set; the fits are one per mu.
+    sec = r.section(1)
+    assert sec.by is None and sec.scene["mu"] == 0.4
+    assert np.array_equal(sec.probability, r.probability[:, 1])
+    fits = r.fit_lognormal()
+    assert len(fits) == 2 and fits[1].median[0] == sec.fit_lognormal().median[0]
+    curve = (np.geomspace(0.5, 5, 4), 1e-2 * np.geomspace(0.5, 5, 4) ** -3.0)
+    assert [h.rate[0] for h in r.hazard(curve)] == [s.hazard(curve).rate[0] for s in r.sections()]
+
+
+def test_two_axis_files_table_and_figure(tmp_path):
+    pytest.importorskip("xarray")
+    a, b = synthetic(1.0, 0.5, [0.5, 1.0, 2.0], 0.05, 1), synthetic(1.4, 0.5, [0.5, 1.0, 2.0], 0.05, 2)
+    stack = {n: np.stack([getattr(a, n), getattr(b, n)], axis=1)
+             for n in ("probability", "stderr", "low", "high", "reliable")}
+    r = F.FragilityResult(quantity="distance_at_stop", axis="intensity", values=a.values,
+                          thresholds=[1.0], by="mu", by_values=[0.3, 0.4], units="m",
+                          run=[[0, 1], [2, 0], [3, 4]], **stack)
+    assert r.runs == 5 and r.section(0).fit_lognormal().median[0] == a.fit_lognormal().median[0]
+    r.save(tmp_path / "two.nc")
+    back = crandall.FragilityResult.load(tmp_path / "two.nc")
+    for name in ("values", "by_values", "thresholds", "probability", "stderr", "low", "high",
+                 "reliable", "run"):
+        assert np.array_equal(getattr(back, name), getattr(r, name)), name
+    assert back.by == "mu" and "mu = 0.4" in r._repr_html_() and len(str(r).splitlines()) == 8
+    pytest.importorskip("matplotlib")
+    from crandall import plots
+    curve = (np.geomspace(0.1, 10, 5), 1e-2 * np.geomspace(0.1, 10, 5) ** -2.0)
+    fig = plots.fragility(r, hazard=curve)
+    assert len(fig.axes) == 2 and len(fig.axes[1].lines) >= 2
+
+
+def test_the_hazard_on_the_command_line(tmp_path, capsys):
+    # A power-law curve lambda(h) = 1e-2 (h / 0.5)^-3 per year in a CSV with a header and a
+    # comment; the printed rate and the CSV written equal FragilityResult.hazard's.
+    h = np.geomspace(0.5, 20.0, 12).tolist()
+    path = tmp_path / "hazard.csv"
+    path.write_text("# illustrative\nh,rate\n" + "".join(f"{x},{1e-2 * (x / 0.5) ** -3.0}\n"
+                                                         for x in h))
+    saved, rates = tmp_path / "f.nc", tmp_path / "rates.csv"
+    from crandall import cli
+    base = ["fragility", "crate", "--quantity", "stop_time", "--thresholds", "2.5,2.8",
+            "--intensities", "1.5,2", "--seed", "1", "--threads", "1", "--dt", "0.04",
+            "--no-progress"]
+    assert cli.main(base + ["--hazard", str(path), "--hazard-save", str(rates),
+                            "--save", str(saved)]) == 0, capsys.readouterr().err
+    out = capsys.readouterr().out
+    assert "annual rate of exceedance (the lognormal fit)" in out
+    r = crandall.FragilityResult.load(saved)
+    hz = r.hazard(F.read_hazard_curve(path))
+    table = np.loadtxt(rates, delimiter=",", skiprows=2, ndmin=2)
+    assert np.array_equal(table[:, 0], r.thresholds) and np.array_equal(table[:, 1], hz.rate)
+    assert np.array_equal(table[:, 3:5], np.stack([hz.low, hz.high], axis=1))
+    assert (hz.low < hz.rate).all() and (hz.rate < hz.high).all()
+    # Over both axes: a block per mu.
+    assert cli.main(base + ["--mu", "0.3,0.4", "--hazard", str(path),
+                            "--hazard-use", "estimates"]) == 0
+    out = capsys.readouterr().out
+    assert "mu = 0.3:" in out and "mu = 0.4:" in out and "the grid estimates" in out
+    # Refusals name what is wrong.
+    bad = tmp_path / "bad.csv"
+    for text in ("h,rate\n1,1e-2\n2,x\n", "1,1e-3\n2,1e-2\n", "1,2,3\n"):
+        bad.write_text(text)
+        with pytest.raises(ParameterError) as info:
+            F.read_hazard_curve(bad)
+        assert info.value.name == "hazard"
+        assert cli.main(base + ["--hazard", str(bad)]) == 2
+        assert "hazard" in capsys.readouterr().err
+    assert cli.main(base[:6] + ["--mu", "0.3", "--hazard", str(path)]) == 2
+    assert "--intensities" in capsys.readouterr().err

@@ -404,3 +404,118 @@ def test_figures(shipped):
     assert len(fig.axes[0].lines) == 2
     with pytest.raises(ValueError, match="one case"):
         plots.newmark(newmark(rec, ky=[0.1, 0.2]))
+
+
+# -- fragility over a suite of records (crandall.record_fragility) --------------------------
+
+def _constant_suite():
+    # A record of constant acceleration A (g) for 1 s: one-way with yield ky < A the block
+    # slides from t = 0 with W = (A - ky) g t, so D = (A - ky) g / 2 at the end (by hand);
+    # A <= ky, or the inverse polarity (-A), never slides: D = 0.
+    return [Record(np.full(101, a), 0.01, name=f"constant {a}") for a in (0.05, 0.2, 0.3, 0.5)]
+
+
+def test_record_fragility_is_the_weighted_fraction_by_hand():
+    suite, w = _constant_suite(), [1.0, 2.0, 3.0, 4.0]
+    r = crandall.record_fragility(suite, [0.25, 0.75, 1.5], ky=[0.1, 0.25], weights=w)
+    assert (r.axis, r.by, r.quantity, r.polarities) == ("ky", None, "displacement",
+                                                        ("normal", "inverse"))
+    exact = np.array([[max(a - ky, 0) * G / 2 for ky in (0.1, 0.25)] for a in (0.05, 0.2, 0.3, 0.5)])
+    assert np.allclose(r.displacement[..., 0], exact, rtol=1e-13, atol=0)
+    assert (r.displacement[..., 1] == 0).all()
+    # ky = 0.1: D = 0, 0.49, 0.98, 1.96 m; each record exceeds in its normal polarity only,
+    # so counts 1/2: (2 + 3 + 4) / 10 / 2, (3 + 4) / 10 / 2, 4 / 10 / 2. ky = 0.25: D = 0, 0,
+    # 0.245, 1.23 m.
+    by_hand = np.array([[0.45, 0.35, 0.2], [0.2, 0.2, 0.0]])
+    assert np.allclose(r.probability, by_hand, rtol=1e-14, atol=1e-15)
+    assert r.n_eff == pytest.approx(100 / 30, rel=1e-14)       # (sum w)^2 / sum w^2
+    assert np.allclose(r.stderr, np.sqrt(by_hand * (1 - by_hand) / (100 / 30)), rtol=1e-12)
+    assert (r.low <= r.probability).all() and (r.probability <= r.high).all()
+    assert r.low[1, 2] == 0 and 0 < r.high[1, 2] < 1
+    # Scaled to a PGA, every constant record is the same A: all or none exceed, and one
+    # polarity: the fraction is 0 or 1 exactly where (pga - ky) g / 2 > d.
+    s = crandall.record_fragility(suite, [0.25, 0.75], ky=[0.1, 0.2], pga=[0.3, 0.6],
+                                  polarity="normal")
+    assert (s.axis, s.by, s.probability.shape) == ("pga", "ky", (2, 2, 2))
+    want = np.array([[[(p - k) * G / 2 > d for d in (0.25, 0.75)] for k in (0.1, 0.2)]
+                     for p in (0.3, 0.6)], dtype=float)
+    assert np.array_equal(s.probability, want)
+    assert np.array_equal(s.section(1).probability, want[:, 1])
+
+
+def test_record_fragility_of_the_reference_records(shipped):
+    # The independent implementation's displacements (REFERENCE, ky 0.1, normal polarity):
+    # 0.553, 1.942, 0.0722 m; weights 1, 2, 3 of 6.
+    names = list(REFERENCE)
+    r = crandall.record_fragility([shipped[n][1] for n in names], [0.05, 0.1, 1.0, 2.0],
+                                  ky=0.1, weights=[1, 2, 3], polarity="normal")
+    assert np.allclose(r.displacement[:, 0, 0], [REFERENCE[n] for n in names], rtol=1e-12)
+    assert np.allclose(r.probability[0], [1.0, 3 / 6, 2 / 6, 0.0], rtol=1e-14, atol=1e-15)
+
+
+def test_the_weighted_interval_covers_at_least_95_percent_for_equal_weights():
+    # Equal weights: n_eff = n, x = k of n, the Clopper-Pearson interval. Its coverage at a true
+    # fraction q is sum_k Binomial(n, q)(k) [low(k) <= q <= high(k)], computed exactly here:
+    # at least 0.95 at every q (the interval's guarantee), and not wasteful where n allows it
+    # (below 0.99 at q = 0.5 for n >= 18; with 4 records every interval holds 0.5).
+    from scipy.stats import binom
+    from crandall.suites import effective_size, weighted_interval
+    for n in (4, 18, 50):
+        assert effective_size(np.full(n, 0.37)) == pytest.approx(n, rel=1e-13)
+        k = np.arange(n + 1)
+        low, high = weighted_interval(k / n, n)
+        for q in np.linspace(0.001, 0.999, 499):
+            cover = float(np.sum(binom.pmf(k, n, q) * ((low <= q) & (q <= high))))
+            assert cover >= 0.95 - 1e-12, (n, q, cover)
+        mid = float(np.sum(binom.pmf(k, n, 0.5) * ((low <= 0.5) & (0.5 <= high))))
+        assert n < 18 or mid < 0.99, (n, mid)
+
+
+def test_record_fragility_fit_files_figure_and_refusals(tmp_path, shipped):
+    pytest.importorskip("xarray")
+    suite = [rec for _, rec in shipped.values()]
+    r = crandall.record_fragility(suite, [0.05, 0.2], ky=[0.05, 0.1], pga=np.geomspace(0.1, 1, 8))
+    fits = r.fit_lognormal()
+    assert len(fits) == 2 and np.isfinite(fits[0].median).all()
+    # The fit reproduces a lognormal curve it is given exactly (fractions = Phi, n_eff 18).
+    from scipy.special import ndtr
+    sec = r.section(0)
+    sec.probability = ndtr(np.log(sec.values / 0.4) / 0.5)[:, None] * np.ones((1, 2))
+    exact = sec.fit_lognormal()
+    assert exact.median[0] == pytest.approx(0.4, rel=1e-6)
+    assert exact.beta[0] == pytest.approx(0.5, rel=1e-6)
+    path = tmp_path / "suite.nc"
+    r.save(path)
+    back = crandall.FragilityResult.load(path)
+    assert type(back) is crandall.RecordFragilityResult
+    for name in ("values", "by_values", "thresholds", "probability", "low", "high",
+                 "displacement", "weights", "record_pga"):
+        assert np.array_equal(getattr(back, name), getattr(r, name)), name
+    assert back.records == r.records and back.yields == r.yields and back.by == "ky"
+    assert "Clopper-Pearson" in str(r) and "ky = 0.1" in r._repr_html_()
+    pytest.importorskip("matplotlib")
+    from crandall import plots
+    # The stochastic model over mu (g = 9.80665: mu is ky) and the suite over ky on one panel.
+    over_ky = crandall.record_fragility(suite, [0.05, 0.2], ky=np.geomspace(0.02, 0.3, 6))
+    p = ndtr(np.log(0.1 / np.geomspace(0.02, 0.3, 6)) / 0.6)[:, None] * np.ones((1, 2))
+    model = crandall.FragilityResult(quantity="distance_at_stop", axis="mu",
+                                     values=np.geomspace(0.02, 0.3, 6), thresholds=[0.05, 0.2],
+                                     probability=p, stderr=0.05 * p, low=0.9 * p, high=1.1 * p,
+                                     reliable=np.ones(p.shape, bool), units="m")
+    fig = plots.fragility(model, records=over_ky)
+    assert len(fig.axes) == 1 and any("records" in t.get_text()
+                                      for t in fig.axes[0].get_legend().get_texts())
+    model.axis = "intensity"   # P growing with h
+    for name in ("probability", "stderr", "low", "high"):
+        setattr(model, name, getattr(model, name)[::-1].copy())
+    assert len(plots.fragility(model, records=sec).axes) == 2   # PGA along the top
+    for call, name in [(dict(records=[]), "records"), (dict(weights=[1.0]), "weights"),
+                       (dict(weights=[-1.0] + [1.0] * 17), "weights"),
+                       (dict(thresholds=[0.0]), "thresholds"), (dict(pga=[0.0]), "pga"),
+                       (dict(measure="peak"), "measure"), (dict(ky=None), "ky"),
+                       (dict(polarity="up"), "polarity")]:
+        args = dict(records=suite, thresholds=[0.1], ky=0.1)
+        args.update(call)
+        with pytest.raises(ParameterError) as info:
+            crandall.record_fragility(**args)
+        assert info.value.name == name, (call, info.value)

@@ -25,14 +25,15 @@ from .scene import OBSERVABLES, Scene
 from .simulate import METHODS, default_dt, simulate, simulate_many
 from .tail import StatisticsFailure, TailResult, tail
 from .fragility import FragilityResult, fragility
+from .suites import RecordFragilityResult, record_fragility
 from .trajectories import paths
 from .units import Scaling
 
 __all__ = ["load", "Scene", "Result", "AccuracyResult", "simulate", "simulate_many", "default_dt",
            "Scaling", "OBSERVABLES", "METHODS", "ParameterError", "StatisticsWarning",
            "StatisticsFailure", "tail", "TailResult", "paths", "Record", "newmark",
-           "NewmarkResult", "fragility", "FragilityResult", "KanaiTajimi", "CloughPenzien",
-           "WhiteNoise"]
+           "NewmarkResult", "fragility", "FragilityResult", "record_fragility",
+           "RecordFragilityResult", "KanaiTajimi", "CloughPenzien", "WhiteNoise"]
 
 # The analytic layer and the envelopes need scipy: imported when first read
 # (crandall.envelopes.amin_ang(...), crandall.analytic.physical(...)), not by `import crandall`.

@@ -30,7 +30,8 @@ from .scene import Scene
 from .simulate import simulate
 from .spec import draw_seed
 from .tail import TAIL_QUANTITIES, StatisticsFailure, tail
-from .fragility import fragility
+from .errors import ParameterError
+from .fragility import fragility, hazard_csv, read_hazard_curve
 
 __all__ = ["main", "run", "PAPER_SEED", "DEFAULT_OUT", "DEFAULT_TAIL_OUT"]
 
@@ -222,9 +223,11 @@ def _parser() -> argparse.ArgumentParser:
     fr = sub.add_parser(
         "fragility", help="fragility curves: P(Q > threshold) over a grid of intensities or mu",
         description="Estimate P(Q > threshold) of one quantity at each threshold over a grid "
-                    "of intensities h (or of frictions mu), each grid point a tail run with "
-                    "its 95 % interval (points of one scaled duration share one run on the "
-                    "paper's scene); print the table and the lognormal fit per threshold.")
+                    "of intensities h, of frictions mu, or of both (a curve over h for each "
+                    "mu), each grid point a tail run with its 95 % interval (points of one "
+                    "scaled duration t0 (mu g)^2 / (2 h^2) share one run on the paper's "
+                    "scene); print the table and the lognormal fit per threshold (per mu), "
+                    "and with --hazard the annual rate of exceeding each threshold.")
     fr.add_argument("scene", nargs="?", metavar="SCENE",
                     help="scene file (TOML), or the name of a shipped scene; default: the "
                          "crate (crandall scenes lists them)")
@@ -232,7 +235,7 @@ def _parser() -> argparse.ArgumentParser:
                     help="a tail quantity: distance_at_stop, stop_time, residual_displacement, ...")
     fr.add_argument("--thresholds", type=_floats, required=True, metavar="D1,D2,...",
                     help="thresholds in the scene's units, increasing, > 0")
-    grid = fr.add_argument_group("the grid (one of them)")
+    grid = fr.add_argument_group("the grid (one of them, or both: their product)")
     grid.add_argument("--intensities", type=_floats, metavar="H1,H2,...",
                       help="intensities h, m s^-3/2 (an envelope's scale)")
     grid.add_argument("--mu", type=_floats, metavar="MU1,MU2,...", help="frictions mu")
@@ -248,7 +251,18 @@ def _parser() -> argparse.ArgumentParser:
     fr.add_argument("--max-seconds", type=_float, default=3600.0, metavar="S",
                     help="bound on each run's time (default 3600)")
     fr.add_argument("--save", metavar="PATH", help="write the result (netCDF)")
-    fr.add_argument("--figure", metavar="PATH", help="draw the curves with their fit (png, pdf, svg)")
+    fr.add_argument("--figure", metavar="PATH", help="draw the curves with their fit (png, pdf, "
+                                                     "svg), and the hazard with --hazard")
+    hz = fr.add_argument_group("the hazard (a grid over intensities)")
+    hz.add_argument("--hazard", metavar="FILE",
+                    help="a site's hazard curve: a CSV of two columns, the intensity h "
+                         "(m s^-3/2, increasing) and the annual rate of shaking stronger than "
+                         "it (non-increasing); '#' lines and one header line skipped. Prints "
+                         "the annual rate of exceeding each threshold with its 95 %% interval")
+    hz.add_argument("--hazard-use", choices=("fit", "estimates"), default="fit",
+                    help="integrate the lognormal fit (default) or the grid's own estimates")
+    hz.add_argument("--hazard-save", metavar="PATH",
+                    help="write the annual rates (CSV: threshold, rate, stderr, 95 %% interval)")
     _progress_options(fr)
 
     sub.add_parser(
@@ -768,18 +782,40 @@ def fragility_command(args) -> int:
         if fmt not in plots.FORMATS:
             raise ValueError(f"--figure: the file must end in one of "
                              f"{', '.join('.' + f for f in plots.FORMATS)}")
+    curve = None
+    if args.hazard is not None:
+        if args.intensities is None:
+            raise ParameterError("hazard", "--hazard: a hazard curve is one of the intensity; "
+                                           "give --intensities")
+        curve = read_hazard_curve(args.hazard)  # before the runs: a bad file fails at once
+    elif args.hazard_save is not None:
+        raise ParameterError("hazard_save", "--hazard-save needs --hazard FILE")
     result = fragility(scene, args.quantity, args.thresholds, intensities=args.intensities,
                        mu=args.mu, rel_error=args.rel_error, seed=seed, threads=args.threads,
                        progress=args.progress, time=args.time, dt=args.dt, method=args.method,
                        max_seconds=args.max_seconds)
     print(result)
-    print("lognormal fit per threshold (95 % intervals):")
-    print(result.fit_lognormal())
+    fits = result.fit_lognormal()
+    for j, fit in enumerate(fits if result.by else [fits]):
+        at = "" if result.by is None else f" at {result.by} = {result.by_values[j]:.4g}"
+        print(f"lognormal fit per threshold{at} (95 % intervals):")
+        print(fit)
+    if curve is not None:
+        hazards = result.hazard(curve, fit=fits, use=args.hazard_use)
+        hazards = hazards if result.by else [hazards]
+        for j, hzd in enumerate(hazards):
+            if result.by is not None:
+                print(f"{result.by} = {result.by_values[j]:.4g}:")
+            print(hzd)
+        if args.hazard_save:
+            text = hazard_csv(hazards, result.units, result.by, result.by_values)
+            write_atomic(args.hazard_save, lambda f: f.write(text.encode()))
+            print(f"wrote {args.hazard_save}")
     if args.save:
         result.save(args.save)
         print(f"wrote {args.save}")
     if args.figure:
-        fig = plots.fragility(result)
+        fig = plots.fragility(result, hazard=curve, use=args.hazard_use)
         write_atomic(args.figure, lambda f: fig.savefig(f, format=fmt))
         print(f"wrote {args.figure}")
     return 0

@@ -17,8 +17,9 @@ import json
 import math
 import numbers
 import os
+import re
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -29,10 +30,21 @@ from .model import SCALING, holds
 from .scene import Scene
 from .tail import TAIL_QUANTITIES, TailResult, tail
 
-__all__ = ["fragility", "FragilityResult", "LognormalFit", "Hazard", "load", "AXES"]
+__all__ = ["fragility", "FragilityResult", "LognormalFit", "Hazard", "load", "AXES",
+           "read_hazard_curve", "hazard_csv"]
 
-#: The grid's axis: the shaking's intensity h (an envelope's scale) or the friction mu.
+#: The grid's axis: the shaking's intensity h (an envelope's scale) or the friction mu. A grid
+#: over both has ``axis="intensity"`` and ``by="mu"``: a curve over h for each mu.
 AXES = ("intensity", "mu")
+
+#: The direction in which P grows along an axis: +1 with the shaking's intensity (h, or a
+#: record's PGA), -1 with a friction or yield (crandall.suites' axes too).
+_SIGN = {"intensity": 1.0, "pga": 1.0, "mu": -1.0, "ky": -1.0, "kd": -1.0}
+
+#: Each axis's label in tables and figures.
+_LABEL = {"intensity": "intensity h [m s^-3/2]", "mu": "friction mu", "pga": "PGA [g]",
+          "ky": "yield ky [g]", "kd": "downslope yield kd [g]"}
+_SHORT = {"intensity": "h", "mu": "mu", "pga": "PGA", "ky": "ky", "kd": "kd"}
 
 #: The scaled unit of each tail quantity (crandall.units.Scaling's kinds); the dissipated
 #: energy m mu g S is the scene's mass times the energy scale (m c S = m (h^2/c)^2 2 U3 / 2).
@@ -177,8 +189,8 @@ def fragility(scene: Scene, quantity: str, thresholds, *, intensities=None, mu=N
               progress: Optional[bool] = None, time: Optional[float] = None,
               dt: Optional[float] = None, method: str = "splitting",
               max_seconds: float = 3600.0, share: bool = True) -> "FragilityResult":
-    """P(quantity > threshold) over a grid of intensities h or of frictions mu, each grid
-    point a :func:`crandall.tail` run with its 95 % interval.
+    """P(quantity > threshold) over a grid of intensities h, of frictions mu, or of both, each
+    grid point a :func:`crandall.tail` run with its 95 % interval.
 
     Parameters
     ----------
@@ -190,10 +202,11 @@ def fragility(scene: Scene, quantity: str, thresholds, *, intensities=None, mu=N
     thresholds : sequence of float
         Strictly increasing, > 0, in the scene's units of the quantity.
     intensities, mu : sequence of float
-        The grid: give exactly one. ``intensities`` replaces the scene's h (a piecewise
+        The grid: one of them, or both. ``intensities`` replaces the scene's h (a piecewise
         scene's largest piece, every piece scaled with it; a named envelope's ``h``, a
         function envelope's largest piece); ``mu`` replaces its friction. Strictly increasing,
-        > 0.
+        > 0. With both, the grid is their product: a curve over h for each mu
+        (``result.by == "mu"``), whose points of one scaled duration share a run.
     rel_error : float, default 0.1
         Each run's target relative error (crandall.tail's).
     seed : int, optional
@@ -218,12 +231,11 @@ def fragility(scene: Scene, quantity: str, thresholds, *, intensities=None, mu=N
     if not isinstance(quantity, str) or quantity not in TAIL_QUANTITIES:
         raise ParameterError("quantity", f"quantity must be one a tail run estimates "
                                          f"({', '.join(TAIL_QUANTITIES)}); got {quantity!r}")
-    if (intensities is None) == (mu is None):
-        raise ParameterError("intensities, mu", "intensities, mu: give exactly one of them "
-                                                "(the grid's axis)")
-    axis = "intensity" if intensities is not None else "mu"
-    values = _grid("intensities" if axis == "intensity" else "mu",
-                   intensities if axis == "intensity" else mu)
+    if intensities is None and mu is None:
+        raise ParameterError("intensities, mu", "intensities, mu: give one of them or both "
+                                                "(the grid's axes)")
+    hs = None if intensities is None else _grid("intensities", intensities)
+    ms = None if mu is None else _grid("mu", mu)
     thr = _grid("thresholds", thresholds)
     if not isinstance(share, bool):
         raise ParameterError("share", f"share must be True or False, got {share!r}")
@@ -233,24 +245,37 @@ def fragility(scene: Scene, quantity: str, thresholds, *, intensities=None, mu=N
             and 0 <= seed < (1 << 64)):
         raise ParameterError("seed", f"seed must be an integer in [0, 2^64), got {seed!r}")
     seed = int(seed)
-    scenes = [point_scene(scene, axis, x) for x in values]
-    return run_grid(scene, quantity, thr, scenes, axis, values, rel_error=rel_error, seed=seed,
-                    threads=threads, progress=progress, time=time, dt=dt, method=method,
-                    max_seconds=max_seconds, share=share)
+    args = dict(rel_error=rel_error, seed=seed, threads=threads, progress=progress, time=time,
+                dt=dt, method=method, max_seconds=max_seconds, share=share)
+    if hs is None or ms is None:
+        axis = "intensity" if ms is None else "mu"
+        values = hs if ms is None else ms
+        scenes = [point_scene(scene, axis, x) for x in values]
+        return run_grid(scene, quantity, thr, scenes, axis, values, **args)
+    scenes = [point_scene(point_scene(scene, "intensity", h), "mu", m) for h in hs for m in ms]
+    labels = [f"(h, mu) = ({h:.4g}, {m:.4g})" for h in hs for m in ms]
+    out = _run_points(scene, quantity, thr, scenes, labels, **args)
+    shape = (len(hs), len(ms))
+    for name in ("probability", "stderr", "low", "high", "reliable"):
+        out[name] = out[name].reshape(shape + (len(thr),))
+    out["run"] = out["run"].reshape(shape)
+    return FragilityResult(quantity=quantity, axis="intensity", values=hs, by="mu", by_values=ms,
+                           thresholds=thr, units=TAIL_QUANTITIES[quantity].unit, seed=seed,
+                           scene=scene.to_dict(), method=method,
+                           rel_error_target=float(rel_error), **out)
 
 
-def run_grid(scene: Scene, quantity: str, thr: np.ndarray, scenes: Sequence[Scene], axis: str,
-             values: np.ndarray, *, rel_error: float, seed: int, threads, progress, time, dt,
-             method: str, max_seconds: float, share: bool) -> "FragilityResult":
-    """The tail runs of :func:`plan` for the point scenes ``scenes`` (labelled ``values`` on
-    ``axis``), gathered into a FragilityResult; ``scene`` is the user's scene, whose effects
-    decide whether runs are shared. (:func:`fragility` builds the points from one axis; any
-    (h, mu) points may be given here.)"""
+def _run_points(scene: Scene, quantity: str, thr: np.ndarray, scenes: Sequence[Scene],
+                labels: Sequence[str], *, rel_error: float, seed: int, threads, progress, time,
+                dt, method: str, max_seconds: float, share: bool) -> Dict[str, Any]:
+    """The tail runs of :func:`plan` for the point scenes ``scenes`` (named ``labels`` in the
+    tail's warnings): the arrays over (point, threshold), each point's run, whether any run
+    served several points, the runs' seconds and steps."""
     runs = plan(scene, quantity, thr, scenes, time=time, dt=dt, share=share)
-    shape = (len(values), len(thr))
+    shape = (len(scenes), len(thr))
     prob, err, low, high = (np.full(shape, np.nan) for _ in range(4))
     reliable = np.zeros(shape, dtype=bool)
-    which = np.zeros(len(values), dtype=np.int64)
+    which = np.zeros(len(scenes), dtype=np.int64)
     results: List[TailResult] = []
     for r, run in enumerate(runs):
         with warnings.catch_warnings(record=True) as caught:
@@ -260,11 +285,10 @@ def run_grid(scene: Scene, quantity: str, thr: np.ndarray, scenes: Sequence[Scen
                        method=method, max_seconds=max_seconds)
         # The tail's warnings, said of the grid points they concern (a scaled run's levels
         # are in scaled units).
-        where = (f"fragility at {'h' if axis == 'intensity' else 'mu'} = "
-                 f"{', '.join(f'{values[j]:.4g}' for j in run.points)}"
+        where = (f"fragility at {'; '.join(labels[j] for j in run.points)}"
                  f"{' (a scaled run: its levels in scaled units)' if run.scaled else ''}")
         for w in caught:
-            warnings.warn(f"{where}: {w.message}", w.category, stacklevel=3)
+            warnings.warn(f"{where}: {w.message}", w.category, stacklevel=4)
         lo, hi = res.interval()
         for j in run.points:
             k = run.index[j]
@@ -272,13 +296,27 @@ def run_grid(scene: Scene, quantity: str, thr: np.ndarray, scenes: Sequence[Scen
             reliable[j] = res.reliable[k]
             which[j] = r
         results.append(res)
-    return FragilityResult(
-        quantity=quantity, axis=axis, values=values, thresholds=thr,
-        units=TAIL_QUANTITIES[quantity].unit,
-        probability=prob, stderr=err, low=low, high=high, reliable=reliable, run=which,
-        shared=any(len(run.points) > 1 for run in runs), seed=seed, scene=scene.to_dict(),
-        seconds=float(sum(x.seconds for x in results)),
-        steps=int(sum(x.steps for x in results)), method=method, rel_error_target=float(rel_error))
+    return dict(probability=prob, stderr=err, low=low, high=high, reliable=reliable, run=which,
+                shared=any(len(run.points) > 1 for run in runs),
+                seconds=float(sum(x.seconds for x in results)),
+                steps=int(sum(x.steps for x in results)))
+
+
+def run_grid(scene: Scene, quantity: str, thr: np.ndarray, scenes: Sequence[Scene], axis: str,
+             values: np.ndarray, *, rel_error: float, seed: int, threads, progress, time, dt,
+             method: str, max_seconds: float, share: bool) -> "FragilityResult":
+    """The tail runs of :func:`plan` for the point scenes ``scenes`` (labelled ``values`` on
+    ``axis``), gathered into a one-axis FragilityResult; ``scene`` is the user's scene, whose
+    effects decide whether runs are shared. (:func:`fragility` builds the points from its
+    axes; any (h, mu) points may be given here.)"""
+    name = "h" if axis == "intensity" else "mu"
+    out = _run_points(scene, quantity, thr, scenes, [f"{name} = {x:.4g}" for x in values],
+                      rel_error=rel_error, seed=seed, threads=threads, progress=progress,
+                      time=time, dt=dt, method=method, max_seconds=max_seconds, share=share)
+    return FragilityResult(quantity=quantity, axis=axis, values=values, thresholds=thr,
+                           units=TAIL_QUANTITIES[quantity].unit, seed=seed,
+                           scene=scene.to_dict(), method=method,
+                           rel_error_target=float(rel_error), **out)
 
 
 @dataclass
@@ -371,6 +409,74 @@ def _hazard_curve(curve) -> Tuple[np.ndarray, np.ndarray]:
     return im, rate
 
 
+def read_hazard_curve(path: Union[str, "os.PathLike[str]"]) -> Tuple[np.ndarray, np.ndarray]:
+    """A hazard curve from a text file: two columns, the intensity (increasing) and the annual
+    rate of shaking stronger than it (non-increasing), separated by a comma, semicolon or
+    blanks; blank lines, lines starting with ``#`` and one header line (the first line that
+    is not numbers) skipped. Checked as :meth:`FragilityResult.hazard` checks a curve.
+
+    Raises
+    ------
+    ParameterError
+        Naming ``hazard``: an unreadable file, a line that is not two numbers, too few
+        points, intensities not increasing or rates not non-increasing, not finite or <= 0.
+    """
+    p = os.fspath(path)
+    try:
+        with open(p, encoding="utf-8-sig") as f:
+            lines = f.read().splitlines()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ParameterError("hazard", f"hazard: cannot read {p!r}: "
+                                       f"{getattr(exc, 'strerror', None) or exc}") from None
+    rows: List[Tuple[float, float]] = []
+    header = False
+    for number, line in enumerate(lines, 1):
+        text = line.strip()
+        if not text or text.startswith("#"):
+            continue
+        cells = [c for c in re.split(r"[,;\s]+", text) if c]
+        try:
+            values = [float(c) for c in cells]
+        except ValueError:
+            if not rows and not header:
+                header = True
+                continue
+            raise ParameterError("hazard", f"hazard: {p!r} line {number} is not numbers: "
+                                           f"{text[:60]!r}") from None
+        if len(values) != 2:
+            raise ParameterError("hazard", f"hazard: {p!r} line {number} has {len(values)} "
+                                           f"columns; give two (intensity, annual rate)")
+        rows.append((values[0], values[1]))
+    if not rows:
+        raise ParameterError("hazard", f"hazard: {p!r} holds no (intensity, rate) lines")
+    im, rate = np.array(rows).T
+    try:
+        return _hazard_curve((im, rate))
+    except ParameterError as exc:
+        raise ParameterError("hazard", f"hazard: {p!r}: {exc}") from None
+
+
+def hazard_csv(hazards: Sequence[Hazard], units: str = "", by: Optional[str] = None,
+               by_values: Optional[np.ndarray] = None) -> str:
+    """The annual rates as CSV text: a row per threshold (and value of ``by``, a column before
+    it, for the hazards of a grid over two axes): threshold, rate, stderr, the 95 % interval
+    and, with ``use="estimates"``, the most the shaking outside the grid could add."""
+    unit = f" [{units}]" if units else ""
+    cols = ([by] if by else []) + [f"threshold{unit}", "rate [1/yr]", "stderr [1/yr]",
+                                   "low [1/yr]", "high [1/yr]", "outside [1/yr]"]
+    out = ["# annual rate of exceeding each threshold, 95 % intervals; through "
+           + ("the lognormal fit" if hazards[0].use == "fit" else "the grid estimates"),
+           ",".join(cols)]
+    for j, hz in enumerate(hazards):
+        lead = [] if by is None else [repr(float(by_values[j]))]
+        for k, d in enumerate(hz.thresholds):
+            extra = hz.outside[k] if hz.outside is not None else 0.0
+            out.append(",".join(lead + [repr(float(v)) for v in
+                                        (d, hz.rate[k], hz.stderr[k], hz.low[k], hz.high[k],
+                                         extra)]))
+    return "\n".join(out) + "\n"
+
+
 #: The hazard integral's largest sub-grid step in ln x (the trapezoid rule's relative error
 #: is then about 1e-5 for a power law of exponent 2.5: tests/test_fragility.py).
 _HAZARD_STEP = 0.002
@@ -390,26 +496,36 @@ def _sub_grid(lx, lr, lo, hi, extra=()):
 
 @dataclass
 class FragilityResult:
-    """P(quantity > threshold) over a grid of intensities or frictions.
+    """P(quantity > threshold) over a grid of intensities or frictions, or both.
 
     Attributes
     ----------
     quantity, axis, values, thresholds, units
         The quantity; the grid's axis ("intensity": h in m s^-3/2, or "mu") and its values;
         the thresholds and their unit.
-    probability, stderr, low, high : ndarray, shape (len(values), len(thresholds))
+    by, by_values
+        A grid over two axes: the second one ("mu") and its values, a curve over ``axis`` for
+        each (None for a grid over one axis). :meth:`section` gives the curve of one.
+    probability, stderr, low, high : ndarray, shape (len(values), [len(by_values),] len(thresholds))
         The tail estimates, their standard errors and 95 % intervals (crandall.tail's).
     reliable : ndarray of bool
         crandall.tail's flag (False: not a clean estimate; left out of the fit).
-    run : ndarray of int
+    run : ndarray of int, shape (len(values), [len(by_values)])
         The tail run each grid point came from (points of one run share it: the scaling
-        identity, :data:`crandall.model.SCALING`).
+        identity, :data:`crandall.model.SCALING`); ``runs`` counts the distinct ones.
     shared : bool
         Whether any run served several points.
     seed, scene, seconds, steps, method
         The fragility's seed, the user's scene (plain data), the runs' total wall time and
         exact steps, the tail method.
     """
+
+    #: The axes a result of this class may have (crandall.suites' records have theirs).
+    _axes = AXES
+    #: The netCDF attribute that marks a saved result of this class.
+    _file_attr = "crandall_fragility"
+    #: What the tables say of the intervals.
+    _intervals = "95 % intervals (the tail's)"
 
     quantity: str
     axis: str
@@ -429,6 +545,8 @@ class FragilityResult:
     steps: int = 0
     method: str = "splitting"
     rel_error_target: float = 0.1
+    by: Optional[str] = None
+    by_values: Optional[np.ndarray] = None
 
     def __post_init__(self) -> None:
         self.values = np.asarray(self.values, dtype=float)
@@ -436,24 +554,73 @@ class FragilityResult:
         for name in ("probability", "stderr", "low", "high"):
             setattr(self, name, np.asarray(getattr(self, name), dtype=float))
         self.reliable = np.asarray(self.reliable, dtype=bool)
+        if self.axis not in self._axes:
+            raise ValueError(f"axis must be one of {', '.join(self._axes)}, got {self.axis!r}")
+        if (self.by is None) != (self.by_values is None):
+            raise ValueError("by, by_values: give both (a grid over two axes) or neither")
+        grid: Tuple[int, ...] = (len(self.values),)
+        if self.by is not None:
+            if self.by not in self._axes or self.by == self.axis:
+                raise ValueError(f"by must be one of {', '.join(self._axes)} other than the "
+                                 f"axis, got {self.by!r}")
+            self.by_values = np.asarray(self.by_values, dtype=float)
+            grid += (len(self.by_values),)
         if self.run is None:
-            self.run = np.arange(len(self.values))
+            self.run = np.arange(int(np.prod(grid))).reshape(grid)
         self.run = np.asarray(self.run, dtype=np.int64)
-        shape = (len(self.values), len(self.thresholds))
+        if self.run.shape != grid:
+            raise ValueError(f"run: shape {self.run.shape}, expected {grid}")
+        shape = grid + (len(self.thresholds),)
         for name in ("probability", "stderr", "low", "high", "reliable"):
             if getattr(self, name).shape != shape:
                 raise ValueError(f"{name}: shape {getattr(self, name).shape}, expected {shape}")
-        if self.axis not in AXES:
-            raise ValueError(f"axis must be one of {', '.join(AXES)}, got {self.axis!r}")
 
     @property
     def axis_label(self) -> str:
-        return "intensity h [m s^-3/2]" if self.axis == "intensity" else "friction mu"
+        return _LABEL[self.axis]
+
+    @property
+    def runs(self) -> int:
+        """How many distinct runs (tail runs; for records, newmark sweeps) made the grid."""
+        return int(np.unique(self.run).size)
+
+    def sections(self) -> List["FragilityResult"]:
+        """The curves over ``axis``, one per value of ``by`` (``[self]`` for one axis)."""
+        if self.by is None:
+            return [self]
+        return [self.section(j) for j in range(len(self.by_values))]
+
+    def section(self, j: int) -> "FragilityResult":
+        """The curve over ``axis`` at ``by_values[j]`` of a grid over two axes: a one-axis
+        result of the same class, its scene's ``by`` set to that value (``shared`` and
+        ``seconds`` remain the whole grid's)."""
+        if self.by is None:
+            raise ValueError("section: this result is over one axis")
+        if not (isinstance(j, (int, np.integer)) and -len(self.by_values) <= j < len(self.by_values)):
+            raise ParameterError("j", f"j must be an index into by_values "
+                                      f"(0 ... {len(self.by_values) - 1}), got {j!r}")
+        scene = dict(self.scene)
+        if scene and self.by in scene:
+            scene[self.by] = float(self.by_values[j])
+        sliced = {name: getattr(self, name)[:, j] for name in
+                  ("probability", "stderr", "low", "high", "reliable", "run")}
+        return replace(self, by=None, by_values=None, scene=scene,
+                       **sliced, **self._section_extra(int(j)))
+
+    def _section_extra(self, j: int) -> Dict[str, Any]:
+        """The fields a subclass slices for :meth:`section` (none here)."""
+        return {}
+
+    @property
+    def _by_label(self) -> str:
+        return "" if self.by is None else _SHORT[self.by]
 
     # -- the lognormal fit -----------------------------------------------------------------
 
-    def fit_lognormal(self) -> LognormalFit:
-        """The lognormal fragility curve of each threshold by maximum likelihood.
+    def fit_lognormal(self):
+        """The lognormal fragility curve of each threshold by maximum likelihood: a
+        :class:`LognormalFit`; over two axes, a list of them, the curve over ``axis`` for each
+        value of ``by`` (``[s.fit_lognormal() for s in self.sections()]``).
 
         Model: P(x) = Phi(s (ln x - ln median) / beta), s = +1 over intensities, -1 over mu.
 
@@ -477,10 +644,15 @@ class FragilityResult:
         hiding behind them). The 95 % intervals: exp(ln median +- 1.96 se) and
         beta +- 1.96 se (clipped at 0).
         """
+        if self.by is not None:
+            return [s.fit_lognormal() for s in self.sections()]
+        return self._fit()
+
+    def _fit(self) -> LognormalFit:
         from scipy.optimize import least_squares
         from scipy.special import log_ndtr, ndtri
 
-        sign = 1.0 if self.axis == "intensity" else -1.0
+        sign = _SIGN[self.axis]
         lx = np.log(self.values)
         n = len(self.thresholds)
         out = {k: np.full(n, np.nan) for k in ("median", "median_stderr", "median_low",
@@ -534,11 +706,13 @@ class FragilityResult:
 
     # -- the hazard ------------------------------------------------------------------------
 
-    def hazard(self, curve, fit: Optional[LognormalFit] = None, use: str = "fit") -> Hazard:
+    def hazard(self, curve, fit: Optional[LognormalFit] = None, use: str = "fit"):
         """The annual rate of exceeding each threshold at a site whose hazard curve is
         ``curve = (im, rate)``: ``rate[i]`` the annual rate of shaking stronger than
-        ``im[i]`` (the intensity h of this result's grid, in m s^-3/2; increasing, the rates
-        non-increasing).
+        ``im[i]`` (the intensity of this result's grid: h in m s^-3/2, or a record suite's
+        PGA in g; increasing, the rates non-increasing). A :class:`Hazard`; over two axes a
+        list of them, one per value of ``by`` (``fit``, if given, a list of fits as
+        :meth:`fit_lognormal` returns).
 
             lambda_D(d) = int P(D > d | x) |d lambda(x)|
 
@@ -564,11 +738,17 @@ class FragilityResult:
 
         The 95 % interval is rate * exp(+-1.96 stderr / rate).
         """
-        if self.axis != "intensity":
-            raise ParameterError("curve", "curve: a hazard curve is one of the intensity; this "
-                                          "fragility is over mu")
+        if _SIGN[self.axis] < 0:
+            raise ParameterError("curve", f"curve: a hazard curve is one of the intensity; this "
+                                          f"fragility is over {self.axis}")
         if use not in ("fit", "estimates"):
             raise ParameterError("use", f"use must be 'fit' or 'estimates', got {use!r}")
+        if self.by is not None:
+            fits = [None] * len(self.by_values) if fit is None else list(fit)
+            if len(fits) != len(self.by_values):
+                raise ParameterError("fit", f"fit: one per value of {self.by} "
+                                            f"({len(self.by_values)}), got {len(fits)}")
+            return [s.hazard(curve, fit=f, use=use) for s, f in zip(self.sections(), fits)]
         im, rate = _hazard_curve(curve)
         lx, lr = np.log(im), np.log(rate)
         n = len(self.thresholds)
@@ -636,62 +816,95 @@ class FragilityResult:
 
     # -- tables, files ---------------------------------------------------------------------
 
-    def __str__(self) -> str:
+    def _header(self) -> str:
+        """The table's first line (what made the estimates)."""
         unit = f" [{self.units}]" if self.units else ""
-        name = "h" if self.axis == "intensity" else "mu"
-        lines = [f"P({self.quantity} > threshold{unit}) over {name}, {self.method}, "
-                 f"{len(set(self.run.tolist()))} tail runs for {len(self.values)} points, "
-                 f"{self.seconds:.1f} s",
-                 f"{name:>10} {'threshold':>12} {'probability':>12} {'rel.err':>8} "
+        over = _SHORT[self.axis] + ("" if self.by is None else f" and {self._by_label}")
+        return (f"P({self.quantity} > threshold{unit}) over {over}, {self.method}, "
+                f"{self.runs} tail runs for {self.run.size} points, {self.seconds:.1f} s")
+
+    def __str__(self) -> str:
+        name = _SHORT[self.axis]
+        by = "" if self.by is None else f"{self._by_label:>10} "
+        lines = [f"{self._header()}; {self._intervals}",
+                 f"{name:>10} {by}{'threshold':>12} {'probability':>12} {'rel.err':>8} "
                  f"{'95% interval':>23}"]
-        for j, x in enumerate(self.values):
+        for i in np.ndindex(self.run.shape):
+            x = f"{self.values[i[0]]:10.4g} " + ("" if self.by is None
+                                                 else f"{self.by_values[i[1]]:10.4g} ")
             for k, d in enumerate(self.thresholds):
-                p, s = self.probability[j, k], self.stderr[j, k]
+                p, s = self.probability[i + (k,)], self.stderr[i + (k,)]
                 rel = s / p if p > 0 else math.inf
-                flag = "" if self.reliable[j, k] else "  UNRELIABLE"
-                lines.append(f"{x:10.4g} {d:12.6g} {p:12.4g} {rel:8.3f} "
-                             f"[{self.low[j, k]:9.3g}, {self.high[j, k]:9.3g}]{flag}")
+                flag = "" if self.reliable[i + (k,)] else "  UNRELIABLE"
+                lines.append(f"{x}{d:12.6g} {p:12.4g} {rel:8.3f} "
+                             f"[{self.low[i + (k,)]:9.3g}, {self.high[i + (k,)]:9.3g}]{flag}")
         return "\n".join(lines)
 
     def _repr_html_(self) -> str:
         """The table as HTML: one row per grid value, a column per threshold (estimate and its
-        95 % interval)."""
-        name = "h" if self.axis == "intensity" else "&mu;"
+        95 % interval); over two axes a table per value of ``by``."""
+        name = html.escape(_SHORT[self.axis])
         unit = f" [{html.escape(self.units)}]" if self.units else ""
         head = "".join(f"<th>&gt; {d:.4g}{unit}</th>" for d in self.thresholds)
-        rows = []
-        for j, x in enumerate(self.values):
-            cells = []
-            for k in range(len(self.thresholds)):
-                flag = "" if self.reliable[j, k] else " <b>unreliable</b>"
-                cells.append(f"<td>{self.probability[j, k]:.4g}<br><small>[{self.low[j, k]:.3g}, "
-                             f"{self.high[j, k]:.3g}]</small>{flag}</td>")
-            rows.append(f"<tr><th>{x:.4g}</th>{''.join(cells)}</tr>")
-        return (f"<div><p>P({html.escape(self.quantity)} &gt; threshold), 95 % intervals; "
-                f"{len(set(self.run.tolist()))} tail runs, {self.seconds:.1f} s</p>"
-                f"<table><tr><th>{name}</th>{head}</tr>{''.join(rows)}</table></div>")
+        tables = []
+        for j, sec in enumerate(self.sections()):
+            rows = []
+            for i, x in enumerate(sec.values):
+                cells = []
+                for k in range(len(sec.thresholds)):
+                    flag = "" if sec.reliable[i, k] else " <b>unreliable</b>"
+                    cells.append(f"<td>{sec.probability[i, k]:.4g}<br><small>"
+                                 f"[{sec.low[i, k]:.3g}, {sec.high[i, k]:.3g}]</small>{flag}</td>")
+                rows.append(f"<tr><th>{x:.4g}</th>{''.join(cells)}</tr>")
+            caption = ("" if self.by is None else
+                       f"<caption>{html.escape(self._by_label)} = {self.by_values[j]:.4g}</caption>")
+            tables.append(f"<table>{caption}<tr><th>{name}</th>{head}</tr>{''.join(rows)}</table>")
+        return (f"<div><p>{html.escape(self._header())}; {html.escape(self._intervals)}</p>"
+                f"{''.join(tables)}</div>")
 
     def to_xarray(self):
-        """An xarray Dataset over (``axis``, threshold): probability, stderr, low, high,
-        reliable, run; the quantity, seed, scene (JSON) and the rest as attributes."""
+        """An xarray Dataset over (``axis``, [``by``,] threshold): probability, stderr, low,
+        high, reliable, run; the quantity, seed, scene (JSON) and the rest as attributes."""
         import xarray as xr
 
-        dims = (self.axis, "threshold")
+        grid = (self.axis,) if self.by is None else (self.axis, self.by)
+        dims = grid + ("threshold",)
+        coords = {self.axis: self.values, "threshold": self.thresholds}
+        if self.by is not None:
+            coords[self.by] = self.by_values
         ds = xr.Dataset(
             {name: (dims, getattr(self, name)) for name in ("probability", "stderr", "low", "high")},
-            coords={self.axis: self.values, "threshold": self.thresholds})
+            coords=coords)
         ds["reliable"] = (dims, self.reliable.astype(np.int8))
-        ds["run"] = ((self.axis,), self.run)
-        ds.attrs.update(crandall_fragility=1, quantity=self.quantity, axis=self.axis,
-                        units=self.units, shared=int(self.shared),
+        ds["run"] = (grid, self.run)
+        ds.attrs.update({self._file_attr: 1}, quantity=self.quantity, axis=self.axis,
+                        by=self.by or "", units=self.units, shared=int(self.shared),
                         seed=str(self.seed) if self.seed is not None else "",
                         scene=json.dumps(self.scene), seconds=self.seconds, steps=self.steps,
                         method=self.method, rel_error_target=self.rel_error_target)
         return ds
 
     @classmethod
+    def _from_dataset(cls, ds) -> Dict[str, Any]:
+        """The fields of a result read from its Dataset (a subclass adds its own)."""
+        a = ds.attrs
+        axis = str(a["axis"])
+        by = str(a.get("by", "")) or None
+        return dict(
+            quantity=str(a["quantity"]), axis=axis, values=ds[axis].values,
+            by=by, by_values=None if by is None else ds[by].values,
+            thresholds=ds["threshold"].values, probability=ds["probability"].values,
+            stderr=ds["stderr"].values, low=ds["low"].values, high=ds["high"].values,
+            reliable=ds["reliable"].values.astype(bool), units=str(a["units"]),
+            run=ds["run"].values, shared=bool(int(a["shared"])),
+            seed=int(a["seed"]) if str(a["seed"]) else None, scene=json.loads(str(a["scene"])),
+            seconds=float(a["seconds"]), steps=int(a["steps"]), method=str(a["method"]),
+            rel_error_target=float(a["rel_error_target"]))
+
+    @classmethod
     def load(cls, path: Union[str, "os.PathLike[str]"]) -> "FragilityResult":
-        """Read a file written by :meth:`save`."""
+        """Read a file written by :meth:`save` (of this class or a subclass: the file says
+        which)."""
         return load(path)
 
     def save(self, path: Union[str, "os.PathLike[str]"]) -> None:
@@ -703,22 +916,25 @@ class FragilityResult:
         write_atomic(path, lambda f: f.write(data))
 
 
+def _kinds() -> Dict[str, type]:
+    """Each class of saved fragility by its netCDF attribute (FragilityResult and its
+    subclasses, e.g. crandall.suites.RecordFragilityResult)."""
+    out, todo = {}, [FragilityResult]
+    while todo:
+        cls = todo.pop()
+        out[cls._file_attr] = cls
+        todo.extend(cls.__subclasses__())
+    return out
+
+
 def load(path: Union[str, "os.PathLike[str]"]) -> FragilityResult:
-    """Read a file written by :meth:`FragilityResult.save`."""
+    """Read a file written by :meth:`FragilityResult.save` (or a subclass's: the result is of
+    the class that wrote it)."""
     import xarray as xr
 
     with xr.open_dataset(os.fspath(path), engine="scipy") as ds:
         ds.load()
-        if "crandall_fragility" not in ds.attrs:
-            raise ValueError(f"path: {os.fspath(path)} is not a saved crandall fragility")
-        axis = str(ds.attrs["axis"])
-        a = ds.attrs
-        return FragilityResult(
-            quantity=str(a["quantity"]), axis=axis, values=ds[axis].values,
-            thresholds=ds["threshold"].values, probability=ds["probability"].values,
-            stderr=ds["stderr"].values, low=ds["low"].values, high=ds["high"].values,
-            reliable=ds["reliable"].values.astype(bool), units=str(a["units"]),
-            run=ds["run"].values, shared=bool(int(a["shared"])),
-            seed=int(a["seed"]) if str(a["seed"]) else None, scene=json.loads(str(a["scene"])),
-            seconds=float(a["seconds"]), steps=int(a["steps"]), method=str(a["method"]),
-            rel_error_target=float(a["rel_error_target"]))
+        for attr, cls in _kinds().items():
+            if attr in ds.attrs:
+                return cls(**cls._from_dataset(ds))
+        raise ValueError(f"path: {os.fspath(path)} is not a saved crandall fragility")
