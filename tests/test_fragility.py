@@ -145,6 +145,17 @@ def test_the_lognormal_fit_recovers_a_known_curve_within_its_uncertainty():
     assert fall.beta[0] == pytest.approx(0.45, rel=1e-6)
 
 
+def test_a_curve_that_falls_where_it_should_rise_leaves_the_fit_nan_with_a_warning():
+    # Over intensity P must rise; estimates that fall send the median off beyond doubles.
+    xs = np.geomspace(0.4, 4.0, 9)
+    r = synthetic(1.3, 0.45, xs, 1e-9, 1)
+    r.probability = r.probability[::-1].copy()
+    r.stderr = 1e-9 * r.probability
+    with pytest.warns(crandall.StatisticsWarning, match="no lognormal curve fits"):
+        fit = r.fit_lognormal()
+    assert np.isnan(fit.median[0]) and np.isnan(fit.beta[0])
+
+
 def test_the_hazard_of_a_lognormal_curve_under_a_power_law():
     # lambda(x) = k0 x^-k and P = Phi(ln(x / m) / beta): int P |d lambda| = k0 m^-k exp(k^2 beta^2 / 2).
     k0, k, m, beta = 1e-3, 2.5, 1.3, 0.45

@@ -27,6 +27,7 @@ import numpy as np
 from ._files import write_atomic
 from .errors import ParameterError
 from .model import SCALING, holds
+from .results import StatisticsWarning
 from .scene import Scene
 from .tail import TAIL_QUANTITIES, TailResult, tail
 
@@ -694,6 +695,13 @@ class FragilityResult:
                 cov = cov * max(1.0, chi2 / dof[k])
             a, b = fit.x
             sa, sb = math.sqrt(max(cov[0, 0], 0.0)), math.sqrt(max(cov[1, 1], 0.0))
+            if not (np.isfinite(a) and abs(a) + _Z95 * sa < 700.0):
+                # No lognormal curve rising along the axis fits (the estimates fall where it
+                # should rise, or stay flat): the median runs off beyond doubles. NaN, said.
+                warnings.warn(f"fit_lognormal: no lognormal curve fits the estimates at "
+                              f"threshold {self.thresholds[k]:g} (its median runs off to "
+                              f"exp({a:.3g})): left NaN", StatisticsWarning, stacklevel=3)
+                continue
             out["median"][k] = math.exp(a)
             out["median_stderr"][k] = math.exp(a) * sa
             out["median_low"][k], out["median_high"][k] = math.exp(a - _Z95 * sa), math.exp(a + _Z95 * sa)
