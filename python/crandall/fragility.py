@@ -618,7 +618,7 @@ class FragilityResult:
 
     # -- the lognormal fit -----------------------------------------------------------------
 
-    def fit_lognormal(self):
+    def fit_lognormal(self) -> Union[LognormalFit, List[LognormalFit]]:
         """The lognormal fragility curve of each threshold by maximum likelihood: a
         :class:`LognormalFit`; over two axes, a list of them, the curve over ``axis`` for each
         value of ``by`` (``[s.fit_lognormal() for s in self.sections()]``).
@@ -714,7 +714,8 @@ class FragilityResult:
 
     # -- the hazard ------------------------------------------------------------------------
 
-    def hazard(self, curve, fit: Optional[LognormalFit] = None, use: str = "fit"):
+    def hazard(self, curve, fit: Optional[LognormalFit] = None,
+               use: str = "fit") -> Union[Hazard, List[Hazard]]:
         """The annual rate of exceeding each threshold at a site whose hazard curve is
         ``curve = (im, rate)``: ``rate[i]`` the annual rate of shaking stronger than
         ``im[i]`` (the intensity of this result's grid: h in m s^-3/2, or a record suite's
