@@ -10,9 +10,10 @@ VENV   := .venv
 VPY    := $(VENV)/bin/python
 export PATH := $(CURDIR)/$(VENV)/bin:$(PATH)
 
-# Debian packages: the compiler, GoogleTest (OpenMP comes with g++), and qemu-user
-# (tests/test_isa.py runs the wheel on an emulated CPU without AVX).
-DEBS := g++ make libgtest-dev qemu-user
+# Debian packages: the compiler, GoogleTest (OpenMP comes with g++), Eigen (the filtered
+# excitation's plan-time algebra), and qemu-user (tests/test_isa.py runs the wheel on an
+# emulated CPU without AVX).
+DEBS := g++ make libgtest-dev libeigen3-dev qemu-user
 # Python packages for building and testing (the package's own dependencies come from pyproject).
 PYDEV := pip setuptools wheel "scikit-build-core>=0.10" "pybind11>=2.12" cmake ninja \
          numpy scipy mpmath sympy pytest hypothesis tqdm matplotlib xarray pandas "dask[distributed]" \

@@ -3,6 +3,8 @@
 
 #include "common.hpp"
 #include "crandall/diagnostics.hpp"
+#include "crandall/filter.hpp"
+#include "crandall/filtered.hpp"
 #include "crandall/rng.hpp"
 
 using bindings::to_array;
@@ -10,6 +12,43 @@ using bindings::without_gil;
 
 void register_diagnostics(py::module_& m) {
   m.attr("RANDOM_STREAM") = crandall::kRandomStream;
+
+  m.def(
+      "filtered_trajectory",
+      [](const crandall::Plan& plan, std::uint64_t path) {
+        const crandall::Trajectory t =
+            without_gil([&] { return crandall::filtered_trajectory(plan, path); });
+        py::dict out;
+        out["t"] = to_array(t.time, t.time.size(), 0);
+        out["a_g"] = to_array(t.ground, t.ground.size(), 0);
+        out["V"] = to_array(t.velocity, t.velocity.size(), 0);
+        out["U"] = to_array(t.displacement, t.displacement.size(), 0);
+        out["S"] = to_array(t.distance, t.distance.size(), 0);
+        return out;
+      },
+      py::arg("plan"), py::arg("path"),
+      "One path of a filtered plan's walked grid, point by point (skeleton points, event "
+      "substeps, rest times), to the stop if observed: a dict of arrays t, a_g, V, U, S.");
+
+  m.def(
+      "filter_transition",
+      [](const std::vector<double>& a, const std::vector<double>& b, const std::vector<double>& c,
+         double h) {
+        const std::size_t n = b.size();
+        if (n < 1 || n > static_cast<std::size_t>(crandall::kMaxFilter) || a.size() != n * n ||
+            c.size() != n)
+          throw std::invalid_argument("filter_transition: b and c need n = 1 to 6 numbers, a n * n (row-major)");
+        crandall::LinearFilter f;
+        f.n = static_cast<int>(n);
+        f.a = a;
+        f.b = b;
+        f.c = c;
+        const auto t = crandall::transition(f, h);
+        return py::make_tuple(to_array(t.phi, n + 2, n + 2), to_array(t.q, n + 2, n + 2));
+      },
+      py::arg("a"), py::arg("b"), py::arg("c"), py::arg("h"),
+      "(Phi, Q) of the filter augmented with G = int a_g and D = int G over a step h: "
+      "(n + 2) x (n + 2) arrays, state (z, G, D), unit noise intensity.");
 
   m.def(
       "exact_steps",

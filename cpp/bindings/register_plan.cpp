@@ -50,6 +50,17 @@ void register_plan(py::module_& m) {
       .def_readwrite("histogram_axes", &crandall::Options::histogram_axes)
       .def_readwrite("seed", &crandall::Options::seed)
       .def_readwrite("paths", &crandall::Options::paths)
+      // The filtered excitation (plan.hpp): excitation is "white" or "filtered".
+      .def_property(
+          "excitation",
+          [](const crandall::Options& o) { return std::string(crandall::excitation_name(o.excitation)); },
+          [](crandall::Options& o, const std::string& name) { o.excitation = crandall::parse_excitation(name); })
+      .def_readwrite("filter_a", &crandall::Options::filter_a)
+      .def_readwrite("filter_b", &crandall::Options::filter_b)
+      .def_readwrite("filter_c", &crandall::Options::filter_c)
+      .def_readwrite("filter_start", &crandall::Options::filter_start)
+      .def_readwrite("static_drift", &crandall::Options::static_drift)
+      .def_readwrite("event_depth", &crandall::Options::event_depth)
       .def("validate", &crandall::Options::validate);
 
   py::class_<crandall::Plan>(m, "Plan", "A validated run: the time grid and the path partition.")

@@ -42,6 +42,7 @@ std::vector<double> simulate_states(const Plan& plan) {
   const Options& o = plan.options();
   if (o.method != Method::exact && o.method != Method::euler)
     throw std::invalid_argument("simulate_states: method must be 'exact' or 'euler'");
+  if (o.filtered()) throw std::invalid_argument("simulate_states: white noise only (use filtered_trajectory)");
   std::vector<double> out(o.paths);
   const BlockFn block_fn = active_kernel().block_fn(o.method, false, false, false, false);
   Workspace ws(plan);

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "crandall/dispatch.hpp"
+#include "crandall/filtered.hpp"
 #include "crandall/kernel.hpp"
 #include "crandall/kernel_controls.hpp"
 #include "crandall/team.hpp"
@@ -27,6 +28,10 @@ void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int
   const int grids = o.grids();
   BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks,
                                               o.quadratic_variation);
+  if (o.filtered()) {
+    if (controls_out) throw std::invalid_argument("run_samples: controls are not available with excitation 'filtered'");
+    block_fn = &simulate_filtered_block;
+  }
   if (controls_out) {
     if (o.method != Method::exact || !o.integrals())
       throw std::invalid_argument("run_samples: controls need the exact method and an observed integral");

@@ -37,12 +37,6 @@ void check_yield(const Yield& y) {
     throw std::invalid_argument("yield: the static yields must be >= the kinetic ones");
 }
 
-// Displacement gained over x from W = w with relative acceleration r and slope c: the
-// integral of w + r s + c s^2 / 2.
-inline double cubic(double w, double r, double c, double x) {
-  return x * (w + x * (0.5 * r + x * (c / 6.0)));
-}
-
 }  // namespace
 
 double stop_time(double w, double r, double c, double limit) {
@@ -69,88 +63,30 @@ Summary exact(const double* a, std::size_t n, double dt, double sign, const Yiel
   check_record(a, n, dt);
   check_yield(y);
   Summary out;
-  double w = 0.0, d = 0.0;
-  int mode = 0;  // 0 at rest, +1 sliding downslope (w > 0), -1 upslope (w < 0)
+  Motion m;
   double onset = 0.0;
-  const auto start = [&](double t, int direction) {
-    mode = direction;
+  const auto start = [&](double t, int) {
     onset = t;
     ++out.slips;
   };
   const auto stop = [&](double t) {
-    if (history.events) history.events->push_back({onset, t, mode, true});
-    mode = 0;
-    w = 0.0;
-    out.max_displacement = std::max(out.max_displacement, d);
-    out.min_displacement = std::min(out.min_displacement, d);
+    if (history.events) history.events->push_back({onset, t, m.mode, true});
+    out.max_displacement = std::max(out.max_displacement, m.d);
+    out.min_displacement = std::min(out.min_displacement, m.d);
   };
   if (history.velocity) history.velocity[0] = 0.0;
   if (history.displacement) history.displacement[0] = 0.0;
   for (std::size_t i = 0; i + 1 < n; ++i) {
     const double a0 = sign * a[i], a1 = sign * a[i + 1];
-    // At rest with both ends within the static yields (the line between them too): nothing
-    // happens on this step (most steps of a record).
-    if (mode == 0 && a0 <= y.sd && a1 <= y.sd && a0 >= -y.su && a1 >= -y.su) {
-      if (history.velocity) history.velocity[i + 1] = 0.0;
-      if (history.displacement) history.displacement[i + 1] = d;
-      continue;
-    }
-    const double t0 = static_cast<double>(i) * dt;
-    const double c = (a1 - a0) / dt;  // the record's slope on this step
-    double tau = 0.0;                 // time into the step
-    double r = 0.0;                   // relative acceleration dW/dt at tau
-    bool fresh = false;               // r was set by an onset (not read off the record)
-    // A straight line crosses each yield at most once: a step holds a few events at most.
-    for (int events = 0; events < 8; ++events) {
-      if (mode == 0) {
-        const double at = tau == 0.0 ? a0 : a0 + (a1 - a0) * (tau / dt);
-        if (at > y.sd) {
-          start(t0 + tau, 1);
-          r = at - y.kd;
-        } else if (at < -y.su) {
-          start(t0 + tau, -1);
-          r = at + y.ku;
-        } else if (a1 > y.sd || a1 < -y.su) {
-          // The line crosses a static yield within the step: the onset is its root, where
-          // the relative acceleration is exactly the static minus the kinetic yield.
-          const int direction = a1 > y.sd ? 1 : -1;
-          const double level = direction > 0 ? y.sd : -y.su;
-          const double root = std::max((level - a0) / (a1 - a0) * dt, tau);
-          if (!(root < dt)) break;  // rounds to the step's end: the next step's sample starts it
-          tau = root;
-          start(t0 + tau, direction);
-          r = direction > 0 ? y.sd - y.kd : -(y.su - y.ku);
-        } else {
-          break;  // at rest to the step's end
-        }
-        fresh = true;
-      } else if (!fresh) {
-        r = mode > 0 ? a0 - y.kd : a0 + y.ku;
-        fresh = true;
-      }
-      const double rest = dt - tau;
-      const double x = mode > 0 ? stop_time(w, r, c, rest) : stop_time(-w, -r, -c, rest);
-      if (x >= 0.0) {
-        d += cubic(w, r, c, x);
-        tau += x;
-        stop(t0 + tau);
-        if (tau >= dt) break;
-        continue;
-      }
-      d += cubic(w, r, c, rest);
-      w += rest * (r + 0.5 * c * rest);
-      // Round-off can leave the step's end on the wrong side of 0 when the stop is at it.
-      if (w * mode <= 0.0) stop(t0 + dt);
-      break;
-    }
-    if (history.velocity) history.velocity[i + 1] = w;
-    if (history.displacement) history.displacement[i + 1] = d;
+    linear_step(m, a0, a1, dt, static_cast<double>(i) * dt, y, start, stop);
+    if (history.velocity) history.velocity[i + 1] = m.w;
+    if (history.displacement) history.displacement[i + 1] = m.d;
   }
-  out.displacement = d;
-  out.max_displacement = std::max(out.max_displacement, d);
-  out.min_displacement = std::min(out.min_displacement, d);
-  if (mode != 0 && history.events)
-    history.events->push_back({onset, static_cast<double>(n - 1) * dt, mode, false});
+  out.displacement = m.d;
+  out.max_displacement = std::max(out.max_displacement, m.d);
+  out.min_displacement = std::min(out.min_displacement, m.d);
+  if (m.mode != 0 && history.events)
+    history.events->push_back({onset, static_cast<double>(n - 1) * dt, m.mode, false});
   return out;
 }
 

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "crandall/exact_step.hpp"
+#include "crandall/filter.hpp"
 
 namespace crandall {
 namespace {
@@ -26,6 +27,16 @@ const char* method_name(Method m) {
     case Method::refine: return "refine";
   }
   return "?";
+}
+
+const char* excitation_name(Excitation e) {
+  return e == Excitation::filtered ? "filtered" : "white";
+}
+
+Excitation parse_excitation(const std::string& name) {
+  if (name == "white") return Excitation::white;
+  if (name == "filtered") return Excitation::filtered;
+  throw std::invalid_argument("excitation must be 'white' or 'filtered', got '" + name + "'");
 }
 
 Method parse_method(const std::string& name) {
@@ -110,6 +121,15 @@ void Options::validate() const {
     require(drift > 0.0 || (noise == 0.0 && start_velocity == 0.0),
             "without friction the body never stops");
   }
+  if (filtered()) {
+    validate_filter_options(*this);
+  } else {
+    require(filter_a.empty() && filter_b.empty() && filter_c.empty() && filter_start.empty(),
+            "filter_a, filter_b, filter_c and filter_start need excitation 'filtered'");
+    require(std::isnan(static_drift) || static_drift == drift,
+            "static_drift needs excitation 'filtered' (white noise never lets the body rest)");
+    require(event_depth == kDefaultEventDepth, "event_depth needs excitation 'filtered'");
+  }
   if (!histogram_axes.empty()) {
     const std::size_t slots = histogram_slots();
     require(histogram_axes.size() == slots * kHistogramVariables,
@@ -140,15 +160,27 @@ Plan::Plan(Options options) : options_(std::move(options)) {
   options_.validate();
   const Options& o = options_;
   const bool any_after = !o.times.empty() && o.times.back() > o.switch_off;
+  const bool filtered = o.filtered();
   needs_switch_state_ = o.stop || any_after;
-  const double end = needs_switch_state_ ? o.switch_off : o.times.back();
+  // The filtered excitation has no closed form after the switch-off (the filter rings down):
+  // its grid goes on to the last output time, and the kernel steps on from there to the stop.
+  const double end = needs_switch_state_
+                         ? (filtered && any_after ? o.times.back() : o.switch_off)
+                         : o.times.back();
+  // Boundaries of the noise's pieces (the filtered grid also needs one at the switch-off when
+  // it goes past it).
+  const std::vector<double> piece_ends =
+      filtered && o.piece_ends.empty() && any_after ? std::vector<double>{o.switch_off} : o.piece_ends;
   // Internal steps are needed for the time integrals, and for Euler-Maruyama always; the
   // exact velocity step is exact for any length, so velocity-only scenes jump.
   // A peak is a maximum over the grid's points, so peaks need the fine grid too.
-  const bool fine = o.integrals() || o.method == Method::euler || o.peaks;
-  // The intensity of the piece that ends at or after `until` (one piece: noise).
+  // The filtered excitation's steps are the skeleton's: always the fine grid.
+  const bool fine = o.integrals() || o.method == Method::euler || o.peaks || filtered;
+  // The intensity of the piece that ends at or after `until` (one piece: noise; none after
+  // the switch-off).
   std::size_t piece = 0;
   auto noise_until = [&](double until) {
+    if (until > o.switch_off) return 0.0;
     if (o.piece_ends.empty()) return o.noise;
     while (piece + 1 < o.piece_ends.size() && o.piece_ends[piece] < until) ++piece;
     return o.piece_noise[piece];
@@ -182,10 +214,10 @@ Plan::Plan(Options options) : options_(std::move(options)) {
   std::size_t next_piece = 0;
   for (;;) {
     const bool time_left = slot < static_cast<long>(o.times.size()) && o.times[slot] <= end;
-    while (next_piece < o.piece_ends.size() && o.piece_ends[next_piece] <= previous) ++next_piece;
-    const bool piece_left = next_piece < o.piece_ends.size() && o.piece_ends[next_piece] < end;
-    if (piece_left && (!time_left || o.piece_ends[next_piece] < o.times[slot])) {
-      add(o.piece_ends[next_piece], -1);
+    while (next_piece < piece_ends.size() && piece_ends[next_piece] <= previous) ++next_piece;
+    const bool piece_left = next_piece < piece_ends.size() && piece_ends[next_piece] < end;
+    if (piece_left && (!time_left || piece_ends[next_piece] < o.times[slot])) {
+      add(piece_ends[next_piece], -1);
     } else if (time_left) {
       add(o.times[slot], slot);
       ++slot;
@@ -195,10 +227,25 @@ Plan::Plan(Options options) : options_(std::move(options)) {
   }
   if (previous < end) add(end, -1);
   // The step's arithmetic has a range (exact_step.hpp); beyond it a step would overflow.
-  for (const Segment& seg : segments_)
-    require(step_in_range(seg.step, o.drift, seg.noise),
-            "times and switch_off are too long for this drift and noise: a step would exceed "
-            "the range of doubles");
+  if (!filtered)
+    for (const Segment& seg : segments_)
+      require(step_in_range(seg.step, o.drift, seg.noise),
+              "times and switch_off are too long for this drift and noise: a step would exceed "
+              "the range of doubles");
+  if (filtered) {
+    // The ring-down after the grid (to the stop) takes steps of dt / 2^refinement, in groups of
+    // the coarse grids' steps like the segments.
+    const double tail_step = std::ldexp(o.dt, -o.refinement);
+    std::vector<double> steps;  // per segment, 0 for a segment without steps
+    for (const Segment& seg : segments_) steps.push_back(seg.steps > 0 ? seg.step : 0.0);
+    filter_ = make_filter_model(o, steps, tail_step);
+    // The ring-down's steps are not known in advance: counted as the time the bound takes to
+    // fall by e^5 (thread-count heuristics only).
+    if (o.stop && filter_->has_bound) {
+      const double ring = 5.0 / filter_->bound.rate / tail_step;
+      steps_per_path_ += ring < 1e12 ? static_cast<std::uint64_t>(ring) : std::uint64_t{1000000000000};
+    }
+  }
   for (; slot < static_cast<long>(o.times.size()); ++slot) {
     coast_slots_.push_back(slot);
     coast_elapsed_.push_back(o.times[slot] - o.switch_off);

@@ -9,6 +9,7 @@
 #include <mutex>
 
 #include "crandall/dispatch.hpp"
+#include "crandall/filtered.hpp"
 #include "crandall/kernel.hpp"
 #include "crandall/team.hpp"
 
@@ -58,9 +59,15 @@ ChunkResult run_chunk(const Plan& plan, std::uint64_t chunk, int threads,
   const std::uint64_t count = plan.chunk_paths(chunk);
   const int team = thread_count(threads, double(count) * double(plan.steps_per_path()));
   const long blocks = static_cast<long>((count + kBlockPaths - 1) / kBlockPaths);
+  if (o.filtered() && o.method != Method::exact)
+    throw std::invalid_argument(std::string("run_chunk: excitation 'filtered' needs method 'exact', got '") +
+                                method_name(o.method) +
+                                "' (Richardson's coupled grids are for run_samples' bias estimates)");
   // The quadratic variation is only recorded with run_samples' values: not integrated here.
-  const BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks,
-                                                    false);
+  // The filtered excitation's loop is one scalar function for every CPU (filtered.hpp).
+  const BlockFn block_fn = o.filtered() ? &simulate_filtered_block
+                                        : active_kernel().block_fn(o.method, o.displacement,
+                                                                   o.distance, o.peaks, false);
   const int coupled = o.grids();
   ChunkResult result = empty_result(o);
   std::vector<ChunkResult> coarse_result(static_cast<std::size_t>(coupled - 1), empty_result(o));

@@ -50,6 +50,17 @@ class Options:
     histogram_axes: List[BinEdges]
     seed: int
     paths: int
+    #: "white" (the default) or "filtered": a_g = c . z of dz = A z dt + b noise dW.
+    excitation: str
+    #: The filter (excitation "filtered"): A (n x n row-major), b, c (n each), z(0) (empty: 0).
+    filter_a: List[float]
+    filter_b: List[float]
+    filter_c: List[float]
+    filter_start: List[float]
+    #: Static friction deceleration, >= drift; NaN: equal to drift.
+    static_drift: float
+    #: Bisections of a step where an event may happen (1 to 20).
+    event_depth: int
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
 
@@ -182,6 +193,14 @@ def build_info() -> dict[str, Union[int, str, list[str]]]:
 def draw_noise(seed: int, path0: int, count: int, pair: int) -> npt.NDArray[np.float64]:
     """Diagnostics: the kernel's draws of step pair `pair` for paths path0 .. path0 + count - 1,
     shape (6, count): normals of steps 2 pair and 2 pair + 1, their exponentials, their coins."""
+
+def filtered_trajectory(plan: Plan, path: int) -> dict[str, npt.NDArray[np.float64]]:
+    """One path of a filtered plan, point by point: keys t, a_g, V, U, S."""
+
+def filter_transition(
+    a: List[float], b: List[float], c: List[float], h: float
+) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(Phi, Q) of the filter augmented with G and D over a step h (unit intensity)."""
 
 def simulate_states(plan: Plan) -> npt.NDArray[np.float64]:
     """Diagnostics: every path's velocity at the end of the plan's last segment, velocity only,

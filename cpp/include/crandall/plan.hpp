@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -46,6 +47,18 @@ Method parse_method(const std::string& name);
 // The model's two constants: finite and >= 0 (throws std::invalid_argument naming the one that
 // is not). Options::validate and every entry point that takes them on their own check here.
 void validate_model(double drift, double noise);
+
+// The ground motion. white: the foundation's acceleration is white noise (the paper's model;
+// the vectorised kernels). filtered: it is a_g = c . z of a linear filter of white noise
+// (Kanai-Tajimi, Clough-Penzien, ...: Options::filter_a, filter_b, filter_c; filter.hpp),
+// simulated on the filter's exact Gaussian skeleton (filtered.cpp, docs/filtered.md).
+enum class Excitation { white, filtered };
+const char* excitation_name(Excitation e);
+Excitation parse_excitation(const std::string& name);
+
+// Default of Options::event_depth: bisections of a step in which an event may happen.
+constexpr int kDefaultEventDepth = 8;
+constexpr int kMaxEventDepth = 20;
 
 // Values binned per slot (Options::histogram_axes).
 constexpr int kHistogramVariables = 5;
@@ -107,6 +120,31 @@ struct Options {
   std::uint64_t seed = 0;
   std::uint64_t paths = 1;
 
+  // The filtered excitation (Excitation::filtered; the fields below must keep their defaults
+  // with white noise). Model, with V the body's velocity relative to the foundation:
+  //   dz = A z dt + b sigma(t) dW, z(0) = filter_start; a_g = c . z;
+  //   sliding: V' = -a_g - drift sgn V; at rest: stays while |a_g| <= static_drift, else
+  //   slides in the direction -sgn a_g; a slide reaching V = 0 at a time where
+  //   |a_g| > static_drift goes on the other way.
+  // sigma(t) is `noise` (or the pieces' piece_noise) before switch_off and 0 after it: the
+  // filter rings down. The stop is the last time the body comes to rest (it may be before the
+  // switch-off, when the body is at rest there and the ring-down never moves it again; 0 for a
+  // body that never slides).
+  Excitation excitation = Excitation::white;
+  std::vector<double> filter_a;      // A, n x n row-major (1 <= n <= 6)
+  std::vector<double> filter_b;      // b, n
+  std::vector<double> filter_c;      // c, n
+  std::vector<double> filter_start;  // z(0), n; empty: zeros
+  // Static friction deceleration mu_static g, >= drift. NaN (the default): equal to drift.
+  double static_drift = std::numeric_limits<double>::quiet_NaN();
+  // Bisections by exact bridges of a step where an event (a stop, an onset) may happen; the
+  // finest substeps (step / 2^event_depth) take a_g linear between their ends. 1 to 20, and at
+  // least grids() - 1.
+  int event_depth = kDefaultEventDepth;
+  bool filtered() const { return excitation == Excitation::filtered; }
+  // static_drift as the model uses it.
+  double resolved_static_drift() const { return static_drift == static_drift ? static_drift : drift; }
+
   // Throws std::invalid_argument naming the offending field.
   void validate() const;
   // Slots of the stop's moments: none, the stop, and with residual |U(t_s)|.
@@ -116,7 +154,10 @@ struct Options {
   std::size_t sample_slots() const {
     return times.size() + (stop ? 1 : 0) + (quadratic_variation ? 1 : 0);
   }
-  int grids() const { return crandall::grids(method, integrals()); }
+  // The filtered excitation's velocity has a bias too (its events): its grids follow the method.
+  int grids() const {
+    return filtered() ? crandall::grids(method) : crandall::grids(method, integrals());
+  }
   // Output slots that carry histograms: the output times, and the stop if observed.
   std::size_t histogram_slots() const { return times.size() + (stop ? 1 : 0); }
 };
@@ -139,6 +180,8 @@ constexpr std::uint64_t kBlockPaths = 256;
 constexpr std::uint64_t kChunkPaths = 65536;
 constexpr int kLanes = 16;  // paths stepped together in the kernel
 
+struct FilterModel;
+
 class Plan {
  public:
   explicit Plan(Options options);
@@ -150,6 +193,8 @@ class Plan {
   const std::vector<double>& coast_elapsed() const { return coast_elapsed_; }
   bool needs_switch_state() const { return needs_switch_state_; }
   std::uint64_t steps_per_path() const { return steps_per_path_; }
+  // The filtered excitation's precomputed transitions (null for white noise; filter.hpp).
+  const FilterModel* filter() const { return filter_.get(); }
   std::uint64_t chunks() const { return (options_.paths + kChunkPaths - 1) / kChunkPaths; }
   std::uint64_t chunk_paths(std::uint64_t chunk) const;
   // Histograms: whether any axis is recorded; the recorded axes in index order (the slots of
@@ -169,6 +214,7 @@ class Plan {
   std::uint64_t steps_per_path_ = 0;
   std::vector<BinEdges> recorded_axes_;
   std::vector<long> histogram_slot_;
+  std::shared_ptr<const FilterModel> filter_;
 };
 
 }  // namespace crandall

@@ -1,0 +1,133 @@
+// The filtered excitation's exact Gaussian skeleton (docs/filtered.md, "The skeleton").
+//
+// The ground acceleration is a_g(t) = c . z(t), z the state of a linear filter driven by white
+// noise: dz = A z dt + b sigma(t) dW, with sigma(t) the plan's piecewise-constant intensity (0
+// after the switch-off, when the filter rings down deterministically). Kanai-Tajimi and
+// Clough-Penzien are two such filters (kanai_tajimi, clough_penzien).
+//
+// Over a step the body needs, besides the filter's state at both ends, the ground velocity
+// change G = int a_g and its integral D = int G, both from the start of the step. So the filter
+// is augmented to Y = (z, G, D) (dimension m = n + 2), dY = Abar Y dt + bbar sigma dW with
+//   Abar = [[A, 0, 0], [c, 0, 0], [0, 1, 0]],  bbar = (b, 0, 0),
+// a linear SDE whose transition over a step h is exactly Gaussian:
+//   Y(h) = Phi(h) Y(0) + sigma L(h) xi,  xi ~ N(0, I_m),  Phi = exp(Abar h),
+//   Q(h) = L L^T = int_0^h exp(Abar s) bbar bbar^T exp(Abar^T s) ds.
+// And the state at the middle of an interval, given both ends, is Gaussian too (the bridge):
+//   Y(h/2) = F z(0) + K Y(h) + sigma R xi.
+// Everything here is computed once per plan (per distinct step length), never per path.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace crandall {
+
+class Plan;
+struct Options;
+
+// The largest filter dimension n (the augmented state has n + 2 <= kMaxAugmented components).
+constexpr int kMaxFilter = 6;
+constexpr int kMaxAugmented = kMaxFilter + 2;
+
+// A linear filter: dz = A z dt + b dW, a_g = c . z. a is n x n row-major.
+struct LinearFilter {
+  int n = 0;
+  std::vector<double> a, b, c;
+};
+
+// Kanai-Tajimi: z = (x, x'), x'' + 2 zeta omega x' + omega^2 x = -w (white noise),
+// a_g = -(omega^2 x + 2 zeta omega x'), the absolute acceleration of the soil column.
+LinearFilter kanai_tajimi(double omega, double zeta);
+// Clough-Penzien: Kanai-Tajimi's acceleration through a second (high-pass) oscillator,
+// y'' + 2 zeta_f omega_f y' + omega_f^2 y = a_KT, a_g = y''; z = (x, x', y, y').
+LinearFilter clough_penzien(double omega, double zeta, double omega_f, double zeta_f);
+
+// Row-major m x m matrices, m = filter.n + 2 (the augmented state (z, G, D)).
+struct Transition {
+  double step = 0.0;
+  std::vector<double> phi;   // Phi(step)
+  std::vector<double> q;     // Q(step), unit intensity
+  std::vector<double> root;  // a square root of q: q = root root^T
+};
+
+// Phi(h) and Q(h) of the augmented system (unit intensity), and a square root of Q. Throws
+// std::invalid_argument for h not finite and > 0 or a filter whose numbers are not finite.
+Transition transition(const LinearFilter& f, double h);
+
+// The midpoint of an interval of length `length` given its ends, for unit intensity: with
+// Y(0) = (z0, 0, 0) and Y(length) = Y1,
+//   Y(length / 2) = from_start z0 + from_end Y1 + R xi,   R = root (m x m), xi ~ N(0, I),
+// from_start m x n, from_end m x m (row-major). With intensity sigma the mean is the same and R
+// is scaled by sigma. phi_half is Phi(length / 2) (the midpoint without noise), and spread the
+// standard deviation of a_g = c . z at the midpoint given both ends (unit intensity).
+struct Bridge {
+  double length = 0.0;
+  std::vector<double> from_start, from_end, root, phi_half;
+  double spread = 0.0;
+};
+Bridge bridge(const LinearFilter& f, double length);
+
+// Solves A X + X A^T = -rhs for X (n x n row-major; rhs n x n, usually symmetric) by the
+// Kronecker form (I (x) A + A (x) I) vec X = -vec rhs. With A Hurwitz and rhs = b b^T, X is the
+// filter's stationary covariance; with A^T in place of A and rhs = I, the Lyapunov matrix P of
+// A^T P + P A = -I. Throws std::invalid_argument when the system is singular.
+std::vector<double> lyapunov(const std::vector<double>& a, int n, const std::vector<double>& rhs);
+
+// Whether every eigenvalue of the n x n matrix a has a negative real part.
+bool hurwitz(const std::vector<double>& a, int n);
+
+// The decay bound of the ring-down (no noise): with P from A^T P + P A = -I (positive definite
+// for a Hurwitz A), d/dt (z^T P z) = -|z|^2 <= 0, so ||z(s)||_P <= ||z(t)||_P for s >= t, and by
+// Cauchy-Schwarz in P's inner product |c . z(s)| <= sqrt(c^T P^-1 c) ||z(t)||_P.
+struct DecayBound {
+  std::vector<double> p;  // n x n
+  double gain = 0.0;      // sqrt(c^T P^-1 c)
+  double rate = 0.0;      // ||z||_P decays at least like exp(-rate t): rate = 1 / (2 lambda_max(P))
+  // The bound on |a_g| from the filter state z, for every later time.
+  double bound(const double* z, int n) const;
+};
+DecayBound decay_bound(const LinearFilter& f);
+
+// The filter of a plan's Options (filter_a, filter_b, filter_c), unvalidated.
+LinearFilter options_filter(const Options& o);
+// Checks the filtered excitation's options (Options::validate calls it for excitation
+// filtered); throws std::invalid_argument naming the field.
+void validate_filter_options(const Options& o);
+
+// What a filtered plan precomputes: for every distinct step length the skeleton's transition,
+// the bridges of the intervals the event search bisects (lengths step / 2^d, d = 0 ..
+// event_depth - 1) and the a_g spreads of the intervals a step may be tested on (coarse grids'
+// steps step 2^g included).
+struct StepTable {
+  double step = 0.0;
+  Transition skeleton;
+  std::vector<Bridge> bridges;      // bridges[d]: an interval of length step / 2^d
+  std::vector<double> spread_fine;  // [d]: the a_g spread of an interval of length step / 2^d
+  std::vector<double> spread_coarse;  // [g]: of an interval of length step 2^g (g = 0 .. 2)
+};
+
+struct FilterModel {
+  LinearFilter filter;
+  int m = 0;                        // n + 2
+  std::vector<double> c_a2;         // the row c A^2 (the curvature of a_g's mean)
+  std::vector<double> start;        // z(0)
+  double static_drift = 0.0;        // the resolved static friction deceleration
+  int depth = 0;                    // Options::event_depth
+  std::vector<StepTable> tables;
+  std::vector<int> segment_table;   // the table of each plan segment (-1: no steps)
+  int tail_table = -1;              // the ring-down's steps after the plan's segments
+  double tail_step = 0.0;
+  bool has_bound = false;
+  DecayBound bound;
+  // The table of a step length (throws std::logic_error if it was not precomputed).
+  int table_of(double step) const;
+};
+
+// Built by Plan for excitation filtered: segment_steps holds each plan segment's step length
+// (0 for a segment without steps), tail_step the ring-down's.
+std::shared_ptr<const FilterModel> make_filter_model(const Options& o,
+                                                     const std::vector<double>& segment_steps,
+                                                     double tail_step);
+
+}  // namespace crandall

@@ -1,0 +1,399 @@
+// The filtered excitation's exact skeleton: transitions, bridges, the ring-down's decay bound
+// (filter.hpp; derivations in docs/filtered.md, "The skeleton"). Plan-time code: Eigen's dense
+// algebra on matrices of at most 8 x 8, compiled once for the baseline instruction set, so every
+// CPU gets the same bits.
+#include "crandall/filter.hpp"
+
+#include <Eigen/Dense>
+#include <Eigen/Eigenvalues>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "crandall/plan.hpp"
+
+namespace crandall {
+namespace {
+
+using Mat = Eigen::MatrixXd;
+using Vec = Eigen::VectorXd;
+// The plan-time algebra of transitions and bridges runs in extended precision (x86's 80-bit long
+// double: the same bits on every x86-64 CPU) and is rounded to double at the end. The augmented
+// state is nearly degenerate at small steps: for Kanai-Tajimi, G + 2 zeta omega x - (omega^2 /
+// (2 zeta omega)) D is of relative size (omega h)^2, so Var Y(h) has an eigenvalue of relative
+// size (omega h)^4 that rounding of Q's entries in double (1e-16) swamps below h ~ 1e-4; the
+// factorisations need it, the stored results do not (rounding a square root or a gain to double
+// changes the sampled law only at second order in the rounding).
+using Real = long double;
+using RMat = Eigen::Matrix<Real, Eigen::Dynamic, Eigen::Dynamic>;
+using RVec = Eigen::Matrix<Real, Eigen::Dynamic, 1>;
+
+void require(bool ok, const std::string& message) {
+  if (!ok) throw std::invalid_argument(message);
+}
+
+Mat from_row_major(const std::vector<double>& v, int rows, int cols) {
+  Mat out(rows, cols);
+  for (int i = 0; i < rows; ++i)
+    for (int j = 0; j < cols; ++j) out(i, j) = v[static_cast<std::size_t>(i * cols + j)];
+  return out;
+}
+
+std::vector<double> to_row_major(const Mat& a) {
+  std::vector<double> out(static_cast<std::size_t>(a.rows() * a.cols()));
+  for (Eigen::Index i = 0; i < a.rows(); ++i)
+    for (Eigen::Index j = 0; j < a.cols(); ++j) out[static_cast<std::size_t>(i * a.cols() + j)] = a(i, j);
+  return out;
+}
+
+// Abar = [[A, 0, 0], [c, 0, 0], [0, 1, 0]] and bbar bbar^T, bbar = (b, 0, 0).
+void augmented(const LinearFilter& f, RMat& abar, RMat& noise) {
+  const int n = f.n, m = n + 2;
+  abar = RMat::Zero(m, m);
+  abar.topLeftCorner(n, n) = from_row_major(f.a, n, n).cast<Real>();
+  for (int j = 0; j < n; ++j) abar(n, j) = f.c[static_cast<std::size_t>(j)];
+  abar(n + 1, n) = 1.0;
+  RVec bbar = RVec::Zero(m);
+  for (int j = 0; j < n; ++j) bbar(j) = f.b[static_cast<std::size_t>(j)];
+  noise = bbar * bbar.transpose();
+}
+
+// Phi(tau) and Q(tau) by their Taylor series, for ||Abar tau|| <= 1/2:
+//   Phi = sum_k (Abar tau)^k / k!,
+//   Q = sum_k tau^(k+1) / (k+1)! L^k(B),  L(X) = Abar X + X Abar^T,  B = bbar bbar^T
+// (Q' = Abar Q + Q Abar^T + B, Q(0) = 0). Each entry of Phi and Q starts at its own power of tau
+// (the variance of D is O(tau^5) where that of x' is O(tau)), and every later term of its series
+// is smaller than the one before by a factor below 1/2: so each entry is accurate relative to
+// itself, not only to the matrix's norm (which a Pade approximant of Van Loan's block matrix
+// would give, losing the small entries at small steps). Terms are summed smallest first.
+void taylor(const RMat& abar, const RMat& noise, Real tau, RMat& phi, RMat& q) {
+  constexpr int kTerms = 30;  // (1/2)^30 / 30! is far below a long double's precision
+  const Eigen::Index m = abar.rows();
+  std::vector<RMat> terms;
+  terms.reserve(kTerms + 1);
+  RMat t = RMat::Identity(m, m);
+  terms.push_back(t);
+  for (int k = 1; k <= kTerms; ++k) {
+    t = (t * abar) * (tau / k);
+    terms.push_back(t);
+  }
+  phi = RMat::Zero(m, m);
+  for (int k = kTerms; k >= 0; --k) phi += terms[static_cast<std::size_t>(k)];
+  terms.clear();
+  RMat r = noise * tau;
+  terms.push_back(r);
+  for (int k = 0; k < kTerms; ++k) {
+    r = (abar * r + r * abar.transpose()) * (tau / (k + 2));
+    terms.push_back(r);
+  }
+  q = RMat::Zero(m, m);
+  for (int k = kTerms; k >= 0; --k) q += terms[static_cast<std::size_t>(k)];
+}
+
+// Phi(h), Q(h) (Van Loan's integral): the Taylor series on h / 2^s with ||Abar h|| / 2^s <= 1/2,
+// then s doublings Q(2t) = Phi(t) Q(t) Phi(t)^T + Q(t), Phi(2t) = Phi(t)^2 (the composition of
+// two steps: a sum of two positive semidefinite terms, so the diagonal never cancels).
+void phi_q(const LinearFilter& f, double h, RMat& phi, RMat& q) {
+  require(std::isfinite(h) && h > 0.0, "filter transition: the step must be finite and > 0");
+  RMat abar, noise;
+  augmented(f, abar, noise);
+  const Real norm = abar.cwiseAbs().rowwise().sum().maxCoeff();
+  int s = 0;
+  Real tau = h;
+  while (norm * tau > 0.5L && s < 2000) {
+    tau = std::ldexp(static_cast<Real>(h), -(++s));
+  }
+  taylor(abar, noise, tau, phi, q);
+  for (int i = 0; i < s; ++i) {
+    q = phi * q * phi.transpose() + q;
+    q = 0.5 * (q + q.transpose());
+    phi = phi * phi;
+  }
+  require(phi.allFinite() && q.allFinite(),
+          "filter_a, filter_b, filter_c: the filter's transition over a step of " +
+              std::to_string(h) + " overflows (the filter grows too fast for the horizon)");
+}
+
+// A square root of a positive semidefinite matrix q (q = R R^T), robust to its ill
+// conditioning: the components' variances span many powers of the step (O(h) for x' to O(h^5)
+// for D), so q is scaled to its correlation matrix first (diag(q)^(-1/2) q diag(q)^(-1/2),
+// entries O(1)), factored by Eigen's pivoted LDL^T (a pivot that rounds below 0 is taken as 0),
+// and scaled back: R = diag(q)^(1/2) P^T L D^(1/2). A component without variance gets a zero row.
+RMat psd_root(const RMat& q) {
+  const Eigen::Index m = q.rows();
+  RVec d(m);
+  for (Eigen::Index i = 0; i < m; ++i) d(i) = q(i, i) > 0.0 ? std::sqrt(q(i, i)) : 0.0L;
+  RMat r = RMat::Zero(m, m);
+  for (Eigen::Index i = 0; i < m; ++i)
+    for (Eigen::Index j = 0; j < m; ++j)
+      r(i, j) = d(i) > 0.0 && d(j) > 0.0 ? q(i, j) / (d(i) * d(j)) : (i == j ? 1.0 : 0.0);
+  Eigen::LDLT<RMat> ldlt(r);
+  RVec pivots = ldlt.vectorD();
+  for (Eigen::Index i = 0; i < m; ++i) pivots(i) = pivots(i) > 0.0 ? std::sqrt(pivots(i)) : 0.0L;
+  const RMat lower = ldlt.matrixL();
+  RMat root = ldlt.transpositionsP().transpose() * (lower * pivots.asDiagonal());
+  return d.asDiagonal() * root;
+}
+
+}  // namespace
+
+LinearFilter kanai_tajimi(double omega, double zeta) {
+  LinearFilter f;
+  f.n = 2;
+  f.a = {0.0, 1.0, -omega * omega, -2.0 * zeta * omega};
+  f.b = {0.0, -1.0};
+  f.c = {-omega * omega, -2.0 * zeta * omega};
+  return f;
+}
+
+LinearFilter clough_penzien(double omega, double zeta, double omega_f, double zeta_f) {
+  LinearFilter f;
+  f.n = 4;
+  const double w2 = omega * omega, k = 2.0 * zeta * omega;
+  const double f2 = omega_f * omega_f, kf = 2.0 * zeta_f * omega_f;
+  f.a = {0.0, 1.0, 0.0, 0.0,  //
+         -w2, -k,  0.0, 0.0,  //
+         0.0, 0.0, 0.0, 1.0,  //
+         -w2, -k,  -f2, -kf};
+  f.b = {0.0, -1.0, 0.0, 0.0};
+  f.c = {-w2, -k, -f2, -kf};
+  return f;
+}
+
+Transition transition(const LinearFilter& f, double h) {
+  RMat phi, q;
+  phi_q(f, h, phi, q);
+  Transition t;
+  t.step = h;
+  t.phi = to_row_major(phi.cast<double>());
+  t.q = to_row_major(q.cast<double>());
+  t.root = to_row_major(psd_root(q).cast<double>());
+  return t;
+}
+
+// The midpoint m of [0, length] given Y(0) = Y0 and Y(length) = Y1, with half = length / 2,
+// Phi = Phi(half), Q = Q(half) = L L^T (unit intensity):
+//   Ym = Phi Y0 + L xi1,  Y1 = Phi Ym + L xi2,  xi1, xi2 ~ N(0, I) independent.
+// Given Y1 the noises obey one linear constraint, M xi = r with M = [Phi L, L] (m x 2m),
+// xi = (xi1, xi2), r = Y1 - Phi^2 Y0; a standard normal vector conditioned on M xi = r is
+// M^+ r + N eta, eta ~ N(0, I_m), N an orthonormal basis of M's null space. With the QR
+// singular value decomposition (below):
+//   E[Ym | Y0, Y1] = (Phi - K Phi^2) Y0 + K Y1,  K = L (M^+)_top,
+//   Var[Ym | Y0, Y1] = L N_top N_top^T L^T (never formed as Q - K Phi Q, which cancels),
+// factored as Q is (psd_root). Working with square roots matters: the augmented state is nearly degenerate at
+// small steps (for Kanai-Tajimi, x and G are both about int W to leading order), so Var Y(h) is
+// ill-conditioned even after scaling, with a condition number the square of M's; solving with H
+// = Var Y1 directly lost percents of the bridge's variance at steps of 1e-4. All in the
+// coordinates scaled by S = diag(Q)^(1/2), then scaled back.
+Bridge bridge(const LinearFilter& f, double length) {
+  RMat phi, q;
+  phi_q(f, 0.5 * length, phi, q);
+  const int n = f.n;
+  const Eigen::Index m = phi.rows();
+  RVec s(m);
+  for (Eigen::Index i = 0; i < m; ++i) s(i) = q(i, i) > 0.0 ? std::sqrt(q(i, i)) : 1.0L;
+  const RMat scale = s.asDiagonal();
+  const RMat unscale = s.cwiseInverse().asDiagonal();
+  const RMat pt = unscale * phi * scale;
+  const RMat lt = unscale * psd_root(q);
+  RMat mt(m, 2 * m);
+  mt << pt * lt, lt;
+  // M's singular value decomposition M = U S V^T: M^+ = V_r S_r^-1 U_r^T over the r singular
+  // values above 1e-16 of the largest (exactly degenerate directions exist: with Clough-Penzien,
+  // G is y'(t) - y'(0) and D is y(t) - y(0) - y'(0) t, so Q has rank m - 2), and N = the rest
+  // of V (an orthonormal basis of the null space).
+  const Eigen::JacobiSVD<RMat> svd(mt, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const RVec sv = svd.singularValues();
+  Eigen::Index rank = 0;
+  while (rank < sv.size() && sv(rank) > sv(0) * 1e-16L) ++rank;
+  const RMat& u = svd.matrixU();
+  const RMat& v = svd.matrixV();
+  const RMat pinv = v.leftCols(rank) * sv.head(rank).cwiseInverse().asDiagonal() * u.leftCols(rank).transpose();
+  const RMat kt = lt * pinv.topRows(m);
+  const RMat null_top = v.rightCols(2 * m - rank).topRows(m);
+  const RMat rt = psd_root(RMat(lt * null_top * null_top.transpose() * lt.transpose()));
+  const RMat ft = pt - kt * (pt * pt);
+  Bridge b;
+  b.length = length;
+  const RMat from_start = (scale * ft * unscale).leftCols(n), from_end = scale * kt * unscale;
+  b.from_start = to_row_major(from_start.cast<double>());
+  b.from_end = to_row_major(from_end.cast<double>());
+  b.root = to_row_major((scale * rt).cast<double>());
+  b.phi_half = to_row_major(phi.cast<double>());
+  RVec cs = RVec::Zero(m);
+  for (int j = 0; j < n; ++j) cs(j) = f.c[static_cast<std::size_t>(j)] * s(j);
+  b.spread = static_cast<double>((rt.transpose() * cs).norm());
+  require(std::isfinite(b.spread) && from_start.allFinite() && from_end.allFinite(),
+          "filter_a, filter_b, filter_c: the filter's bridge over an interval of " +
+              std::to_string(length) + " is not finite (is every direction of the filter's "
+              "state reached by the noise?)");
+  return b;
+}
+
+std::vector<double> lyapunov(const std::vector<double>& a, int n, const std::vector<double>& rhs) {
+  const Mat am = from_row_major(a, n, n);
+  const int nn = n * n;
+  Mat k = Mat::Zero(nn, nn);
+  Vec v(nn);
+  // Column-major vec: index i + j n. (A X)_ij = sum_k A_ik X_kj; (X A^T)_ij = sum_k X_ik A_jk.
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const int row = i + j * n;
+      for (int q = 0; q < n; ++q) {
+        k(row, q + j * n) += am(i, q);
+        k(row, i + q * n) += am(j, q);
+      }
+      v(row) = -rhs[static_cast<std::size_t>(i * n + j)];
+    }
+  Eigen::FullPivLU<Mat> lu(k);
+  require(lu.isInvertible(),
+          "filter_a: the Lyapunov equation A X + X A^T = -B has no unique solution (A has "
+          "eigenvalues lambda_i + lambda_j = 0)");
+  const Vec x = lu.solve(v);
+  Mat out(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) out(i, j) = x(i + j * n);
+  return to_row_major(out);
+}
+
+bool hurwitz(const std::vector<double>& a, int n) {
+  Eigen::EigenSolver<Mat> es(from_row_major(a, n, n), false);
+  return es.info() == Eigen::Success && es.eigenvalues().real().maxCoeff() < 0.0;
+}
+
+double DecayBound::bound(const double* z, int n) const {
+  double quad = 0.0;
+  for (int i = 0; i < n; ++i) {
+    double row = 0.0;
+    for (int j = 0; j < n; ++j) row += p[static_cast<std::size_t>(i * n + j)] * z[j];
+    quad += z[i] * row;
+  }
+  return gain * std::sqrt(quad > 0.0 ? quad : 0.0);
+}
+
+DecayBound decay_bound(const LinearFilter& f) {
+  const int n = f.n;
+  require(hurwitz(f.a, n),
+          "filter_a must be Hurwitz (every eigenvalue with a negative real part) when the stop "
+          "is observed: the ring-down after the switch-off must die out");
+  const Mat at = from_row_major(f.a, n, n).transpose();
+  std::vector<double> identity(static_cast<std::size_t>(n * n), 0.0);
+  for (int i = 0; i < n; ++i) identity[static_cast<std::size_t>(i * n + i)] = 1.0;
+  Mat p = from_row_major(lyapunov(to_row_major(at), n, identity), n, n);
+  p = 0.5 * (p + p.transpose());
+  Eigen::SelfAdjointEigenSolver<Mat> es(p);
+  require(es.info() == Eigen::Success && es.eigenvalues().minCoeff() > 0.0,
+          "filter_a: the Lyapunov matrix of the ring-down is not positive definite");
+  Vec c(n);
+  for (int j = 0; j < n; ++j) c(j) = f.c[static_cast<std::size_t>(j)];
+  DecayBound d;
+  d.p = to_row_major(p);
+  d.gain = std::sqrt(c.dot(p.ldlt().solve(c)));
+  d.rate = 0.5 / es.eigenvalues().maxCoeff();
+  return d;
+}
+
+LinearFilter options_filter(const Options& o) {
+  LinearFilter f;
+  f.n = static_cast<int>(o.filter_b.size());
+  f.a = o.filter_a;
+  f.b = o.filter_b;
+  f.c = o.filter_c;
+  return f;
+}
+
+void validate_filter_options(const Options& o) {
+  const std::size_t n = o.filter_b.size();
+  require(n >= 1 && n <= static_cast<std::size_t>(kMaxFilter),
+          "filter_b must hold the filter's n = 1 to 6 numbers, got " + std::to_string(n));
+  require(o.filter_a.size() == n * n, "filter_a must hold n * n = " + std::to_string(n * n) +
+                                          " numbers (A row-major), got " +
+                                          std::to_string(o.filter_a.size()));
+  require(o.filter_c.size() == n,
+          "filter_c must hold n = " + std::to_string(n) + " numbers, got " + std::to_string(o.filter_c.size()));
+  require(o.filter_start.empty() || o.filter_start.size() == n,
+          "filter_start must be empty (zeros) or hold n = " + std::to_string(n) + " numbers, got " +
+              std::to_string(o.filter_start.size()));
+  const auto finite = [](const std::vector<double>& v) {
+    for (double x : v)
+      if (!std::isfinite(x)) return false;
+    return true;
+  };
+  require(finite(o.filter_a), "filter_a must be finite");
+  require(finite(o.filter_b), "filter_b must be finite");
+  require(finite(o.filter_c), "filter_c must be finite");
+  require(finite(o.filter_start), "filter_start must be finite");
+  require(std::isnan(o.static_drift) || (std::isfinite(o.static_drift) && o.static_drift >= o.drift),
+          "static_drift must be finite and >= drift (NaN: equal to drift)");
+  require(o.method == Method::exact || o.method == Method::richardson || o.method == Method::richardson2,
+          std::string("method must be 'exact' with excitation 'filtered' ('richardson' and "
+                      "'richardson2' only for run_samples' coupled grids), got '") +
+              method_name(o.method) + "'");
+  require(o.event_depth >= 1 && o.event_depth <= kMaxEventDepth,
+          "event_depth must be between 1 and " + std::to_string(kMaxEventDepth));
+  require(o.event_depth >= o.grids() - 1,
+          "event_depth must be at least " + std::to_string(o.grids() - 1) + " for method '" +
+              method_name(o.method) + "' (its coarsest grid's steps are bisected at the finer grids' points first)");
+  require(!o.quadratic_variation, "quadratic_variation is not available with excitation 'filtered'");
+  require(!o.peaks, "peaks are not available with excitation 'filtered' yet");
+  require(o.paths <= (std::uint64_t{1} << 40), "paths must be <= 2^40 with excitation 'filtered'");
+  if (o.stop) {
+    require(o.drift > 0.0, "the stop needs drift > 0 with excitation 'filtered' (without friction "
+                           "the ring-down never lets the body rest for good)");
+    require(hurwitz(o.filter_a, static_cast<int>(n)),
+            "filter_a must be Hurwitz (every eigenvalue with a negative real part) when the stop "
+            "is observed: the ring-down after the switch-off must die out");
+  }
+}
+
+int FilterModel::table_of(double step) const {
+  for (std::size_t i = 0; i < tables.size(); ++i)
+    if (tables[i].step == step) return static_cast<int>(i);
+  throw std::logic_error("filtered: no transition was precomputed for a step");
+}
+
+std::shared_ptr<const FilterModel> make_filter_model(const Options& o,
+                                                     const std::vector<double>& segment_steps,
+                                                     double tail_step) {
+  auto model = std::make_shared<FilterModel>();
+  FilterModel& fm = *model;
+  fm.filter = options_filter(o);
+  const int n = fm.filter.n;
+  fm.m = n + 2;
+  const Mat a = from_row_major(fm.filter.a, n, n);
+  Vec c(n);
+  for (int j = 0; j < n; ++j) c(j) = fm.filter.c[static_cast<std::size_t>(j)];
+  const Vec ca2 = (c.transpose() * a * a).transpose();
+  fm.c_a2.assign(ca2.data(), ca2.data() + n);
+  fm.start = o.filter_start.empty() ? std::vector<double>(static_cast<std::size_t>(n), 0.0) : o.filter_start;
+  fm.static_drift = o.resolved_static_drift();
+  fm.depth = o.event_depth;
+  const int grids = o.grids();
+  const auto table = [&](double h) {
+    for (std::size_t i = 0; i < fm.tables.size(); ++i)
+      if (fm.tables[i].step == h) return static_cast<int>(i);
+    StepTable t;
+    t.step = h;
+    t.skeleton = transition(fm.filter, h);
+    for (int d = 0; d <= fm.depth; ++d) {
+      Bridge b = bridge(fm.filter, std::ldexp(h, -d));
+      t.spread_fine.push_back(b.spread);
+      if (d < fm.depth) t.bridges.push_back(std::move(b));
+    }
+    for (int g = 0; g < 3; ++g)
+      t.spread_coarse.push_back(g == 0 ? t.spread_fine[0]
+                                       : g < grids ? bridge(fm.filter, std::ldexp(h, g)).spread : 0.0);
+    fm.tables.push_back(std::move(t));
+    return static_cast<int>(fm.tables.size() - 1);
+  };
+  for (double h : segment_steps) fm.segment_table.push_back(h > 0.0 ? table(h) : -1);
+  fm.tail_step = tail_step;
+  if (o.stop) {
+    fm.tail_table = table(tail_step);
+    fm.bound = decay_bound(fm.filter);
+    fm.has_bound = true;
+  }
+  return model;
+}
+
+}  // namespace crandall

@@ -1,0 +1,479 @@
+// The filtered excitation's path loop (filtered.hpp; docs/filtered.md).
+//
+// Per path, the filter's augmented state Y = (z, G, D) is walked on the plan's grid with its exact
+// Gaussian transition (filter.hpp): every step gives z at its end and G = int a_g, D = int G over
+// it, with no error. The body (V its velocity relative to the foundation, U its displacement,
+// S = int |V|) follows:
+//   sliding (V != 0): V' = -a_g - drift sgn V, U' = V, S' = |V|;
+//   at rest (V = 0): stays while |a_g| <= static_drift, else slides the way -sgn a_g;
+//   a slide reaching V = 0 where |a_g| > static_drift goes on the other way.
+// Over an interval of length L on which no event (stop, onset) happens, a sliding body moves
+// exactly by the skeleton's numbers: V1 = V0 - G - s drift L, dU = V0 L - D - s drift L^2 / 2,
+// dS = s dU (s = sgn V0); a body at rest stays at rest. An interval where an event is possible
+// (the test `possible_event`) is bisected by exact bridges, only its candidate halves again,
+// down to event_depth bisections; on those finest substeps a_g is taken linear between its end
+// values and the body is stepped exactly for that line by newmark::linear_step (the record
+// integrator's own step).
+//
+// Coupled grids (run_samples, Richardson's methods): grid g's skeleton is every 2^g-th point of
+// the walked grid, its (G, D) over a coarse step composed exactly from the fine steps'; its
+// event search bisects a coarse step first at the fine grid's points, then inside a fine step
+// with that step's own bridges and random numbers. Every interval's numbers are a function of
+// its place in that tree only, so the grids see one and the same path.
+//
+// Random numbers: Philox keyed by the seed; the counter is (index, path word), index = 2 k + j
+// for the j-th block of 4 normals of fine step k, path word = path + ((2^22 + node) << 40) with
+// node 0 for the skeleton's step and node >= 1 for the bridge that splits node's interval of that
+// step (node 1 the whole step, children 2 node and 2 node + 1). Paths are < 2^40 and nodes
+// < 2^21, so these counters never meet each other nor the white-noise kernel's (path words below
+// 2^40, or with bit 63 set).
+#include "crandall/filtered.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <functional>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "crandall/filter.hpp"
+#include "crandall/kernel.hpp"
+#include "crandall/newmark.hpp"
+#include "crandall/rng.hpp"
+
+namespace crandall {
+namespace {
+
+std::atomic<double> event_margin{kEventMargin};
+
+constexpr std::uint64_t kNodeTag = std::uint64_t{1} << 22;
+constexpr int kPathBits = 40;
+
+// The m <= 8 standard normals of one (path, step, node): Box-Muller on pairs of Philox words
+// (radius from the first, angle from bits 2..31 of the second), with the project's
+// deterministic log and sine/cosine (detmath.hpp), so the same bits on every CPU.
+void normals(std::uint64_t seed, std::uint64_t path, std::uint64_t step, std::uint64_t node, int m,
+             double* out) {
+  const std::uint64_t word = path + ((kNodeTag + node) << kPathBits);
+  for (int j = 0; 2 * j < m; ++j) {
+    std::uint64_t w[4];
+    detail::philox_scalar(seed, word, 2 * step + static_cast<std::uint64_t>(j), w);
+    for (int p = 0; p < 2 && 4 * j + 2 * p < m; ++p) {
+      const double radius = std::sqrt(-2.0 * detmath::log_positive(detmath::unit_of_word(w[2 * p])));
+      double sn, cs;
+      detmath::sincos_turn30((w[2 * p + 1] & 0xFFFFFFFFull) >> 2, sn, cs);
+      out[4 * j + 2 * p] = radius * cs;
+      if (4 * j + 2 * p + 1 < m) out[4 * j + 2 * p + 1] = radius * sn;
+    }
+  }
+}
+
+// A fine step of the walked grid: z at both ends, (G, D) over it, its index and start time.
+struct FineStep {
+  double z0[kMaxFilter], z1[kMaxFilter];
+  double g, d;
+  std::uint64_t k;
+  double t0;
+};
+
+// An interval the event search looks at: its start time and length, z at both ends, (G, D)
+// over it, and where its midpoint comes from: `count` >= 2 fine steps of the group (fine points
+// split it), or (count <= 1) inside fine step `k` as its bisection tree's `node` at relative
+// depth `rel` (length step / 2^rel).
+struct Interval {
+  double t0, len;
+  double za[kMaxFilter], zb[kMaxFilter];
+  double g, d;
+  int first, count;
+  std::uint64_t k;
+  std::uint64_t node;
+  int rel;
+};
+
+// One grid's body.
+struct Body {
+  double v = 0.0, u = 0.0, s = 0.0;
+  double rest_since = 0.0;  // when it last came to rest
+  bool done = false;        // at rest for good (after the switch-off, by the decay bound)
+};
+
+class Walker {
+ public:
+  Walker(const Plan& plan, int grids, Trajectory* trace)
+      : plan_(plan), o_(plan.options()), fm_(*plan.filter()), n_(fm_.filter.n), m_(fm_.m),
+        grids_(grids), group_(1 << (grids - 1)), drift_(o_.drift), static_(fm_.static_drift),
+        margin_(event_margin.load()), trace_(trace) {
+    yield_ = {drift_, drift_, static_, static_};
+  }
+
+  // Walks one path; outputs[g][slot] = (V, U, S) at output slot `slot` of grid g, and stops[g]
+  // = (time of the stop, U, S). Returns false when cancelled.
+  bool walk(std::uint64_t path, std::vector<std::vector<std::array<double, 3>>>& outputs,
+            std::vector<std::array<double, 3>>& stops, const std::function<bool()>& cancelled,
+            std::uint64_t& poll) {
+    path_ = path;
+    for (int g = 0; g < grids_; ++g) {
+      bodies_[g] = Body{};
+      bodies_[g].v = o_.start_velocity;
+      bodies_[g].u = o_.start_displacement;
+    }
+    for (int i = 0; i < n_; ++i) z_[i] = fm_.start[static_cast<std::size_t>(i)];
+    if (trace_) point(0.0, ground(z_), bodies_[0]);
+    std::uint64_t k = 0;
+    double start = 0.0;
+    const auto& segs = plan_.segments();
+    bool all_done = false;
+    for (std::size_t i = 0; i < segs.size(); ++i) {
+      const Segment& seg = segs[i];
+      const bool after = start >= o_.switch_off;
+      if (seg.steps > 0 && !all_done) {
+        const StepTable& table = fm_.tables[static_cast<std::size_t>(fm_.segment_table[i])];
+        for (std::uint64_t j = 0; j < seg.steps && !all_done; ++j, ++k) {
+          if ((++poll & (kPollSteps - 1)) == 0 && cancelled && cancelled()) return false;
+          step(table, seg.noise, k, start + static_cast<double>(j) * seg.step);
+          if (after && o_.stop) all_done = check_done(k + 1);
+        }
+      }
+      start += static_cast<double>(seg.steps) * seg.step;
+      if (seg.slot >= 0)
+        for (int g = 0; g < grids_; ++g)
+          outputs[static_cast<std::size_t>(g)][static_cast<std::size_t>(seg.slot)] = {
+              bodies_[g].v, bodies_[g].u, bodies_[g].s};
+    }
+    if (!o_.stop) return true;
+    if (start < o_.switch_off) start = o_.switch_off;  // (the grid always reaches it)
+    const StepTable& tail = fm_.tables[static_cast<std::size_t>(fm_.tail_table)];
+    // The ring-down: noise-free steps until every grid's body is at rest for good.
+    all_done = all_done || check_done(k);
+    for (std::uint64_t j = 0; !all_done; ++j, ++k) {
+      if ((++poll & (kPollSteps - 1)) == 0 && cancelled && cancelled()) return false;
+      step(tail, 0.0, k, start + static_cast<double>(j) * tail.step);
+      all_done = check_done(k + 1);
+    }
+    for (int g = 0; g < grids_; ++g)
+      stops[static_cast<std::size_t>(g)] = {bodies_[g].rest_since, bodies_[g].u, bodies_[g].s};
+    return true;
+  }
+
+ private:
+  double ground(const double* z) const {
+    double a = 0.0;
+    for (int i = 0; i < n_; ++i) a += fm_.filter.c[static_cast<std::size_t>(i)] * z[i];
+    return a;
+  }
+  double curvature(const double* z) const {
+    double a = 0.0;
+    for (int i = 0; i < n_; ++i) a += fm_.c_a2[static_cast<std::size_t>(i)] * z[i];
+    return std::abs(a);
+  }
+  void point(double t, double a, const Body& b) {
+    trace_->time.push_back(t);
+    trace_->ground.push_back(a);
+    trace_->velocity.push_back(b.v);
+    trace_->displacement.push_back(b.u);
+    trace_->distance.push_back(b.s);
+  }
+
+  // After fine step `k_end` - 1 (the walked grid's point k_end), after the switch-off: grid g
+  // (at its own points) is at rest for good once it is at rest and the decay bound keeps |a_g|
+  // within the static friction for ever.
+  bool check_done(std::uint64_t k_end) {
+    bool all = true;
+    double bound = -1.0;
+    for (int g = 0; g < grids_; ++g) {
+      Body& b = bodies_[g];
+      if (!b.done && (k_end & ((std::uint64_t{1} << g) - 1)) == 0 && b.v == 0.0) {
+        if (bound < 0.0) bound = fm_.bound.bound(z_, n_);
+        if (bound <= static_) b.done = true;
+      }
+      all = all && b.done;
+    }
+    return all;
+  }
+
+  // Fine step k from time t0: the skeleton's transition, then every grid whose step ends here.
+  void step(const StepTable& table, double sigma, std::uint64_t k, double t0) {
+    FineStep& f = buffer_[k & static_cast<std::uint64_t>(group_ - 1)];
+    const Transition& tr = table.skeleton;
+    double xi[kMaxAugmented] = {};
+    if (sigma != 0.0) normals(o_.seed, path_, k, 0, m_, xi);
+    double y[kMaxAugmented];
+    for (int r = 0; r < m_; ++r) {
+      double mean = 0.0, noise = 0.0;
+      for (int c = 0; c < n_; ++c) mean += tr.phi[static_cast<std::size_t>(r * m_ + c)] * z_[c];
+      if (sigma != 0.0)
+        for (int c = 0; c < m_; ++c) noise += tr.root[static_cast<std::size_t>(r * m_ + c)] * xi[c];
+      y[r] = mean + sigma * noise;
+    }
+    for (int i = 0; i < n_; ++i) {
+      f.z0[i] = z_[i];
+      f.z1[i] = z_[i] = y[i];
+    }
+    f.g = y[n_];
+    f.d = y[n_ + 1];
+    f.k = k;
+    f.t0 = t0;
+    table_ = &table;
+    sigma_ = sigma;
+    for (int g = 0; g < grids_; ++g) {
+      const int span = 1 << g;
+      if (((k + 1) & static_cast<std::uint64_t>(span - 1)) != 0 || bodies_[g].done) continue;
+      const int first = static_cast<int>((k + 1 - static_cast<std::uint64_t>(span)) &
+                                         static_cast<std::uint64_t>(group_ - 1));
+      Interval iv;
+      compose(first, span, iv);
+      trace_grid_ = trace_ != nullptr && g == 0;
+      search(iv, fm_.depth, bodies_[g]);
+    }
+  }
+
+  // The interval of fine steps [first, first + count) of the group: its ends and the (G, D)
+  // composed step by step (G = G1 + G2, D = D1 + D2 + G1 L2).
+  void compose(int first, int count, Interval& iv) const {
+    const FineStep& a = buffer_[first];
+    const FineStep& b = buffer_[first + count - 1];
+    const double h = table_->step;
+    iv.t0 = a.t0;
+    iv.len = h * static_cast<double>(count);
+    for (int i = 0; i < n_; ++i) {
+      iv.za[i] = a.z0[i];
+      iv.zb[i] = b.z1[i];
+    }
+    double g = 0.0, d = 0.0;
+    for (int j = first; j < first + count; ++j) {
+      d = d + buffer_[j].d + g * h;
+      g = g + buffer_[j].g;
+    }
+    iv.g = g;
+    iv.d = d;
+    iv.first = first;
+    iv.count = count;
+    iv.k = a.k;
+    iv.node = 1;
+    iv.rel = 0;
+  }
+
+  double spread(const Interval& iv) const {
+    if (iv.count >= 2) return table_->spread_coarse[iv.count == 2 ? 1 : 2];
+    return table_->spread_fine[static_cast<std::size_t>(iv.rel)];
+  }
+
+  // Whether an event (a stop, an onset, a reversal) may happen in the interval for a body with
+  // velocity v at its start. a_g on the interval stays within M = max(|a_g| at the ends) +
+  // margin (sigma spread + L^2 / 8 max |c A^2 z| at the ends): the bridge's deviation from the
+  // line between the ends (its standard deviation at the midpoint, `spread`; a Brownian bridge
+  // exceeds its line by margin such deviations with probability exp(-margin^2 / 2)) and the
+  // curvature of its mean. At rest: an onset needs M > static_drift. Sliding: V moves by at most
+  // (M + drift) per unit time, so a zero of V needs |V0| + |V1| <= L (M + drift) (V1 the
+  // no-event value), or V1 on the other side of 0.
+  bool possible_event(const Interval& iv, double v) const {
+    const double aa = ground(iv.za), ab = ground(iv.zb);
+    const double curve = 0.125 * iv.len * iv.len * std::max(curvature(iv.za), curvature(iv.zb));
+    const double reach = std::max(std::abs(aa), std::abs(ab)) + margin_ * (sigma_ * spread(iv) + curve);
+    if (v == 0.0) return reach > static_;
+    const double s = v > 0.0 ? 1.0 : -1.0;
+    const double v1 = v - iv.g - s * drift_ * iv.len;
+    return s * v1 <= 0.0 || std::abs(v) + std::abs(v1) <= iv.len * (reach + drift_);
+  }
+
+  void search(const Interval& iv, int depth_left, Body& b) {
+    if (!possible_event(iv, b.v)) {
+      if (b.v != 0.0) {
+        const double s = b.v > 0.0 ? 1.0 : -1.0;
+        const double v1 = b.v - iv.g - s * drift_ * iv.len;
+        const double du = b.v * iv.len - iv.d - s * drift_ * (0.5 * iv.len * iv.len);
+        b.u += du;
+        b.s += s * du;
+        b.v = v1;
+      }
+      if (trace_grid_) point(iv.t0 + iv.len, ground(iv.zb), b);
+      return;
+    }
+    if (depth_left == 0) {
+      finest(iv, b);
+      return;
+    }
+    Interval left, right;
+    bisect(iv, left, right);
+    search(left, depth_left - 1, b);
+    search(right, depth_left - 1, b);
+  }
+
+  // The two halves of an interval: at a fine point, or by the bridge of its node.
+  void bisect(const Interval& iv, Interval& left, Interval& right) const {
+    if (iv.count >= 2) {
+      const int half = iv.count / 2;
+      compose(iv.first, half, left);
+      compose(iv.first + half, half, right);
+      return;
+    }
+    const Bridge& br = table_->bridges[static_cast<std::size_t>(iv.rel)];
+    double y[kMaxAugmented];
+    if (sigma_ == 0.0) {
+      // No noise: the midpoint is the deterministic flow from the start.
+      for (int r = 0; r < m_; ++r) {
+        double sum = 0.0;
+        for (int c = 0; c < n_; ++c) sum += br.phi_half[static_cast<std::size_t>(r * m_ + c)] * iv.za[c];
+        y[r] = sum;
+      }
+    } else {
+      double xi[kMaxAugmented];
+      normals(o_.seed, path_, iv.k, iv.node, m_, xi);
+      double end[kMaxAugmented];
+      for (int i = 0; i < n_; ++i) end[i] = iv.zb[i];
+      end[n_] = iv.g;
+      end[n_ + 1] = iv.d;
+      for (int r = 0; r < m_; ++r) {
+        double mean = 0.0, noise = 0.0;
+        for (int c = 0; c < n_; ++c) mean += br.from_start[static_cast<std::size_t>(r * n_ + c)] * iv.za[c];
+        for (int c = 0; c < m_; ++c) mean += br.from_end[static_cast<std::size_t>(r * m_ + c)] * end[c];
+        for (int c = 0; c < m_; ++c) noise += br.root[static_cast<std::size_t>(r * m_ + c)] * xi[c];
+        y[r] = mean + sigma_ * noise;
+      }
+    }
+    const double half = 0.5 * iv.len;
+    for (Interval* p : {&left, &right}) {
+      p->len = half;
+      p->count = 1;
+      p->first = iv.first;
+      p->k = iv.k;
+      p->rel = iv.rel + 1;
+    }
+    left.t0 = iv.t0;
+    right.t0 = iv.t0 + half;
+    left.node = 2 * iv.node;
+    right.node = 2 * iv.node + 1;
+    for (int i = 0; i < n_; ++i) {
+      left.za[i] = iv.za[i];
+      left.zb[i] = right.za[i] = y[i];
+      right.zb[i] = iv.zb[i];
+    }
+    left.g = y[n_];
+    left.d = y[n_ + 1];
+    right.g = iv.g - y[n_];
+    right.d = iv.d - y[n_ + 1] - y[n_] * half;
+  }
+
+  // A finest substep: a_g linear between its ends, the body stepped exactly for that line
+  // (newmark's sliding velocity W is -V, its displacement -U).
+  void finest(const Interval& iv, Body& b) {
+    const double aa = ground(iv.za), ab = ground(iv.zb);
+    newmark::Motion mo;
+    mo.w = -b.v;
+    mo.mode = b.v == 0.0 ? 0 : (b.v < 0.0 ? 1 : -1);
+    double dist = 0.0;
+    const double u0 = b.u, s0 = b.s;
+    newmark::linear_step(
+        mo, aa, ab, iv.len, iv.t0, yield_, [](double, int) {},
+        [&](double t) {
+          b.rest_since = t;
+          if (trace_grid_) {
+            Body at{0.0, u0 - mo.d, s0 + dist, t, false};
+            point(t, aa + (ab - aa) * ((t - iv.t0) / iv.len), at);
+          }
+        },
+        &dist);
+    b.v = mo.mode == 0 ? 0.0 : -mo.w;
+    b.u = u0 - mo.d;
+    b.s = s0 + dist;
+    if (trace_grid_) point(iv.t0 + iv.len, ab, b);
+  }
+
+  const Plan& plan_;
+  const Options& o_;
+  const FilterModel& fm_;
+  const int n_, m_, grids_, group_;
+  const double drift_, static_, margin_;
+  Trajectory* trace_;
+  bool trace_grid_ = false;
+  newmark::Yield yield_{};
+  std::uint64_t path_ = 0;
+  double z_[kMaxFilter] = {};
+  Body bodies_[3];
+  FineStep buffer_[4];
+  const StepTable* table_ = nullptr;
+  double sigma_ = 0.0;
+};
+
+}  // namespace
+
+double set_event_margin(double margin) {
+  if (!(std::isfinite(margin) && margin > 0.0))
+    throw std::invalid_argument("event margin must be finite and > 0");
+  return event_margin.exchange(margin);
+}
+
+void simulate_filtered_block(const Plan& plan, std::uint64_t first, std::uint64_t count,
+                             Workspace& ws) {
+  const Options& o = plan.options();
+  const int grids = o.grids();
+  const std::size_t slots = o.times.size();
+  Walker walker(plan, grids, nullptr);
+  std::vector<std::vector<std::array<double, 3>>> outputs(
+      static_cast<std::size_t>(grids), std::vector<std::array<double, 3>>(slots));
+  std::vector<std::array<double, 3>> stops(static_cast<std::size_t>(grids));
+  // The walked grid's values of a group of kLanes paths, slot by slot, summed as the white
+  // kernel sums its lanes.
+  std::vector<double> lanes_out(slots * 3 * kLanes);
+  double ts[kLanes], us[kLanes], ss[kLanes], au[kLanes];
+  const double zero[kLanes] = {};
+  std::uint64_t poll = 0;
+  for (std::uint64_t offset = 0; offset < count; offset += kLanes) {
+    const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
+    const std::uint64_t path0 = first + offset;
+    for (int l = 0; l < lanes; ++l) {
+      const std::uint64_t path = path0 + static_cast<std::uint64_t>(l);
+      if (!walker.walk(path, outputs, stops, ws.cancelled, poll)) return;
+      for (std::size_t k = 0; k < slots; ++k) {
+        for (int v = 0; v < 3; ++v) lanes_out[(k * 3 + static_cast<std::size_t>(v)) * kLanes + static_cast<std::size_t>(l)] = outputs[0][k][static_cast<std::size_t>(v)];
+        for (int g = 0; g < grids; ++g) {
+          const auto& x = outputs[static_cast<std::size_t>(g)][k];
+          ws.record(k, g, path, &x[0], &x[1], &x[2], 1);
+        }
+      }
+      if (o.stop) {
+        ts[l] = stops[0][0] - o.switch_off;
+        us[l] = stops[0][1];
+        ss[l] = stops[0][2];
+        au[l] = std::abs(us[l]);
+        for (int g = 0; g < grids; ++g) {
+          const double t = stops[static_cast<std::size_t>(g)][0] - o.switch_off;
+          ws.record(slots, g, path, &t, &stops[static_cast<std::size_t>(g)][1],
+                    &stops[static_cast<std::size_t>(g)][2], 1);
+        }
+      }
+    }
+    for (std::size_t k = 0; k < slots; ++k) {
+      const double* x = &lanes_out[(k * 3 + 0) * kLanes];
+      const double* u = &lanes_out[(k * 3 + 1) * kLanes];
+      const double* s = &lanes_out[(k * 3 + 2) * kLanes];
+      ws.times.add(k, x, u, s, lanes, ws.active);
+      if (plan.histograms())
+        bin_slot(plan, ws.histograms, k,
+                 {x, o.displacement ? u : nullptr, o.distance ? s : nullptr, nullptr, nullptr}, lanes);
+    }
+    if (o.stop) {
+      ws.stop.add(0, ts, us, ss, lanes, ws.active);
+      if (o.residual) ws.stop.add(1, au, zero, zero, lanes, ws.active);
+      if (plan.histograms())
+        bin_slot(plan, ws.histograms, slots,
+                 {ts, o.displacement ? us : nullptr, o.distance ? ss : nullptr, nullptr, nullptr}, lanes);
+    }
+  }
+}
+
+Trajectory filtered_trajectory(const Plan& plan, std::uint64_t path) {
+  const Options& o = plan.options();
+  if (!o.filtered()) throw std::invalid_argument("filtered_trajectory needs excitation 'filtered'");
+  if (path >= o.paths) throw std::invalid_argument("filtered_trajectory: path must be < paths");
+  Trajectory out;
+  Walker walker(plan, 1, &out);
+  std::vector<std::vector<std::array<double, 3>>> outputs(1, std::vector<std::array<double, 3>>(o.times.size()));
+  std::vector<std::array<double, 3>> stops(1);
+  std::uint64_t poll = 0;
+  walker.walk(path, outputs, stops, {}, poll);
+  return out;
+}
+
+}  // namespace crandall
