@@ -61,6 +61,7 @@ void register_plan(py::module_& m) {
       .def_readwrite("filter_start", &crandall::Options::filter_start)
       .def_readwrite("static_drift", &crandall::Options::static_drift)
       .def_readwrite("event_depth", &crandall::Options::event_depth)
+      .def_readwrite("ring_down", &crandall::Options::ring_down)
       .def("validate", &crandall::Options::validate);
 
   py::class_<crandall::Plan>(m, "Plan", "A validated run: the time grid and the path partition.")

@@ -127,6 +127,7 @@ class Walker {
     for (std::size_t i = 0; i < segs.size(); ++i) {
       const Segment& seg = segs[i];
       const bool after = start >= o_.switch_off;
+      if (after) end_shaking();
       if (seg.steps > 0 && !all_done) {
         const StepTable& table = fm_.tables[static_cast<std::size_t>(fm_.segment_table[i])];
         for (std::uint64_t j = 0; j < seg.steps && !all_done; ++j, ++k) {
@@ -143,6 +144,7 @@ class Walker {
     }
     if (!o_.stop) return true;
     if (start < o_.switch_off) start = o_.switch_off;  // (the grid always reaches it)
+    end_shaking();
     const StepTable& tail = fm_.tables[static_cast<std::size_t>(fm_.tail_table)];
     // The ring-down: noise-free steps until every grid's body is at rest for good.
     all_done = all_done || check_done(k);
@@ -157,6 +159,14 @@ class Walker {
   }
 
  private:
+  // At the switch-off, unless the filter rings down (Options::ring_down): the shaking ends,
+  // a_g = 0 from here on. z = 0 is the filter's rest, where no noise leaves it at 0, so the
+  // steps after it move the body by friction alone (exactly: a_g = 0 is a straight line).
+  void end_shaking() {
+    if (o_.ring_down) return;
+    for (int i = 0; i < n_; ++i) z_[i] = 0.0;
+  }
+
   double ground(const double* z) const {
     double a = 0.0;
     for (int i = 0; i < n_; ++i) a += fm_.filter.c[static_cast<std::size_t>(i)] * z[i];
@@ -449,6 +459,7 @@ void simulate_filtered_block(const Plan& plan, std::uint64_t first, std::uint64_
       const double* u = &lanes_out[(k * 3 + 1) * kLanes];
       const double* s = &lanes_out[(k * 3 + 2) * kLanes];
       ws.times.add(k, x, u, s, lanes, ws.active);
+      ws.add_energy(k, x, lanes);
       if (plan.histograms())
         bin_slot(plan, ws.histograms, k,
                  {x, o.displacement ? u : nullptr, o.distance ? s : nullptr, nullptr, nullptr}, lanes);

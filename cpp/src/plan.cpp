@@ -129,6 +129,7 @@ void Options::validate() const {
     require(std::isnan(static_drift) || static_drift == drift,
             "static_drift needs excitation 'filtered' (white noise never lets the body rest)");
     require(event_depth == kDefaultEventDepth, "event_depth needs excitation 'filtered'");
+    require(!ring_down, "ring_down needs excitation 'filtered'");
   }
   if (!histogram_axes.empty()) {
     const std::size_t slots = histogram_slots();

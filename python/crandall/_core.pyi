@@ -61,6 +61,8 @@ class Options:
     static_drift: float
     #: Bisections of a step where an event may happen (1 to 20).
     event_depth: int
+    #: The switch-off ends only the driving noise (the filter rings down), not the shaking.
+    ring_down: bool
     def __init__(self) -> None: ...
     def validate(self) -> None: ...
 

@@ -472,7 +472,7 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     start = time.perf_counter()
     try:
         result = simulate(scene, paths=n, seed=settings.get("seed"), dt=settings.get("dt"),
-                          method=settings.get("method", DEFAULT_METHOD), threads=threads,
+                          method=settings.get("method"), threads=threads,
                           checkpoint=checkpoint, client=client, progress=progress)
         if result.bias_pending:
             # Part of the run: shown in its progress and counted in its time (printing the

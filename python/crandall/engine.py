@@ -90,6 +90,11 @@ def scene_options(scene) -> "_core.Options":
         o.piece_noise = [n for _, n in scene.pieces]
     o.start_velocity = scene.v0
     o.start_displacement = scene.u0
+    # The excitation's own options (none for white noise: its plans stay as they were).
+    for name, value in scene.excitation.core_options().items():
+        setattr(o, name, value)
+    if scene.static_drift != scene.drift:
+        o.static_drift = scene.static_drift
     o.times = scene.times.tolist()
     for flag, on in core_flags(scene.observe).items():
         setattr(o, flag, on)

@@ -118,8 +118,19 @@ class Filtered(Excitation):
 
     def core_options(self) -> Dict[str, Any]:
         a, b, c = self.matrices()
-        return {"excitation": "filtered", "filter_a": [x for row in a for x in row],
-                "filter_b": list(b), "filter_c": list(c)}
+        out = {"excitation": "filtered", "filter_a": [x for row in a for x in row],
+               "filter_b": list(b), "filter_c": list(c)}
+        if self.ring_down:
+            out["ring_down"] = True
+        return out
+
+    def _plain(self, **fields) -> Dict[str, Any]:
+        out = {"kind": self.kind, **fields}
+        if self.h is not None:
+            out["h"] = self.h
+        if self.ring_down:
+            out["ring_down"] = True
+        return out
 
     def psd(self, omega):
         """The ground acceleration's two-sided power spectral density at angular frequency
@@ -146,12 +157,17 @@ class KanaiTajimi(Filtered):
         The driving white noise's intensity, m s^-3/2 (or give ``S0``, its two-sided spectral
         density in (m/s^2)^2 per rad/s: h^2 = 2 pi S0). Default: the scene's ``h`` (or its
         envelope), which is then the driving intensity.
+    ring_down : bool, default False
+        What the scene's switch-off t0 ends: the shaking (False: a_g = 0 from t0 on, as
+        under white noise), or only the driving noise (True: the layer rings down freely and
+        the ground keeps moving, ever less; the stop is the last time the body comes to rest).
     """
 
     omega: float
     zeta: float
     h: Optional[float] = None
     S0: Optional[float] = None
+    ring_down: bool = False
     kind = "kanai_tajimi"
 
     def __post_init__(self) -> None:
@@ -170,10 +186,7 @@ class KanaiTajimi(Filtered):
         return (w2 * w2 + 4 * z * z * w2 * x2) / ((w2 - x2) ** 2 + 4 * z * z * w2 * x2)
 
     def to_dict(self) -> Dict[str, Any]:
-        out = {"kind": self.kind, "omega": self.omega, "zeta": self.zeta}
-        if self.h is not None:
-            out["h"] = self.h
-        return out
+        return self._plain(omega=self.omega, zeta=self.zeta)
 
     def time_scale(self) -> float:
         return 1.0 / self.omega
@@ -183,7 +196,8 @@ class KanaiTajimi(Filtered):
 class CloughPenzien(Filtered):
     """Clough-Penzien filtered white noise: Kanai-Tajimi (``omega``, ``zeta``) followed by a
     second-order high-pass (``omega_f``, ``zeta_f``; typically omega_f = 0.1 omega to 0.2
-    omega, zeta_f = zeta). ``h`` or ``S0``: as for :class:`KanaiTajimi`."""
+    omega, zeta_f = zeta). ``h`` or ``S0``, ``ring_down``: as for
+    :class:`KanaiTajimi`."""
 
     omega: float
     zeta: float
@@ -191,6 +205,7 @@ class CloughPenzien(Filtered):
     zeta_f: float
     h: Optional[float] = None
     S0: Optional[float] = None
+    ring_down: bool = False
     kind = "clough_penzien"
 
     def __post_init__(self) -> None:
@@ -215,18 +230,19 @@ class CloughPenzien(Filtered):
         return KanaiTajimi(self.omega, self.zeta).psd(omega) * high
 
     def to_dict(self) -> Dict[str, Any]:
-        out = {"kind": self.kind, "omega": self.omega, "zeta": self.zeta,
-               "omega_f": self.omega_f, "zeta_f": self.zeta_f}
-        if self.h is not None:
-            out["h"] = self.h
-        return out
+        return self._plain(omega=self.omega, zeta=self.zeta, omega_f=self.omega_f,
+                           zeta_f=self.zeta_f)
 
     def time_scale(self) -> float:
         return 1.0 / max(self.omega, self.omega_f)
 
 
 def _intensity(x) -> None:
-    """Sets ``h`` from ``S0`` (one of them at most; the plain data keep h)."""
+    """Sets ``h`` from ``S0`` (one of them at most; the plain data keep h); checks
+    ``ring_down``."""
+    if not isinstance(x.ring_down, (bool, np.bool_)):
+        raise ParameterError("ring_down", f"ring_down must be True or False, got {x.ring_down!r}")
+    object.__setattr__(x, "ring_down", bool(x.ring_down))
     if x.h is not None and x.S0 is not None:
         raise ParameterError("h, S0", "h, S0: give one of them (h^2 = 2 pi S0)")
     if x.S0 is not None:

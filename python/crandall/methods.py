@@ -3,7 +3,7 @@
 from . import _core
 
 __all__ = ["METHODS", "GRIDS", "EXTRAPOLATING_METHODS", "DEFAULT_METHOD", "DEFAULT_DT_TAU",
-           "DEFAULT_MIN_STEPS", "DEFAULT_STEPS_FREE"]
+           "DEFAULT_MIN_STEPS", "DEFAULT_STEPS_FREE", "DEFAULT_DT_FILTER"]
 
 #: Method names accepted by ``simulate(method=...)``:
 #: "exact": velocity exact in law for any step; displacement and distance by the trapezoid
@@ -42,6 +42,10 @@ DEFAULT_METHOD = "richardson"
 #: at a quarter of the cost; 0.01 is kept so that the default grid, and tests pinned to it,
 #: stay as they were.
 DEFAULT_DT_TAU = 0.01
+
+#: A filtered excitation's default step is also at most this many of its shortest time scale
+#: 1 / omega (crandall.excitation; docs/filtered.md measures the bias it leaves).
+DEFAULT_DT_FILTER = 0.1
 
 #: Without friction there is no natural time scale: the default step is the horizon over this.
 DEFAULT_STEPS_FREE = 2000

@@ -26,7 +26,7 @@ from .errors import ParameterError
 from .quantities import DISTANCE, VELOCITY, quantity
 
 __all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ISOMETRY", "ZERO_FRICTION", "ANALYTIC", "SCALING", "SIMULATED",
-           "FILTERED_EXCITATION", "STATIC_FRICTION", "LEVELS", "TAIL_MODEL", "MOVING_AT_SWITCH_OFF", "require", "holds", "isometry_applies", "check_simulated", "exact_in_law"]
+           "FILTERED_EXCITATION", "STATIC_FRICTION", "LEVELS", "TAIL_MODEL", "MOVING_AT_SWITCH_OFF", "GRID_ORDERS", "require", "holds", "isometry_applies", "check_simulated", "exact_in_law"]
 
 
 #: The body starts with a velocity v0 or a displacement u0 (Scene(v0=, u0=)).
@@ -114,6 +114,13 @@ SCALING = Identity(
 MOVING_AT_SWITCH_OFF = Identity(
     "moving_at_switch_off", "the stop comes at or after the switch-off t0",
     frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
+#: The grid bias of the white-noise skeleton's statistics expands as c1 h^1.5 + c2 h^2
+#: (docs/methods/richardson.md): the Richardson methods' weights and the fixed-step bias
+#: estimate (crandall.bias) extrapolate with these orders. A filtered excitation's bias (its
+#: events located on substeps) has orders of its own, which the bias estimate measures.
+GRID_ORDERS = Identity(
+    "grid_orders", "the grid bias expands as c1 h^1.5 + c2 h^2 (the white-noise skeleton)",
+    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
 #: Runs to an accuracy (crandall.adaptive): their levels' bias order (ALPHA), their exact
 #: and Ito targets and their control variates are those of the white-noise skeleton.
 LEVELS = Identity(
@@ -126,9 +133,11 @@ TAIL_MODEL = Identity(
     "(its scores, coast and transition density)",
     frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
 
-#: The effects the core simulates: a start from any state, and a piecewise intensity (no step
-#: straddles a piece's end), also as an envelope's pieces.
-SIMULATED: FrozenSet[str] = frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE})
+#: The effects the core simulates: a start from any state, a piecewise intensity (no step
+#: straddles a piece's end), also as an envelope's pieces, and a filtered excitation with
+#: static friction (its exact Gaussian skeleton, cpp/src/filtered.cpp).
+SIMULATED: FrozenSet[str] = frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE,
+                                       FILTERED_EXCITATION, STATIC_FRICTION})
 
 
 def isometry_applies(q, scene) -> bool:

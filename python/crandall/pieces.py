@@ -57,13 +57,9 @@ def with_pieces(scene, pieces: int):
     if pieces == scene.envelope.pieces:
         return scene
     env = scene.envelope
-    p = scene.params
-    return type(scene)(mu=p["mu"], envelope=type(env)(env.kind, env.params, pieces,
-                                                       env.function, env.breaks,
-                                                       max(pieces, env.pieces), _warn=False),
-                       g=p["g"], mass=p["mass"], v0=scene.v0, u0=scene.u0, times=scene.times,
-                       observe=scene.observe, distributions=scene.distributions,
-                       bins=scene.bins)
+    return scene.with_intensity(envelope=type(env)(env.kind, env.params, pieces, env.function,
+                                                   env.breaks, max(pieces, env.pieces),
+                                                   _warn=False))
 
 
 def stderr_target(paths: int) -> Target:

@@ -387,6 +387,9 @@ class Scene:
             excitation=excitation,
             static_drift=(mu_static if mu_static is not None else mu) * g,
         )
+        if "peaks" in self.observe and excitation.effects:
+            raise ParameterError("observe", "observe: 'peaks' are not simulated under a "
+                                 "filtered excitation yet")
 
     @classmethod
     def scaled(
@@ -560,6 +563,23 @@ class Scene:
         if self.static_drift > self.drift:
             out.add("static_friction")
         return frozenset(out)
+
+    def with_intensity(self, *, envelope=None, h=None, t0=None,
+                       distributions: bool = True) -> "Scene":
+        """The same scene (friction, excitation, start, times, observables) shaken by another
+        intensity: an envelope, or ``h`` and ``t0`` (a schedule). The one place the envelope's
+        refinements and the bias estimate's schedules are made, so that every field of the
+        scene reaches them. ``distributions=False`` leaves out the distributions and bins."""
+        if self.units != "SI":
+            raise ValueError("with_intensity: a physical (SI) scene only")
+        p = {k: v for k, v in self.params.items() if k not in ("h", "t0", "envelope")}
+        if envelope is not None:
+            p["envelope"] = envelope
+        else:
+            p["h"], p["t0"] = h, t0
+        extra = ({"distributions": self.distributions, "bins": self.bins}
+                 if distributions else {})
+        return type(self)(**p, times=self.times, observe=self.observe, **extra)
 
     @property
     def bins(self):

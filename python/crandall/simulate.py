@@ -355,7 +355,8 @@ def simulate(
         switch-off are resolved to the default method's documented accuracy whatever the
         scene's units and horizon. An explicit dt gives a uniform grid of steps <= dt.
     method : str
-        One of ``crandall.METHODS`` (see ``crandall.methods``); default ``DEFAULT_METHOD``.
+        One of ``crandall.METHODS`` (see ``crandall.methods``); default ``DEFAULT_METHOD``
+        ("exact" for a filtered excitation: :func:`crandall.spec.default_method`).
     threads : int, optional
         OpenMP threads; default: all cores (with ``client``: threads per task, default 1, as
         Dask runs one task per worker thread).
@@ -491,8 +492,6 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
     if paths is None:
         raise ValueError("paths: give the number of paths, or error= / rel_error= for an "
                          "accuracy")
-    if method is None:
-        method = DEFAULT_METHOD
     if checkpoint is not None:
         if not isinstance(checkpoint, (str, os.PathLike)):
             raise ParameterError("checkpoint", f"checkpoint must be a path, got {checkpoint!r}")
@@ -511,7 +510,7 @@ def simulate_many(
     paths: int,
     seed: Seed = None,
     dt: Optional[float] = None,
-    method: str = DEFAULT_METHOD,
+    method: Optional[str] = None,
     threads: Optional[int] = None,
     checkpoint_dir: Optional[Union[str, "os.PathLike[str]"]] = None,
     client: Any = None,

@@ -17,12 +17,12 @@ from typing import Any, Dict, Optional
 
 import numpy as np
 
-from .methods import DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, METHODS
+from .methods import DEFAULT_DT_FILTER, DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, METHODS
 from .errors import ParameterError, UnresolvableGrid
-from .model import Identity, check_simulated, require
+from .model import GRID_ORDERS, Identity, check_simulated, holds, require
 from .scene import Scene
 
-__all__ = ["RunSpec", "default_dt", "MAX_PATHS", "check_int", "check_scene", "check_positive",
+__all__ = ["RunSpec", "default_dt", "default_method", "MAX_PATHS", "check_int", "check_scene", "check_positive",
            "draw_seed", "is_real"]
 
 #: Most paths one run may have: path indices and chunk counts stay well inside 64 bits.
@@ -70,7 +70,8 @@ def default_dt(scene: Scene) -> float:
     same step in scaled time, ``0.01 * 2 h^2 / (mu g)^2`` seconds. Without friction (mu = 0),
     or when that time scale is beyond doubles (``Scene.scaling`` is None): the horizon (the
     last output time or t0) over ``DEFAULT_STEPS_FREE``. Without excitation
-    (h = 0) the body stays at rest and the step does not matter.
+    (h = 0) the body stays at rest and the step does not matter. A filtered excitation's step
+    is also at most ``DEFAULT_DT_FILTER`` of its time scale 1 / omega.
 
     With ``dt=None`` the grid is also graded (``DEFAULT_MIN_STEPS``): before an output time or
     the switch-off t the step is at most ``t / DEFAULT_MIN_STEPS``, so horizons far shorter
@@ -83,11 +84,12 @@ def default_dt(scene: Scene) -> float:
         strongest = (max(n for _, n in scene.pieces) / math.sqrt(2.0)
                      if scene.pieces is not None else 1.0)
         return DEFAULT_DT_TAU / strongest ** 2 if strongest > 1.0 else DEFAULT_DT_TAU
+    limit = DEFAULT_DT_FILTER * scene.excitation.time_scale()  # inf for white noise
     if scene.scaling is not None:
-        return scene.scaling.to_t(DEFAULT_DT_TAU)
+        return min(scene.scaling.to_t(DEFAULT_DT_TAU), limit)
     horizon = max([t for t in (scene.times[-1] if scene.times.size else 0.0, scene.t0)
                    if math.isfinite(t)] + [0.0])
-    return horizon / DEFAULT_STEPS_FREE if horizon > 0 else 1.0
+    return min(horizon / DEFAULT_STEPS_FREE if horizon > 0 else 1.0, limit)
 
 
 def check_scene(scene, needs: Optional[Identity] = None, what: str = "") -> Scene:
@@ -131,11 +133,24 @@ def check_positive(name: str, value) -> float:
     return value
 
 
-def check_method(method) -> str:
-    """``method`` if it is one of ``METHODS``; else a ValueError naming ``method``."""
+def check_method(method, scene: Optional[Scene] = None) -> str:
+    """``method`` if it is one of ``METHODS`` (and, given the scene, one it runs with); else
+    a ValueError naming ``method``."""
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    if scene is not None and method != "exact" and not holds(scene, GRID_ORDERS):
+        raise ParameterError("method", f"method: {method!r} rests on the white-noise skeleton "
+                             "(its grid orders, its sign-drift step); a scene with "
+                             f"{', '.join(sorted(scene.effects - GRID_ORDERS.supports))} "
+                             "runs with 'exact'")
     return method
+
+
+def default_method(scene: Scene) -> str:
+    """The method ``simulate`` uses for ``scene`` when none is given: ``DEFAULT_METHOD``, or
+    "exact" for a scene whose grid bias does not expand as the Richardson methods assume
+    (:data:`crandall.model.GRID_ORDERS`: a filtered excitation)."""
+    return DEFAULT_METHOD if holds(scene, GRID_ORDERS) else "exact"
 
 
 @dataclass(frozen=True)
@@ -173,18 +188,18 @@ class RunSpec:
         fields = {"paths": check_int("paths", self.paths, 1, MAX_PATHS),
                   "seed": check_int("seed", self.seed, 0, MAX_SEED),
                   "dt": check_positive("dt", self.dt),
-                  "method": check_method(self.method),
+                  "method": check_method(self.method, self.scene),
                   "min_steps": check_int("min_steps", self.min_steps, 0)}
         for name, value in fields.items():
             object.__setattr__(self, name, value)
 
     @classmethod
     def create(cls, scene: Scene, *, paths: int, seed: Optional[int] = None,
-               dt: Optional[float] = None, method: str = DEFAULT_METHOD) -> "RunSpec":
+               dt: Optional[float] = None, method: Optional[str] = None) -> "RunSpec":
         """The spec of ``simulate(scene, paths=..., seed=..., dt=..., method=...)``.
 
         ``seed=None`` draws one from the operating system (recorded in the spec, so the run
-        can be repeated); ``dt=None`` takes :func:`default_dt` on the graded grid
+        can be repeated); ``method=None`` takes :func:`default_method`; ``dt=None`` takes :func:`default_dt` on the graded grid
         (``min_steps = DEFAULT_MIN_STEPS``); an explicit dt gives a uniform grid.
 
         Raises
@@ -204,6 +219,8 @@ class RunSpec:
             if not (math.isfinite(dt) and dt > 0):
                 raise ValueError(f"dt: the scene's default step {dt!r} is not a usable number "
                                  "(times or t0 out of range); give dt")
+        if method is None:
+            method = default_method(scene)
         return cls(scene, paths, seed, dt, method, min_steps)
 
     # -- plain data: checkpoints, saved files, Dask tasks -----------------------------------

@@ -126,8 +126,8 @@ struct Options {
   //   sliding: V' = -a_g - drift sgn V; at rest: stays while |a_g| <= static_drift, else
   //   slides in the direction -sgn a_g; a slide reaching V = 0 at a time where
   //   |a_g| > static_drift goes on the other way.
-  // sigma(t) is `noise` (or the pieces' piece_noise) before switch_off and 0 after it: the
-  // filter rings down. The stop is the last time the body comes to rest (it may be before the
+  // sigma(t) is `noise` (or the pieces' piece_noise) before switch_off and 0 after it; then
+  // a_g = 0 (the shaking ends), or with ring_down the filter rings down. The stop is the last time the body comes to rest (it may be before the
   // switch-off, when the body is at rest there and the ring-down never moves it again; 0 for a
   // body that never slides).
   Excitation excitation = Excitation::white;
@@ -141,6 +141,11 @@ struct Options {
   // finest substeps (step / 2^event_depth) take a_g linear between their ends. 1 to 20, and at
   // least grids() - 1.
   int event_depth = kDefaultEventDepth;
+  // What the switch-off ends. false (the default): the shaking, a_g = 0 from switch_off on (the
+  // filter's state is dropped there), as under white noise, and the body slides to rest at the
+  // deceleration `drift`. true: only the driving noise; the filter rings down freely and the
+  // stop is the last time the body comes to rest, located with the decay bound.
+  bool ring_down = false;
   bool filtered() const { return excitation == Excitation::filtered; }
   // static_drift as the model uses it.
   double resolved_static_drift() const { return static_drift == static_drift ? static_drift : drift; }
