@@ -79,6 +79,33 @@ def test_the_moments_travel_with_files_and_checkpoints(tmp_path, monkeypatch):
     assert np.array_equal(resumed.var_stderr("kinetic_energy"), r.var_stderr("kinetic_energy"))
 
 
+def test_a_checkpoint_written_without_them_still_resumes(tmp_path, monkeypatch):
+    sc = _scene()
+    ck = tmp_path / "run.ckpt"
+    real = _core.run_chunk
+
+    def failing(plan, chunk, threads):
+        if chunk == 1:
+            raise KeyboardInterrupt
+        return real(plan, chunk, threads)
+
+    monkeypatch.setattr(_core, "run_chunk", failing)
+    with pytest.raises(KeyboardInterrupt):
+        crandall.simulate(sc, paths=70000, seed=5, threads=1, checkpoint=ck)
+    monkeypatch.setattr(_core, "run_chunk", real)
+    # As a checkpoint of the version before the moments of V^2 were kept.
+    with np.load(ck, allow_pickle=False) as f:
+        arrays = {k: f[k] for k in f.files if not k.startswith("energy_")}
+    with open(ck, "wb") as out:
+        np.savez(out, **arrays)
+    resumed = crandall.simulate(sc, paths=70000, seed=5, threads=1, checkpoint=ck)
+    whole = crandall.simulate(sc, paths=70000, seed=5, threads=1)
+    assert np.array_equal(resumed.var("kinetic_energy"), whole.var("kinetic_energy"))
+    assert resumed.accumulators.energy is None
+    with pytest.raises(ValueError, match="order 8"):
+        resumed.var_stderr("kinetic_energy")
+
+
 def test_a_file_saved_without_them_still_loads(tmp_path):
     pytest.importorskip("xarray")
     pytest.importorskip("scipy")

@@ -45,8 +45,10 @@ FORMAT = "crandall-checkpoint"
 # 3: the peaks' moments and the histograms' edges and counts, when the scene asks for them.
 # 4: one format for every estimator (runs to an accuracy and tails too); the identity names
 #    the estimator.
-# 5: the moments of V^2 (energy_*), when the scene observes the kinetic energy.
-FORMAT_VERSION = 5
+# The moments of V^2 (energy_*, when the scene observes the kinetic energy) are optional: a
+# checkpoint written before crandall kept them resumes without them (the kinetic energy's
+# variance then has no standard error).
+FORMAT_VERSION = 4
 #: The estimator of a fixed-step run (the identity's ``estimator`` field).
 PATHS = "paths"
 #: What each estimator's checkpoints are called in messages.
@@ -313,8 +315,9 @@ def restore(path, ident: Dict[str, Any], arrays: Dict[str, np.ndarray], chunks: 
         slots["peaks_"] = len(scene.get("times", ()))
         if stop:
             slots["peaks_stop_"] = 1
-    if "kinetic_energy" in observe:
-        # The moments of (V^2, 0, 0) per output time.
+    if "kinetic_energy" in observe and "energy_counts" in arrays:
+        # The moments of (V^2, 0, 0) per output time (absent from checkpoints written before
+        # crandall kept them: the run then goes on without them).
         slots["energy_"] = len(scene.get("times", ()))
     indices, edges = histograms
     expected = set(_ARRAYS) | {p + k for p in slots for k in ("counts", "means", "central")}
