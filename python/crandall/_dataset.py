@@ -201,13 +201,16 @@ def _scene_attrs(sc) -> Dict[str, Any]:
              "units_system": sc.units}
     for k, v in sc.params.items():
         if isinstance(v, dict):
-            # An envelope: its kind and parameters, and the pieces it is simulated with.
+            # An envelope or an excitation: its kind and parameters (and an envelope's pieces,
+            # which it is simulated with).
             for kk, vv in v.items():
-                if kk in ("h", "t0"):  # a function envelope's pieces: scene_h, scene_t0
+                if k == "envelope" and kk in ("h", "t0"):  # a function envelope's pieces
                     continue
-                attrs[f"scene_{k}_{kk}"] = vv if isinstance(vv, str) else float(vv)
-            attrs["scene_h"] = np.asarray(sc.envelope.h, dtype=float)
-            attrs["scene_t0"] = np.asarray(sc.envelope.t0, dtype=float)
+                attrs[f"scene_{k}_{kk}"] = (vv if isinstance(vv, str) else
+                                            int(vv) if isinstance(vv, bool) else float(vv))
+            if k == "envelope":
+                attrs["scene_h"] = np.asarray(sc.envelope.h, dtype=float)
+                attrs["scene_t0"] = np.asarray(sc.envelope.t0, dtype=float)
             continue
         # A piecewise schedule's h and t0 are lists: a 1-D attribute.
         attrs["scene_" + k] = (np.asarray(v, dtype=float) if isinstance(v, (list, tuple))
