@@ -1,0 +1,199 @@
+"""Filtered ground motion (Kanai-Tajimi): how far white noise overstates the friction work,
+and what an accuracy costs, crandall against a fine-step Euler peer written the way users
+write it (bench/peers/numba_kt.py; numba is a dependency of the benchmarks only).
+
+The scene of issue 35: zeta = 0.6, mu g = 1 (g = 1, mu = 1), h = 1, t0 = 10 s, static =
+kinetic friction, the shaking ending at t0; the body's time scale t* = 2 h^2 / (mu g)^2 = 2 s.
+
+1. The ratio of the mean distance at the stop to the white-noise value h^2 t0 / (2 mu g) = 5
+   (the energy law), over omega t* = 1 ... 64: crandall, --paths paths each, with its
+   standard error and estimated bias. White noise overstates the friction work by the
+   inverse of this ratio; it tends to 1 as omega grows.
+2. Time to a relative error eps (1e-2, 1e-3) in the mean distance at the stop and in its
+   variance, at omega t* = 1, 4, 16, one thread each, as ratios measured in one run:
+   - crandall: a pilot run (--pilot paths) gives the per-path spread, the estimated bias and
+     the time per path at the default step; the paths needed for a standard error of
+     eps |value| / 2 times the time per path (the bias must be below eps |value| / 2: the
+     script says when it is not);
+   - Euler: its bias at dt = 8, 4, 2, 1 ms against crandall's value (the pilot's, whose own
+     error is stated), fitted as c dt (first order) where resolved; the dt that brings it to
+     eps |value| / 2, the paths for the standard error, and its measured time per path step.
+   Both times are extrapolated from measured rates (a run of 1e-3 would take hours for the
+   peer); the JSON holds every input.
+
+Writes bench/out/filtered.{json,png} (bench/results/ with --publish).
+
+    .venv/bin/python bench/filtered.py [--paths 20000] [--pilot 20000] [--publish]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import platform
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+from _publish import write  # noqa: E402
+
+import crandall  # noqa: E402
+from peers import numba_kt  # noqa: E402
+
+ZETA, MU_G, H, T0 = 0.6, 1.0, 1.0, 10.0
+T_STAR = 2 * H ** 2 / MU_G ** 2
+WHITE = H ** 2 * T0 / (2 * MU_G)
+RATIOS = (1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0)
+COST_AT = (1.0, 4.0, 16.0)
+EULER_DT = (8e-3, 4e-3, 2e-3, 1e-3)
+EPS = (1e-2, 1e-3)
+
+
+def scene(wt: float) -> crandall.Scene:
+    kt = crandall.KanaiTajimi(omega=wt / T_STAR, zeta=ZETA, h=H)
+    return crandall.Scene(mu=MU_G, g=1.0, excitation=kt, t0=T0, times=[T0],
+                          observe=["distance", "stop"])
+
+
+def crandall_run(wt: float, paths: int, seed: int):
+    sc = scene(wt)
+    start = time.perf_counter()
+    r = crandall.simulate(sc, paths=paths, seed=seed, threads=1)
+    seconds = time.perf_counter() - start
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", crandall.StatisticsWarning)
+        out = {"dt": r.dt, "paths": paths, "seconds": seconds,
+               "steps_per_path": int(r.steps_per_path)}
+        for stat in ("mean", "var"):
+            value = r.mean("distance_at_stop") if stat == "mean" else r.var("distance_at_stop")
+            se = (r.stderr("distance_at_stop") if stat == "mean"
+                  else r.var_stderr("distance_at_stop"))
+            out[stat] = {"value": float(value), "stderr": float(se),
+                         "bias": float(r.bias("distance_at_stop", stat)),
+                         "bias_is_bound": bool(r.bias_is_bound("distance_at_stop", stat))}
+    return out
+
+
+def euler_run(wt: float, dt: float, paths: int, seed: int):
+    start = time.perf_counter()
+    d = numba_kt.simulate(paths, dt, t0=T0, omega=wt / T_STAR, zeta=ZETA, h=H, mu_g=MU_G,
+                          seed=seed)["distance_at_stop"]
+    seconds = time.perf_counter() - start
+    n = d.size
+    m2 = float(np.mean((d - d.mean()) ** 2))
+    m4 = float(np.mean((d - d.mean()) ** 4))
+    return {"dt": dt, "paths": paths, "seconds": seconds,
+            "steps_per_path": T0 / dt,  # at least: the slide to rest after t0 adds a few
+            "mean": {"value": float(d.mean()), "stderr": float(d.std(ddof=1) / math.sqrt(n))},
+            "var": {"value": float(d.var(ddof=1)), "stderr": math.sqrt(max(m4 - m2 * m2, 0) / n)}}
+
+
+def cost(wt, pilot, euler_runs):
+    rows = []
+    for stat in ("mean", "var"):
+        ref = pilot[stat]
+        value = abs(ref["value"])
+        spread = ref["stderr"] * math.sqrt(pilot["paths"])
+        per_path = pilot["seconds"] / pilot["paths"]
+        # Euler: bias against crandall's value, first order c dt where resolved.
+        points = []
+        for e in euler_runs:
+            d = e[stat]["value"] - ref["value"]
+            se = math.hypot(e[stat]["stderr"], ref["stderr"])
+            points.append({"dt": e["dt"], "bias": d, "stderr": se, "resolved": abs(d) > 2 * se})
+        resolved = [p for p in points if p["resolved"]]
+        c = (sum(p["bias"] * p["dt"] for p in resolved) / sum(p["dt"] ** 2 for p in resolved)
+             if resolved else math.nan)
+        e_spread = (euler_runs[-1][stat]["stderr"] * math.sqrt(euler_runs[-1]["paths"]))
+        e_rate = sum(e["seconds"] for e in euler_runs) / sum(
+            e["paths"] * e["steps_per_path"] for e in euler_runs)  # seconds per path step
+        for eps in EPS:
+            half = eps * value / 2
+            n_c = math.ceil((spread / half) ** 2)
+            ok = ref["bias"] <= half
+            t_c = n_c * per_path
+            dt_e = half / abs(c) if resolved else math.nan
+            n_e = math.ceil((e_spread / half) ** 2)
+            t_e = n_e * (T0 / dt_e) * e_rate if resolved else math.nan
+            rows.append({"omega_t_star": wt, "stat": stat, "eps": eps, "value": ref["value"],
+                         "crandall_paths": n_c, "crandall_seconds": t_c,
+                         "crandall_bias": ref["bias"], "crandall_bias_within": ok,
+                         "euler_bias_per_dt": c, "euler_dt": dt_e, "euler_paths": n_e,
+                         "euler_seconds": t_e, "ratio": t_e / t_c if resolved else math.nan,
+                         "euler_points": points})
+    return rows
+
+
+def plot(data, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
+    wt = [r["omega_t_star"] for r in data["ratio"]]
+    m = [r["ratio"] for r in data["ratio"]]
+    e = [1.96 * r["error"] for r in data["ratio"]]
+    a.errorbar(wt, m, yerr=e, fmt="o-", capsize=3, label="Kanai-Tajimi (crandall)")
+    a.axhline(1.0, color="k", lw=0.8, ls="--", label="white noise (energy law)")
+    a.set_xscale("log")
+    a.set_xlabel("omega t*  (t* = 2 h^2 / (mu g)^2)")
+    a.set_ylabel("E S(t_s) / (h^2 t0 / (2 mu g))")
+    a.set_title(f"zeta = {ZETA}, t0 = {T0:g} s = {T0 / T_STAR:g} t*")
+    a.legend()
+    rows = data["cost"]
+    labels, ratios = [], []
+    for r in rows:
+        labels.append(f"{r['stat']} eps={r['eps']:g}\nwt*={r['omega_t_star']:g}")
+        ratios.append(r["ratio"])
+    b.bar(range(len(rows)), ratios)
+    b.set_yscale("log")
+    b.set_xticks(range(len(rows)))
+    b.set_xticklabels(labels, fontsize=6, rotation=90)
+    b.set_ylabel("Euler time / crandall time (one thread)")
+    b.axhline(10.0, color="r", lw=0.8, ls="--")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--paths", type=int, default=20000)
+    ap.add_argument("--pilot", type=int, default=20000)
+    ap.add_argument("--euler-paths", type=int, default=20000)
+    ap.add_argument("--publish", action="store_true")
+    args = ap.parse_args()
+    numba_kt.warm_up()
+    ratio = []
+    for i, wt in enumerate(RATIOS):
+        r = crandall_run(wt, args.paths, 100 + i)
+        ratio.append({"omega_t_star": wt, "ratio": r["mean"]["value"] / WHITE,
+                      "error": math.hypot(r["mean"]["stderr"], r["mean"]["bias"]) / WHITE,
+                      "run": r})
+        print(f"omega t* = {wt:5g}: E S / white = {ratio[-1]['ratio']:.4f} "
+              f"+- {r['mean']['stderr'] / WHITE:.4f} (bias {r['mean']['bias'] / WHITE:.1e}), "
+              f"{r['seconds']:.1f} s", flush=True)
+    rows = []
+    for i, wt in enumerate(COST_AT):
+        pilot = crandall_run(wt, args.pilot, 200 + i)
+        euler = [euler_run(wt, dt, args.euler_paths, 300 + 10 * i + j)
+                 for j, dt in enumerate(EULER_DT)]
+        for row in cost(wt, pilot, euler):
+            rows.append(row)
+            print(f"omega t* = {wt:4g} {row['stat']:4s} eps {row['eps']:g}: crandall "
+                  f"{row['crandall_seconds']:.3g} s ({row['crandall_paths']} paths"
+                  f"{'' if row['crandall_bias_within'] else ', bias above eps/2'}), Euler "
+                  f"{row['euler_seconds']:.3g} s (dt {row['euler_dt']:.2g}, "
+                  f"{row['euler_paths']} paths): ratio {row['ratio']:.3g}", flush=True)
+    data = {"machine": platform.machine(), "python": platform.python_version(),
+            "crandall": crandall.__version__, "zeta": ZETA, "mu_g": MU_G, "h": H, "t0": T0,
+            "t_star": T_STAR, "white": WHITE, "ratio": ratio, "cost": rows}
+    print(write("filtered", data, plot, publish=args.publish))
+
+
+if __name__ == "__main__":
+    main()
