@@ -115,12 +115,14 @@ def test_results_do_not_run_engines():
     graph, _ = _graph()
     engines = {"engine", "simulate", "adaptive", "bias", "checkpoint"}
     for m in ("results", "_dataset", "io", "distributions", "model", "streams"):
-        assert not (_reach(graph, m) & engines), (m, sorted(_reach(graph, m) & engines))
+        # a package's modules (adaptive.engine) count as the package
+        hits = sorted(d for d in _reach(graph, m) if d.split(".")[0] in engines)
+        assert not hits, (m, hits)
 
 
 def test_the_check_resolves_the_imports_it_must_see():
     # So that the tests above can fail: relative, absolute and compiled-module imports.
-    src = PACKAGE / "results.py"
+    src = PACKAGE / "plots.py"
     for text, want in (("from . import io", {"io"}), ("from .io import load", {"io"}),
                        ("import crandall.io", {"io"}), ("from . import _core", {"_core"}),
                        ("from .analytic import laws", {"analytic.laws"}),
