@@ -42,16 +42,16 @@ def _scene(count: int):
 
 def _accuracy_run(count: int, threads: int, control_slots=None):
     import crandall
-    from crandall import adaptive
-    keep = adaptive.CONTROL_SLOTS
+    from crandall.adaptive import features  # the module that reads CONTROL_SLOTS
+    keep = features.CONTROL_SLOTS
     if control_slots is not None:
-        adaptive.CONTROL_SLOTS = control_slots
+        features.CONTROL_SLOTS = control_slots
     try:
         t = time.perf_counter()
         r = crandall.simulate(_scene(count), error=ERROR, seed=SEED, threads=threads)
         wall = time.perf_counter() - t
     finally:
-        adaptive.CONTROL_SLOTS = keep
+        features.CONTROL_SLOTS = keep
     worst = max(float(np.nanmax(np.atleast_1d(r.error(n, s)) / ERROR))
                 for n in r.names for s in ("mean", "var"))
     return {"wall_s": wall, "paths": r.cost["paths"], "path_steps": r.cost["path_steps"],

@@ -299,11 +299,12 @@ def test_controls_cut_the_cost_and_keep_the_answer():
     from crandall import adaptive
     sc = crandall.Scene.scaled(tau0=TAU0, times=[5.0], observe=["distance"])
     with_cv = crandall.simulate(sc, error=1e-2, seed=4, threads=1, statistics=["distance:var"])
+    estimator = adaptive.estimator  # the module that reads it
     try:
-        adaptive.USE_CONTROLS = False
+        estimator.USE_CONTROLS = False
         without = crandall.simulate(sc, error=1e-2, seed=4, threads=1, statistics=["distance:var"])
     finally:
-        adaptive.USE_CONTROLS = True
+        estimator.USE_CONTROLS = True
     assert with_cv.cost["path_steps"] < 0.6 * without.cost["path_steps"]
     ref = analytic.distance_var(5.0, TAU0)
     for r in (with_cv, without):
@@ -314,7 +315,7 @@ def test_checkpoint_resume_is_bitwise(tmp_path, monkeypatch):
     from crandall import adaptive
     sc = crandall.Scene.scaled(tau0=TAU0, times=[1.0, 5.0], observe=["distance", "stop"])
     whole = crandall.simulate(sc, error=3e-2, seed=21, threads=1)
-    monkeypatch.setattr(adaptive, "CHECKPOINT_SECONDS", 0.0)
+    monkeypatch.setattr(adaptive.entry, "CHECKPOINT_SECONDS", 0.0)
     real = _core.run_samples
     total = {"n": 0}
 
@@ -356,7 +357,7 @@ def test_a_bias_no_level_can_reach_is_refused_naming_error(monkeypatch):
     # With two levels at most, a small target's grid bias cannot fall below it: the run says
     # so in words (the message once read "grid_bias" after a rename).
     from crandall import adaptive
-    monkeypatch.setattr(adaptive, "MAX_LEVELS", 2)
+    monkeypatch.setattr(adaptive.schedule, "MAX_LEVELS", 2)  # where the rounds read it
     sc = crandall.Scene.scaled(tau0=2.0, times=[2.0], observe=["distance"])
     with pytest.raises(ValueError, match=r"^error: the discretisation bias is still above the "
                                          r"target on a grid 2\^2 times finer than the base"):
@@ -440,7 +441,7 @@ def test_edited_checkpoints_are_refused_naming_the_file_and_the_field(tmp_path, 
 def test_a_checkpoint_of_the_older_format_is_refused(tmp_path):
     sc, bad = _edited(tmp_path, _set(("identity", "format_version"), 1), reseal=False)
     with pytest.raises(ValueError, match="with checkpoint format 1; this crandall uses checkpoint "
-                                         "format 4"):
+                                         f"format {crandall.checkpoint.FORMAT_VERSION}"):
         crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=bad)
 
 

@@ -82,7 +82,7 @@ def test_resumed_run_has_the_stored_bits(stored, tmp_path, monkeypatch):
         return real(*args, **kwargs)
 
     ckpt = tmp_path / "run.json"
-    monkeypatch.setattr(adaptive, "CHECKPOINT_SECONDS", 0.0)
+    monkeypatch.setattr(adaptive.entry, "CHECKPOINT_SECONDS", 0.0)
     monkeypatch.setattr(adaptive._core, "run_samples", interrupted)
     with pytest.raises(KeyboardInterrupt):
         crandall.simulate(scene, threads=1, checkpoint=ckpt, **kw)

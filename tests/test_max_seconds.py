@@ -105,10 +105,13 @@ def test_the_second_stage_stops_at_max_seconds_with_a_warning():
 def test_the_proposal_pilot_is_checked_for_memory_before_it_runs(monkeypatch):
     import importlib
 
-    tail_module = importlib.import_module("crandall.tail")
-    monkeypatch.setattr(tail_module, "available_memory", lambda: 20 << 20)
+    # Each name is replaced in the module that looks it up: the memory check is the run's,
+    # the pilot's batches importance sampling's.
+    run = importlib.import_module("crandall.tail.run")
+    monkeypatch.setattr(run, "available_memory", lambda: 20 << 20)
     calls = []
-    monkeypatch.setattr(tail_module, "_importance_batch", lambda *a: calls.append(a))
+    importance = importlib.import_module("crandall.tail.importance")
+    monkeypatch.setattr(importance, "_importance_batch", lambda *a: calls.append(a))
     # 256 pilot paths of 2001 grid points: about 40 MiB, refused before any path is drawn.
     with pytest.raises(ParameterError, match="^dt: importance sampling's proposal pilot, 256 "
                        "paths of 2001 grid points need about") as info:

@@ -648,7 +648,7 @@ def test_a_dask_cluster_gives_the_local_bits():
 def test_a_run_whose_paths_would_not_fit_in_memory_is_refused_before_it_starts(monkeypatch):
     import importlib
 
-    tail_module = importlib.import_module("crandall.tail")  # the module, not the function
+    tail_module = importlib.import_module("crandall.tail.run")  # where the run looks them up
     # 200 particles of 2001 grid points (dt = 0.0025 over tau0 = 5): 4 x 9.6 MB plus a stack
     # per thread; the process "may allocate" 20 MiB.
     monkeypatch.setattr(tail_module, "available_memory", lambda: 20 << 20)

@@ -13,7 +13,7 @@ only, so chunks, threads, Dask tasks and resumed checkpoints give the same paths
   the same key (the same paths, paired by index, so the piece error's difference has a small
   variance);
 - a tail run (crandall.tail): :func:`tail_key` (seed), the stream 2^20 + 1; within it the
-  core's path index numbers the replicas' and the pilots' paths (tail.py);
+  core's path index numbers the replicas' and the pilots' paths (crandall/tail/);
 - sample paths to draw (crandall.paths): :func:`paths_key` (seed), the stream 2^20 + 2, path i
   the core's path index i.
 

@@ -1,0 +1,330 @@
+"""A tail run's problem: the quantities it estimates, the scene's grid its paths are stored on,
+the quantities' scores, and the paths continued from any grid point (``_core.extend_paths``)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Dict, NamedTuple, Optional, Sequence
+
+import numpy as np
+
+from .. import _core
+from .._lazy import lazy_module
+from ..errors import ParameterError
+from ..model import TAIL_MODEL
+from ..scene import Scene
+from ..spec import check_positive, check_scene, default_dt, is_real
+
+_schedule = lazy_module("crandall.analytic.schedule")
+
+
+@dataclass(frozen=True)
+class _Quantity:
+    name: str
+    unit: str  # SI unit ("" in scaled scenes)
+    at_stop: bool  # needs the stop: the horizon is the end of the excitation
+    velocity_only: bool  # a function of the velocity alone (no step bias)
+    peak: bool  # the quantity is the path maximum of its score
+    text: str
+
+
+#: The quantities a tail run estimates, with their units in an SI scene.
+TAIL_QUANTITIES: Dict[str, _Quantity] = {q.name: q for q in (
+    _Quantity("stop_time", "s", True, True, False, "stop time t_s"),
+    _Quantity("velocity", "m/s", False, True, False, "velocity V(t) (signed)"),
+    _Quantity("speed", "m/s", False, True, False, "speed |V(t)|"),
+    _Quantity("distance_at_stop", "m", True, False, False, "distance travelled S(t_s)"),
+    _Quantity("dissipated_energy_at_stop", "J", True, False, False,
+              "energy dissipated by friction, m mu g S(t_s)"),
+    _Quantity("displacement_at_stop", "m", True, False, False, "displacement U(t_s) (signed)"),
+    _Quantity("residual_displacement", "m", True, False, False,
+              "residual displacement |U(t_s)| (magnitude)"),
+    _Quantity("peak_displacement_at_stop", "m", True, False, True,
+              "peak displacement max |U| over the grid and the coast"),
+    _Quantity("peak_speed_at_stop", "m/s", True, True, True, "peak speed max |V| over the grid"),
+)}
+
+
+class _Problem:
+    """A scene, a quantity and the grid its paths are simulated on, with the quantity's score."""
+
+    def __init__(self, scene: Scene, quantity: str, time: Optional[float], dt: Optional[float],
+                 breaks: Sequence[float] = (), coarse: bool = False):
+        # tail() and its Dask task (sample) both start here
+        check_scene(scene, TAIL_MODEL, "crandall.tail")
+        if not isinstance(quantity, str) or quantity not in TAIL_QUANTITIES:
+            raise ParameterError("quantity", f"quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
+        self.scene, self.q = scene, TAIL_QUANTITIES[quantity]
+        c = scene.drift
+        pieces = list(scene.pieces) if scene.pieces is not None else [(scene.t0, scene.noise)]
+        end = pieces[-1][0]
+        if self.q.at_stop:
+            if time is not None:
+                raise ParameterError("time", f"time: {quantity} is a quantity at the stop; it takes no output time")
+            if not (math.isfinite(end) and c > 0):
+                raise ParameterError("quantity", f"quantity: {quantity} needs the stop, which needs mu > 0 and a finite t0")
+            horizon = end
+        else:
+            if time is None:
+                raise ParameterError("time", f"time: {quantity} is a quantity at an output time; give time=")
+            if not is_real(time):
+                raise ParameterError("time", f"time must be a number, got {time!r}")
+            time = float(time)
+            if not (math.isfinite(time) and time >= 0):
+                raise ParameterError("time", f"time must be finite and >= 0, got {time}")
+            horizon = min(time, end)
+        self.time = time
+        self.horizon = horizon
+        self.coast = (time - horizon) if time is not None else 0.0  # noiseless time after the grid
+        dt = check_positive("dt", default_dt(scene) if dt is None else dt)
+        self.dt = dt
+        self.args = (scene, quantity, time, dt)
+        # The intervals between the pieces' ends and the extra breaks; coarse: one exact step
+        # each (the velocity's law does not depend on the grid).
+        cuts = sorted({0.0, horizon} | {e for e, _ in pieces if 0 < e < horizon}
+                      | {x for x in breaks if 0 < x < horizon})
+        intervals = []
+        for a, b in zip(cuts[:-1], cuts[1:]):
+            sigma = next(n for e, n in pieces if e >= b)
+            intervals.append((a, b, sigma))
+        lengths, noises, starts = [], [], []
+        for a, b, sigma in intervals:
+            if b > a:
+                n = 1 if (sigma == 0 or coarse) else max(1, math.ceil((b - a) / dt - 1e-9))
+                if n > 10_000_000:
+                    raise ParameterError("dt", f"dt: {n} steps over one piece of the excitation; the paths would not fit")
+                edges = a + (b - a) * np.arange(n + 1) / n
+                lengths.extend(np.diff(edges))
+                noises.extend([sigma] * n)
+                starts.extend(edges[:-1])
+        self.lengths = np.asarray(lengths, dtype=np.float64)
+        self.noises = np.asarray(noises, dtype=np.float64)
+        self.drifts = np.full(len(lengths), c, dtype=np.float64)
+        self.step_starts = np.asarray(starts, dtype=np.float64)
+        # The expected drift of the distance still to come: S + V^2/(2c) grows at the constant
+        # rate sigma^2/(2c) while the noise acts (docs/methods/tails.md), so adding what is still
+        # to come makes the distance's score its conditional mean.
+        if c > 0:
+            per_step = self.noises ** 2 * self.lengths / (2 * c)
+            self.remaining = np.concatenate([np.cumsum(per_step[::-1])[::-1], [0.0]])
+        else:
+            self.remaining = np.zeros(len(lengths) + 1)
+        self._normal = None  # the splitting score's normalisation (_normaliser), built on demand
+
+    def _normaliser(self):
+        """What the normalised splitting score needs, per grid point (docs/methods/tails.md,
+        "The score splitting ranks by, for one level"): the point's time, the cumulative sums of sigma^2 dt, sigma^2 dt r and
+        sigma^2 dt r^2 over the steps before it (r: a step's midpoint), and the variance the
+        rest of the excitation adds at the stationary speed, sum of sigma^6 dt / (2 c^4) over
+        the steps after it; and each point's step length."""
+        if self._normal is None:
+            # Overflow to inf (an intensity far outside a physical range) is what
+            # normalisable() looks for.
+            with np.errstate(over="ignore", invalid="ignore"):
+                c = self.scene.drift
+                points = np.concatenate([[0.0], np.cumsum(self.lengths)])
+                w = self.noises ** 2 * self.lengths
+                mid = self.step_starts + self.lengths / 2
+                cum = [np.concatenate([[0.0], np.cumsum(w * mid ** k)]) for k in range(3)]
+                stat = self.noises ** 6 * self.lengths / (2 * c ** 4)
+                stationary = np.concatenate([np.cumsum(stat[::-1])[::-1], [0.0]])
+                step = np.concatenate([self.lengths, self.lengths[-1:]])
+                self._normal = (points, cum, stationary, step)
+        return self._normal
+
+    #: The quantities whose splitting score is normalised by the spread still to come (when a
+    #: run asks for one level): the distance and energy at the stop and the displacement where
+    #: the body would stop, whose martingale parts all grow at the rate sigma^2 V^2 / c^2.
+    NORMALISED = ("distance_at_stop", "dissipated_energy_at_stop", "displacement_at_stop",
+                  "residual_displacement")
+
+    def first_random_point(self) -> int:
+        """The first grid point that differs between paths: the end of the first noisy step."""
+        return int(np.argmax(self.noises > 0)) + 1
+
+    def split_score(self, states: np.ndarray, top: Optional[float], uncoast: bool = False):
+        """(the score splitting ranks paths by, the quantity's score), both of shape
+        states.shape[:2]. With ``top`` (a run of one level, for the NORMALISED quantities) the
+        first is (m - top) / sd, m the quantity's score (its conditional mean, or where the body
+        would stop now) and sd^2 an estimate of the variance still to come: sigma^2 (|V| / c -
+        r)^2 integrated while the speed would decay to zero, plus the stationary speed's share
+        of the rest. At the last point sd is a floor eps, so the score there is (Q - top) / eps
+        and Q > top is a score above 0 (split_threshold). Otherwise both are m, or with
+        ``uncoast`` (:meth:`coasts_to_rest`) the first is :meth:`uncoasted`."""
+        m = self.score(states)
+        if top is None:
+            return (self.uncoasted(states) if uncoast else m), m
+        points, cum, stationary, step = self._normaliser()
+        c = self.scene.drift
+        q = np.abs(states[..., 0]) / c
+        end = points + q  # when the speed would reach zero without noise
+        # The grid point at or after it, counted in the steps of the point's own piece (the
+        # pieces' steps differ a little; a score needs no more than that).
+        ahead = np.ceil(np.minimum(q / step, self.steps)).astype(np.int64)
+        e = np.minimum(np.arange(self.steps + 1) + ahead, self.steps)
+        var = (end * end * (cum[0][e] - cum[0]) - 2 * end * (cum[1][e] - cum[1])
+               + (cum[2][e] - cum[2]))
+        np.maximum(var, 0.0, out=var)
+        var += stationary
+        var[..., -1] = 0.0
+        var += self.floor2()
+        return (m - top) / (self._scale() * np.sqrt(var)), m
+
+    def _scale(self) -> float:
+        """The quantity's unit over the distance's (the energy: m mu g)."""
+        return self.scene.mass * self.scene.drift if self.q.name == "dissipated_energy_at_stop" else 1.0
+
+    def normalisable(self, schedule: bool = True) -> bool:
+        """Whether split_score's normalisation serves: a NORMALISED quantity, one intensity
+        (unless ``schedule`` is False: bench/tails_score.py measures the others), its
+        sums finite and its floor eps^2 positive (an intensity far outside a physical range can
+        overflow sigma^6 or underflow it to 0; such a run keeps the plain score)."""
+        if self.q.name not in self.NORMALISED or (schedule and not self.one_intensity()):
+            return False
+        points, cum, stationary, step = self._normaliser()
+        f = self.floor2()
+        return (math.isfinite(f) and f > 0 and all(np.all(np.isfinite(x)) for x in cum)
+                and bool(np.all(np.isfinite(stationary))))
+
+    def one_intensity(self) -> bool:
+        """Whether the noise acts with one intensity over one stretch of time (calm before or
+        after it allowed): the scenes where the normalised score is measured to help. On a
+        build-up, two pieces or an envelope it was as often worse as better (1/0.6 to 1/1.24
+        times the plain score's work between 1e-3 and 1e-5), and across a lull followed by more
+        shaking (a pause, an aftershock) far worse (25 to 50 times the work): its spread to
+        come shrinks faster than the quantity's true tail there, the score drops for every
+        path, and the path maxima stop measuring progress (docs/methods/tails.md)."""
+        noisy = np.flatnonzero(self.noises > 0)
+        if len(noisy) == 0:
+            return False
+        stretch = self.noises[noisy[0]:noisy[-1] + 1]
+        return bool(np.all(stretch == stretch[0]))
+
+    def floor2(self) -> float:
+        """eps^2 of split_score: a millionth of the stationary variance to come at the start."""
+        return 1e-6 * float(self._normaliser()[2][0])
+
+    def split_threshold(self, level: float, top: float) -> float:
+        """The normalised score's value at the last point for Q = level (0 for level = top)."""
+        return (level - top) / (self._scale() * np.sqrt(0.0 + self.floor2()))
+
+    @property
+    def noisy_steps(self) -> int:
+        return int(np.count_nonzero(self.noises > 0))
+
+    @property
+    def noisy_time(self) -> float:
+        return float(np.sum(self.lengths[self.noises > 0]))
+
+    @property
+    def steps(self) -> int:
+        return len(self.lengths)
+
+    def start_states(self, n: int) -> np.ndarray:
+        states = np.empty((n, self.steps + 1, 3))
+        states[:, 0] = (self.scene.v0, self.scene.u0, 0.0)
+        return states
+
+    def coasts_to_rest(self, levels: np.ndarray) -> bool:
+        """Whether splitting ranks the paths by :meth:`uncoasted`: the velocity and the speed
+        after the switch-off, at levels >= 0 (where Q > L if and only if the unclipped value
+        exceeds L, so that a path past the level is always ranked past it)."""
+        return (self.q.name in ("velocity", "speed") and self.coast > 0
+                and bool(np.min(levels) >= 0))
+
+    def uncoasted(self, states: np.ndarray) -> np.ndarray:
+        """The velocity (speed) at the output time without the clip at rest: v - c coast
+        (|v| - c coast). The coasted quantity is 0 for every path whose speed at the end of the
+        grid is below c coast, long after the switch-off almost all of them: as a splitting
+        score it would tie them all at 0 (extinction at the first iteration). This one ranks
+        them, and above 0 it is the quantity."""
+        v = states[..., 0]
+        shift = self.scene.drift * self.coast
+        return (np.abs(v) if self.q.name == "speed" else v) - shift
+
+    def _coasted(self, v):
+        """The velocity at the output time from the velocity at the end of the grid."""
+        if self.coast == 0.0:
+            return v
+        c = self.scene.drift
+        return np.sign(v) * np.maximum(np.abs(v) - c * self.coast, 0.0)
+
+    def score(self, states: np.ndarray) -> np.ndarray:
+        """The score at every grid point, shape states.shape[:2]; its last point (or, for the
+        peaks, its maximum over the path) is the quantity."""
+        v, u, s = states[..., 0], states[..., 1], states[..., 2]
+        c = self.scene.drift
+        name = self.q.name
+        if name == "stop_time":
+            return self.horizon + np.abs(v) / c
+        if name == "velocity":
+            return self._coasted(v)
+        if name == "speed":
+            return np.abs(self._coasted(v))
+        if name in ("distance_at_stop", "dissipated_energy_at_stop"):
+            out = s + v * v / (2 * c) + self.remaining
+            return out * (self.scene.mass * c) if name == "dissipated_energy_at_stop" else out
+        ahead = u + v * np.abs(v) / (2 * c)  # the displacement where the body would stop now
+        if name == "displacement_at_stop":
+            return ahead
+        if name == "residual_displacement":
+            return np.abs(ahead)
+        if name == "peak_displacement_at_stop":
+            out = np.abs(u)
+            out[..., -1] = np.maximum(out[..., -1], np.abs(ahead[..., -1]))
+            return out
+        return np.abs(v)  # peak_speed_at_stop: the speed only falls after the last piece
+
+    def value(self, score: np.ndarray) -> np.ndarray:
+        return score.max(axis=-1) if self.q.peak else score[..., -1]
+
+    def coarse_for(self, window: float) -> "_Problem":
+        """The same problem on the coarsest grid with a break at horizon - window: one exact
+        step per piece and part (velocity quantities only, which are exact on any grid)."""
+        return _Problem(*self.args, breaks=(self.horizon - window,), coarse=True)
+
+    def describe(self) -> Dict[str, Any]:
+        return {"quantity": self.q.name, "time": self.time, "dt": self.dt, "steps": self.steps}
+
+
+def _extend(problem: _Problem, states, rows, starts, streams, key, threads, law=None,
+            touched=None):
+    law = law or _Law(problem.drifts)
+    _core.extend_paths(states, np.asarray(rows, dtype=np.int64), np.asarray(starts, dtype=np.int64),
+                       np.asarray(streams, dtype=np.uint64), problem.lengths, problem.noises,
+                       law.drifts, key, threads, touched, law.slow,
+                       None if law.slow is None else problem.drifts)
+
+
+# -- the transition density (importance sampling's weights) --------------------------------
+
+
+def log_transition_density(x, x0, t, c, sigma):
+    """The sign-drift diffusion's log transition density (crandall.analytic.schedule, loaded on
+    first use: ``import crandall`` stays free of scipy)."""
+    return _schedule.log_transition_density(x, x0, t, c, sigma)
+
+
+class _Law(NamedTuple):
+    """A proposal's law on a grid: per step the drift, and (or None) the speed below which a
+    step keeps the scene's friction; ``full`` (or None) the drifts of a defensive component
+    over every noisy step that draws DEFENSIVE of the paths (see _proposal)."""
+
+    drifts: np.ndarray
+    slow: Optional[np.ndarray] = None
+    full: Optional[np.ndarray] = None
+
+
+def _coarse(problem: _Problem) -> bool:
+    """Whether importance sampling runs on the coarsest grid (the velocity quantities)."""
+    return problem.q.velocity_only and not problem.q.peak
+
+
+def _grid_for(problem: _Problem, window: float) -> _Problem:
+    """The grid importance sampling runs on: the coarsest one for the velocity quantities (the
+    likelihood ratio of fewer grid values has a lighter tail: it no longer sees the time the
+    path spends near 0), the problem's own otherwise."""
+    if _coarse(problem):
+        return problem.coarse_for(window)
+    return problem

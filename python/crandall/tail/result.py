@@ -1,0 +1,150 @@
+"""What a tail run returns (``TailResult``), the statistics of its samples, and the error it
+raises when no estimate can be made (``StatisticsFailure``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Dict
+
+import numpy as np
+
+from .. import _render
+from ..errors import ParameterError
+
+
+@dataclass
+class TailResult:
+    """Tail probabilities P(Q > level) of one quantity, with their errors and diagnostics.
+
+    Attributes
+    ----------
+    quantity, levels, units
+        The quantity, its levels (ascending, in the scene's units) and the unit.
+    probability, stderr, rel_error : ndarray
+        The estimate at each level, its standard error and stderr / probability.
+    method : str
+        "splitting" or "importance".
+    samples : int
+        Independent replicas (splitting) or paths (importance sampling) in the estimate.
+    seconds, steps : float, int
+        Wall time and exact steps simulated (the cost).
+    diagnostics : dict
+        Splitting: iterations per replica, particles, and the score ("normalised" towards the
+        one level, or "plain"; docs/methods/tails.md). Importance sampling: the proposal, and
+        per level the effective sample size of the paths past it and the largest weight share.
+    reliable : ndarray of bool
+        False where the diagnostics show a degenerate estimate (importance sampling with too few
+        effective samples or one dominant weight; a level no replica reached; a level every
+        replica's every particle exceeded, ``all_replicas_one``, where P is only known to be
+        within about 3 / (replicas x particles) of 1): its number is not a clean estimate.
+    spec : dict
+        What was run (scene, quantity, time, dt, method, seed, ...).
+    """
+
+    quantity: str
+    levels: np.ndarray
+    units: str
+    probability: np.ndarray
+    stderr: np.ndarray
+    rel_error: np.ndarray
+    method: str
+    samples: int
+    seconds: float
+    steps: int
+    diagnostics: Dict[str, Any]
+    reliable: np.ndarray
+    spec: Dict[str, Any] = field(default_factory=dict)
+
+    def interval(self, level: float = 0.95):
+        """The two-sided confidence interval (lower, upper) of each probability at ``level``,
+        normal on the mean of the independent samples, clipped at 0; a deterministic answer
+        (no noise before the quantity is read: one sample, no error) is its own interval."""
+        from scipy.stats import norm, t as student
+
+        if not (0 < level < 1):
+            raise ParameterError("level", f"level must be in (0, 1), got {level}")
+        if self.diagnostics.get("deterministic"):
+            return self.probability.copy(), self.probability.copy()
+        q = (student.ppf(0.5 + level / 2, self.samples - 1) if self.samples < 200
+             else norm.ppf(0.5 + level / 2))
+        return (np.maximum(self.probability - q * self.stderr, 0.0),
+                self.probability + q * self.stderr)
+
+    def to_pandas(self):
+        """One row per level: probability, stderr, rel_error, the 95 % interval, reliable."""
+        import pandas as pd
+
+        lo, hi = self.interval()
+        return pd.DataFrame({"level": self.levels, "units": self.units,
+                             "probability": self.probability, "stderr": self.stderr,
+                             "rel_error": self.rel_error, "lower_95": lo, "upper_95": hi,
+                             "reliable": self.reliable})
+
+    def __str__(self) -> str:
+        lo, hi = self.interval()
+        unit = f" [{self.units}]" if self.units else ""
+        lines = [f"P({self.quantity} > level), {self.method}, {self.samples} "
+                 f"{'replicas' if self.method == 'splitting' else 'paths'}, "
+                 f"{self.seconds:.1f} s, {self.steps:.3g} steps",
+                 f"{'level' + unit:>16} {'probability':>12} {'stderr':>10} {'rel.err':>8} "
+                 f"{'95% interval':>25}"]
+        for i, lv in enumerate(self.levels):
+            flag = "" if self.reliable[i] else "  UNRELIABLE (see diagnostics)"
+            lines.append(f"{lv:16.6g} {self.probability[i]:12.4g} {self.stderr[i]:10.3g} "
+                         f"{self.rel_error[i]:8.3f} [{lo[i]:.3g}, {hi[i]:.3g}]{flag}")
+        return "\n".join(lines)
+
+    def _repr_html_(self) -> str:
+        """The table of :meth:`__str__` as HTML (Jupyter shows it for a tail result)."""
+        return _render.tail_html(self)
+
+    def plot(self, ax=None, reference=None, label=None):
+        """The exceedance curve with its 95 % band (log probability). ``reference``: a
+        fixed-step :class:`crandall.Result` with the quantity's distribution, whose plain Monte
+        Carlo exceedance is drawn where it is informative (p above 100 / paths)."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 4))
+        lo, hi = self.interval()
+        ok = self.probability > 0
+        ax.fill_between(self.levels[ok], np.maximum(lo[ok], 1e-300), hi[ok], alpha=0.3,
+                        label="95 % interval")
+        ax.plot(self.levels[ok], self.probability[ok], "o-", ms=3, label=label or self.method)
+        if reference is not None:
+            name = "stop_time" if self.quantity == "stop_time" else self.quantity
+            grid = np.linspace(self.levels[0], self.levels[-1], 200)
+            p = np.array([reference.exceedance(name, float(x)).value for x in grid])
+            floor = 100.0 / reference.paths
+            keep = p >= floor
+            ax.plot(grid[keep], p[keep], "k--", label=f"plain Monte Carlo ({reference.paths:.0e} paths)")
+        ax.set_yscale("log")
+        unit = f" [{self.units}]" if self.units else ""
+        ax.set_xlabel(f"level{unit}")
+        ax.set_ylabel(f"P({self.quantity} > level)")
+        ax.legend()
+        return ax
+
+
+# -- the statistics of a run's samples ------------------------------------------------------
+
+
+def _stats(chosen, splitting: bool, levels: int):
+    """(samples, mean, stderr, per-sample variance) of the estimate from the samples
+    ``chosen``."""
+    if splitting:
+        arr = np.array([c["estimates"] for c in chosen])
+        n = len(arr)
+        var = arr.var(axis=0, ddof=1) if n > 1 else np.full(levels, np.inf)
+        return n, arr.mean(axis=0), np.sqrt(var / n), var
+    n = sum(c["paths"] for c in chosen)
+    s1 = np.sum([c["sum"] for c in chosen], axis=0)
+    s2 = np.sum([c["sum2"] for c in chosen], axis=0)
+    mean = s1 / n
+    var = np.maximum(s2 / n - mean ** 2, 0.0) * n / max(n - 1, 1)
+    return n, mean, np.sqrt(var / n), var
+
+
+class StatisticsFailure(RuntimeError):
+    """An estimator found no usable answer (e.g. no importance-sampling proposal reached the
+    level); the message says what to do instead."""

@@ -1,0 +1,99 @@
+"""Adaptive multilevel splitting: one replica, an unbiased estimate of P(Q > L) for each level L
+(docs/methods/tails.md)."""
+
+from __future__ import annotations
+
+import math
+import time as _time
+from typing import Optional
+
+import numpy as np
+
+from .problem import _extend, _Problem
+#: A replica's path streams: replica r uses streams r * 2^40 + 0, 1, ...
+_REPLICA_STREAMS = 1 << 40
+
+
+def _normalised_top(problem: _Problem, levels: np.ndarray, schedule: bool = True) -> Optional[float]:
+    """The level splitting's score is normalised towards: the one level of a run of one level
+    of a NORMALISED quantity under one intensity (None: the plain score). ``schedule=False``
+    drops the schedule's condition (bench/tails_score.py)."""
+    return float(levels[0]) if len(levels) == 1 and problem.normalisable(schedule) else None
+
+
+def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, kill: int,
+                       key: int, replica: int, threads: int, max_iterations: int,
+                       normalise: Optional[bool] = None, deadline: Optional[float] = None):
+    """One run of adaptive multilevel splitting: an unbiased estimate of P(Q > L) for each L.
+
+    The estimate for L is taken at the first iteration whose kill level z (the kill-th smallest
+    path maximum of the score) reaches L: prod(1 - K_j / n) times the fraction of the particles
+    with Q > L, K_j the number killed at iteration j (every particle at or below z, so ties are
+    killed together: Bréhier et al. 2016). If every particle sits at z the estimate is 0.
+
+    A run of one level of a NORMALISED quantity under one intensity ranks the paths by the
+    normalised score (_Problem.split_score) over the points from the first random one on (the
+    points before are every path's, so a maximum there would tie them all); the level is then
+    its threshold.
+    ``normalise``: None, the rule above (crandall.tail's); False, the plain score; True, the
+    normalised one whatever the schedule (bench/tails_score.py compares them).
+    The velocity and speed after the switch-off rank the paths before the coast's clip at rest
+    (_Problem.coasts_to_rest).
+
+    ``deadline`` (a ``time.time()``): past it, between iterations, the replica stops and its
+    info says so (``timed_out``, with the iterations and log weight it reached); its estimates
+    are then NaN and no sample. The info's ``extinct`` is the log weight at an extinction.
+    """
+    n = particles
+    rng = np.random.default_rng([key, replica, 1])
+    base = replica * _REPLICA_STREAMS
+    states = problem.start_states(n)
+    _extend(problem, states, np.arange(n), np.zeros(n), base + np.arange(n), key, threads)
+    branches = n
+    steps = n * problem.steps
+    top = None if normalise is False else _normalised_top(problem, levels, normalise is None)
+    first = problem.first_random_point() if top is not None else 0
+    thresholds = (np.array([problem.split_threshold(float(x), top) for x in levels])
+                  if top is not None else levels)
+    uncoast = top is None and problem.coasts_to_rest(levels)
+    score, plain = problem.split_score(states, top, uncoast)
+    level = score[:, first:].max(axis=1)
+    value = problem.value(plain)
+    order = np.argsort(levels, kind="stable")
+    estimates = np.full(len(levels), np.nan)
+    log_weight = 0.0
+    done = 0
+    iterations = 0
+    extinct = None
+    while True:
+        if deadline is not None and _time.time() > deadline:
+            return estimates, {"iterations": iterations, "steps": steps,
+                               "log_weight": log_weight, "timed_out": True}
+        z = np.partition(level, kill - 1)[kill - 1]
+        while done < len(order) and thresholds[order[done]] <= z:
+            estimates[order[done]] = math.exp(log_weight) * np.mean(value > levels[order[done]])
+            done += 1
+        if done == len(order):
+            break
+        killed = np.flatnonzero(level <= z)
+        if len(killed) == n:
+            estimates[order[done:]] = 0.0  # extinction: every particle at the same level
+            extinct = log_weight
+            break
+        if iterations >= max_iterations:
+            raise RuntimeError(f"splitting did not reach the level after {iterations} iterations")
+        log_weight += math.log1p(-len(killed) / n)
+        survivors = np.flatnonzero(level > z)
+        parents = survivors[rng.integers(len(survivors), size=len(killed))]
+        branch = np.argmax(score[parents, first:] > z, axis=1) + first
+        states[killed] = states[parents]
+        _extend(problem, states, killed, branch, base + branches + np.arange(len(killed)), key,
+                threads)
+        branches += len(killed)
+        steps += int(np.sum(problem.steps - branch))
+        score[killed], plain = problem.split_score(states[killed], top, uncoast)
+        level[killed] = score[killed, first:].max(axis=1)
+        value[killed] = problem.value(plain)
+        iterations += 1
+    return estimates, {"iterations": iterations, "steps": steps, "log_weight": log_weight,
+                       "extinct": extinct}
