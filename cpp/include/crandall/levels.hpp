@@ -1,4 +1,4 @@
-// Per-path values for the multilevel (adaptive-accuracy) runs of python/crandall/adaptive.py
+// Per-path values for the multilevel (adaptive-accuracy) runs of python/crandall/adaptive/
 // (docs/methods/adaptive.md): the values a run would add to its sums, returned path by path so
 // that the level differences of any statistic can be formed, and a fixed-order sum of their
 // products. Both are pure functions of their arguments: the same bits for any thread count and
@@ -35,7 +35,7 @@ std::size_t sample_size(const Plan& plan);
 // Number of control sums per path and slot.
 int control_count();
 
-// The feature columns of a run to an accuracy (python/crandall/adaptive.py), one entry per
+// The feature columns of a run to an accuracy (python/crandall/adaptive/), one entry per
 // column. A column's value on a grid is its target's: the sample x = samples[slot, grid,
 // variable] itself (kind 0), its square x * x (kind 1), the Ito identity's
 // (constant - x * x) / two_drift (kind 2; kind 3 the same with x = 0, at the stop), or its

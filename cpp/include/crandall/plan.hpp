@@ -92,7 +92,7 @@ struct Options {
   // least min_steps steps, whatever dt, while a tiny first output time does not force tiny
   // steps on the rest of the path. 0: off (steps of at most dt only).
   std::uint64_t min_steps = 0;
-  // Multilevel runs (python/crandall/adaptive.py): every segment's step count, as dt and
+  // Multilevel runs (python/crandall/adaptive/): every segment's step count, as dt and
   // min_steps give it, is multiplied by 2^refinement, so the grid of refinement r is every
   // second point of the grid of refinement r + 1, segment by segment (nested grids). 0: off.
   int refinement = 0;
