@@ -225,8 +225,8 @@ class Walker {
     for (int r = 0; r < m_; ++r) {
       double mean = 0.0, noise = 0.0;
       for (int c = 0; c < n_; ++c) mean += tr.phi[static_cast<std::size_t>(r * m_ + c)] * z_[c];
-      if (sigma != 0.0)
-        for (int c = 0; c < m_; ++c) noise += tr.root[static_cast<std::size_t>(r * m_ + c)] * xi[c];
+      if (sigma != 0.0)  // (the tree's root: lower triangular)
+        for (int c = 0; c <= r; ++c) noise += tr.root[static_cast<std::size_t>(r * m_ + c)] * xi[c];
       y[r] = mean + sigma * noise;
     }
     for (int i = 0; i < n_; ++i) {
@@ -351,12 +351,13 @@ class Walker {
         children[r] = sum;
       }
     }
-    // The midpoint, forward from the start: Phi(L/2) (za, 0, 0) + sigma R(L/2) xi_left.
+    // The midpoint, forward from the start: Phi(L/2) (za, 0, 0) + sigma R(L/2) xi_left (the
+    // roots are lower triangular: root_levels).
     for (int r = 0; r < m_; ++r) {
       double mean = 0.0, noise = 0.0;
       for (int c = 0; c < n_; ++c) mean += half.phi[static_cast<std::size_t>(r * m_ + c)] * iv.za[c];
       if (sigma_ != 0.0)
-        for (int c = 0; c < m_; ++c) noise += half.root[static_cast<std::size_t>(r * m_ + c)] * children[c];
+        for (int c = 0; c <= r; ++c) noise += half.root[static_cast<std::size_t>(r * m_ + c)] * children[c];
       y[r] = mean + sigma_ * noise;
     }
     // The right half's own (G, D), forward from the midpoint: Phi(L/2) (z_mid, 0, 0) + sigma
@@ -365,7 +366,7 @@ class Walker {
       double mean = 0.0, noise = 0.0;
       for (int c = 0; c < n_; ++c) mean += half.phi[static_cast<std::size_t>(r * m_ + c)] * y[c];
       if (sigma_ != 0.0)
-        for (int c = 0; c < m_; ++c) noise += half.root[static_cast<std::size_t>(r * m_ + c)] * children[m_ + c];
+        for (int c = 0; c <= r; ++c) noise += half.root[static_cast<std::size_t>(r * m_ + c)] * children[m_ + c];
       gd[r - n_] = mean + sigma_ * noise;
     }
     const double mid = 0.5 * iv.len;
