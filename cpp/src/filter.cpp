@@ -1,4 +1,5 @@
-// The filtered excitation's exact skeleton: transitions, bridges, the ring-down's decay bound
+// The filtered excitation's exact skeleton: transitions, the noise-space bisection tree's roots
+// and splits, the ring-down's decay bound
 // (filter.hpp; derivations in docs/filtered.md, "The skeleton"). Plan-time code: Eigen's dense
 // algebra on matrices of at most 8 x 8, compiled once for the baseline instruction set, so every
 // CPU gets the same bits.
@@ -171,63 +172,149 @@ Transition transition(const LinearFilter& f, double h) {
   return t;
 }
 
-// The midpoint m of [0, length] given Y(0) = Y0 and Y(length) = Y1, with half = length / 2,
-// Phi = Phi(half), Q = Q(half) = L L^T (unit intensity):
-//   Ym = Phi Y0 + L xi1,  Y1 = Phi Ym + L xi2,  xi1, xi2 ~ N(0, I) independent.
-// Given Y1 the noises obey one linear constraint, M xi = r with M = [Phi L, L] (m x 2m),
-// xi = (xi1, xi2), r = Y1 - Phi^2 Y0; a standard normal vector conditioned on M xi = r is
-// M^+ r + N eta, eta ~ N(0, I_m), N an orthonormal basis of M's null space. With the QR
-// singular value decomposition (below):
-//   E[Ym | Y0, Y1] = (Phi - K Phi^2) Y0 + K Y1,  K = L (M^+)_top,
-//   Var[Ym | Y0, Y1] = L N_top N_top^T L^T (never formed as Q - K Phi Q, which cancels),
-// factored as Q is (psd_root). Working with square roots matters: the augmented state is nearly degenerate at
-// small steps (for Kanai-Tajimi, x and G are both about int W to leading order), so Var Y(h) is
-// ill-conditioned even after scaling, with a condition number the square of M's; solving with H
-// = Var Y1 directly lost percents of the bridge's variance at steps of 1e-4. All in the
-// coordinates scaled by S = diag(Q)^(1/2), then scaled back.
-Bridge bridge(const LinearFilter& f, double length) {
-  RMat phi, q;
-  phi_q(f, 0.5 * length, phi, q);
-  const int n = f.n;
-  const Eigen::Index m = phi.rows();
-  RVec s(m);
-  for (Eigen::Index i = 0; i < m; ++i) s(i) = q(i, i) > 0.0 ? std::sqrt(q(i, i)) : 1.0L;
-  const RMat scale = s.asDiagonal();
-  const RMat unscale = s.cwiseInverse().asDiagonal();
-  const RMat pt = unscale * phi * scale;
-  const RMat lt = unscale * psd_root(q);
-  RMat mt(m, 2 * m);
-  mt << pt * lt, lt;
-  // M's singular value decomposition M = U S V^T: M^+ = V_r S_r^-1 U_r^T over the r singular
-  // values above 1e-16 of the largest (exactly degenerate directions exist: with Clough-Penzien,
-  // G is y'(t) - y'(0) and D is y(t) - y(0) - y'(0) t, so Q has rank m - 2), and N = the rest
-  // of V (an orthonormal basis of the null space).
-  const Eigen::JacobiSVD<RMat> svd(mt, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const RVec sv = svd.singularValues();
-  Eigen::Index rank = 0;
-  while (rank < sv.size() && sv(rank) > sv(0) * 1e-16L) ++rank;
-  const RMat& u = svd.matrixU();
-  const RMat& v = svd.matrixV();
-  const RMat pinv = v.leftCols(rank) * sv.head(rank).cwiseInverse().asDiagonal() * u.leftCols(rank).transpose();
-  const RMat kt = lt * pinv.topRows(m);
-  const RMat null_top = v.rightCols(2 * m - rank).topRows(m);
-  const RMat rt = psd_root(RMat(lt * null_top * null_top.transpose() * lt.transpose()));
-  const RMat ft = pt - kt * (pt * pt);
-  Bridge b;
-  b.length = length;
-  const RMat from_start = (scale * ft * unscale).leftCols(n), from_end = scale * kt * unscale;
-  b.from_start = to_row_major(from_start.cast<double>());
-  b.from_end = to_row_major(from_end.cast<double>());
-  b.root = to_row_major((scale * rt).cast<double>());
-  b.phi_half = to_row_major(phi.cast<double>());
-  RVec cs = RVec::Zero(m);
-  for (int j = 0; j < n; ++j) cs(j) = f.c[static_cast<std::size_t>(j)] * s(j);
-  b.spread = static_cast<double>((rt.transpose() * cs).norm());
-  require(std::isfinite(b.spread) && from_start.allFinite() && from_end.allFinite(),
-          "filter_a, filter_b, filter_c: the filter's bridge over an interval of " +
-              std::to_string(length) + " is not finite (is every direction of the filter's "
-              "state reached by the noise?)");
-  return b;
+namespace {
+
+// The k Gauss-Legendre nodes and weights on [-1, 1]: Newton on P_k from Chebyshev-like starts
+// (long double; k <= 12 here).
+void gauss_legendre(int k, std::vector<Real>& nodes, std::vector<Real>& weights) {
+  nodes.assign(static_cast<std::size_t>(k), 0.0L);
+  weights.assign(static_cast<std::size_t>(k), 0.0L);
+  const Real pi = 3.141592653589793238462643383279502884L;
+  for (int i = 0; i < k; ++i) {
+    Real x = std::cos(pi * (i + 0.75L) / (k + 0.5L)), dp = 0.0L;
+    for (int it = 0; it < 100; ++it) {
+      Real p0 = 1.0L, p1 = x;
+      for (int j = 2; j <= k; ++j) {
+        const Real p2 = ((2 * j - 1) * x * p1 - (j - 1) * p0) / j;
+        p0 = p1;
+        p1 = p2;
+      }
+      dp = k * (x * p1 - p0) / (x * x - 1.0L);
+      const Real dx = p1 / dp;
+      x -= dx;
+      if (std::abs(dx) <= 1e-21L) break;
+    }
+    Real p0 = 1.0L, p1 = x;
+    for (int j = 2; j <= k; ++j) {
+      const Real p2 = ((2 * j - 1) * x * p1 - (j - 1) * p0) / j;
+      p0 = p1;
+      p1 = p2;
+    }
+    dp = k * (x * p1 - p0) / (x * x - 1.0L);
+    nodes[static_cast<std::size_t>(i)] = x;
+    weights[static_cast<std::size_t>(i)] = 2.0L / ((1.0L - x * x) * dp * dp);
+  }
+}
+
+// The thin-to-full composition of two consecutive intervals of length t: with W = [Phi(t) R(t),
+// R(t)] (m x 2m, W W^T = Q(2t)), the Householder QR W^T = U T; returns R(2t) = T^T (its top m
+// rows) and, if asked, U (2m x 2m orthogonal). Householder QR is backward stable column by
+// column (each column of W^T, a component of Y, keeps its own scale), and nothing is inverted:
+// a rank-deficient W (Clough-Penzien) just gives zeros on T's diagonal.
+RMat compose_roots(const RMat& phi_half, const RMat& root_half, RMat* split) {
+  const Eigen::Index m = root_half.rows();
+  RMat wt(2 * m, m);
+  wt.topRows(m) = (phi_half * root_half).transpose();
+  wt.bottomRows(m) = root_half.transpose();
+  const Eigen::HouseholderQR<RMat> qr(wt);
+  const RMat t = qr.matrixQR().topRows(m).triangularView<Eigen::Upper>();
+  if (split != nullptr) *split = qr.householderQ() * RMat::Identity(2 * m, 2 * m);
+  return t.transpose();
+}
+
+// exp(Abar s) bbar by its Taylor series (||Abar s|| <= 1/2: every component accurate relative
+// to itself, as in taylor above).
+RVec flow_of_noise(const RMat& abar, const RVec& bbar, Real s) {
+  constexpr int kTerms = 30;
+  std::vector<RVec> terms;
+  RVec t = bbar;
+  terms.push_back(t);
+  for (int k = 1; k <= kTerms; ++k) {
+    t = (abar * t) * (s / k);
+    terms.push_back(t);
+  }
+  RVec out = RVec::Zero(bbar.size());
+  for (int k = kTerms; k >= 0; --k) out += terms[static_cast<std::size_t>(k)];
+  return out;
+}
+
+// The quadrature root at a length with ||Abar length|| <= 1/2 (the Gauss-Legendre rule on k
+// nodes is exact for polynomials of degree 2k - 1; the integrand is entire, so its error is
+// about (||Abar|| length)^(2k) / (2k)! relative to each entry).
+RMat quadrature_root_short(const RMat& abar, const RVec& bbar, Real length) {
+  const Eigen::Index m = abar.rows();
+  const int k = static_cast<int>(m) + 4;
+  std::vector<Real> x, w;
+  gauss_legendre(k, x, w);
+  RMat cols(k, m);  // the transpose of [exp(Abar s_j) bbar sqrt(w_j)]
+  for (int j = 0; j < k; ++j) {
+    const Real s = 0.5L * length * (1.0L + x[static_cast<std::size_t>(j)]);
+    cols.row(j) = (flow_of_noise(abar, bbar, s) * std::sqrt(0.5L * length * w[static_cast<std::size_t>(j)])).transpose();
+  }
+  const Eigen::HouseholderQR<RMat> qr(cols);
+  const RMat t = qr.matrixQR().topRows(m).triangularView<Eigen::Upper>();
+  return t.transpose();
+}
+
+RMat quadrature_root_long(const LinearFilter& f, double length) {
+  require(std::isfinite(length) && length > 0.0, "filter root: the length must be finite and > 0");
+  RMat abar, noise;
+  augmented(f, abar, noise);
+  const Eigen::Index m = abar.rows();
+  RVec bbar = RVec::Zero(m);
+  for (int j = 0; j < f.n; ++j) bbar(j) = f.b[static_cast<std::size_t>(j)];
+  const Real norm = abar.cwiseAbs().rowwise().sum().maxCoeff();
+  int s = 0;
+  Real tau = length;
+  while (norm * tau > 0.5L && s < 2000) tau = std::ldexp(static_cast<Real>(length), -(++s));
+  RMat root = quadrature_root_short(abar, bbar, tau);
+  for (int i = s; i > 0; --i) {
+    RMat phi, q;
+    phi_q(f, static_cast<double>(std::ldexp(static_cast<Real>(length), -i)), phi, q);
+    root = compose_roots(phi, root, nullptr);
+  }
+  return root;
+}
+
+}  // namespace
+
+std::vector<double> quadrature_root(const LinearFilter& f, double length) {
+  return to_row_major(quadrature_root_long(f, length).cast<double>());
+}
+
+std::vector<RootLevel> root_levels(const LinearFilter& f, double longest, int count) {
+  require(count >= 1, "filter root levels: count must be >= 1");
+  const int n = f.n, m = n + 2;
+  std::vector<RMat> phis(static_cast<std::size_t>(count)), roots(static_cast<std::size_t>(count)),
+      splits(static_cast<std::size_t>(count));
+  for (int i = 0; i < count; ++i) {
+    RMat q;
+    phi_q(f, std::ldexp(longest, -i), phis[static_cast<std::size_t>(i)], q);
+  }
+  roots[static_cast<std::size_t>(count - 1)] = quadrature_root_long(f, std::ldexp(longest, -(count - 1)));
+  for (int i = count - 2; i >= 0; --i)
+    roots[static_cast<std::size_t>(i)] = compose_roots(phis[static_cast<std::size_t>(i + 1)],
+                                                       roots[static_cast<std::size_t>(i + 1)],
+                                                       &splits[static_cast<std::size_t>(i)]);
+  RVec c = RVec::Zero(m);
+  for (int j = 0; j < n; ++j) c(j) = f.c[static_cast<std::size_t>(j)];
+  std::vector<RootLevel> out(static_cast<std::size_t>(count));
+  for (int i = 0; i < count; ++i) {
+    RootLevel& level = out[static_cast<std::size_t>(i)];
+    const auto u = static_cast<std::size_t>(i);
+    level.length = std::ldexp(longest, -i);
+    level.phi = to_row_major(phis[u].cast<double>());
+    level.root = to_row_major(roots[u].cast<double>());
+    require(phis[u].allFinite() && roots[u].allFinite(),
+            "filter_a, filter_b, filter_c: the filter's noise roots over an interval of " +
+                std::to_string(level.length) + " are not finite");
+    if (i + 1 < count) {
+      level.split = to_row_major(splits[u].cast<double>());
+      const RMat null_top = splits[u].topRightCorner(m, m);
+      level.spread = static_cast<double>((null_top.transpose() * (roots[u + 1].transpose() * c)).norm());
+    }
+  }
+  return out;
 }
 
 std::vector<double> lyapunov(const std::vector<double>& a, int n, const std::vector<double>& rhs) {
@@ -368,21 +455,16 @@ std::shared_ptr<const FilterModel> make_filter_model(const Options& o,
   fm.start = o.filter_start.empty() ? std::vector<double>(static_cast<std::size_t>(n), 0.0) : o.filter_start;
   fm.static_drift = o.resolved_static_drift();
   fm.depth = o.event_depth;
-  const int grids = o.grids();
   const auto table = [&](double h) {
     for (std::size_t i = 0; i < fm.tables.size(); ++i)
       if (fm.tables[i].step == h) return static_cast<int>(i);
     StepTable t;
     t.step = h;
     t.skeleton = transition(fm.filter, h);
-    for (int d = 0; d <= fm.depth; ++d) {
-      Bridge b = bridge(fm.filter, std::ldexp(h, -d));
-      t.spread_fine.push_back(b.spread);
-      if (d < fm.depth) t.bridges.push_back(std::move(b));
-    }
-    for (int g = 0; g < 3; ++g)
-      t.spread_coarse.push_back(g == 0 ? t.spread_fine[0]
-                                       : g < grids ? bridge(fm.filter, std::ldexp(h, g)).spread : 0.0);
+    t.levels = root_levels(fm.filter, std::ldexp(h, kLevelsUp), fm.depth + kLevelsUp + 2);
+    t.skeleton.root = t.levels[kLevelsUp].root;
+    for (int d = 0; d <= fm.depth; ++d) t.spread_fine.push_back(t.levels[static_cast<std::size_t>(kLevelsUp + d)].spread);
+    for (int g = 0; g <= kLevelsUp; ++g) t.spread_coarse.push_back(t.levels[static_cast<std::size_t>(kLevelsUp - g)].spread);
     fm.tables.push_back(std::move(t));
     return static_cast<int>(fm.tables.size() - 1);
   };

@@ -10,20 +10,31 @@
 // Over an interval of length L on which no event (stop, onset) happens, a sliding body moves
 // exactly by the skeleton's numbers: V1 = V0 - G - s drift L, dU = V0 L - D - s drift L^2 / 2,
 // dS = s dU (s = sgn V0); a body at rest stays at rest. An interval where an event is possible
-// (the test `possible_event`) is bisected by exact bridges, only its candidate halves again,
+// (the test `possible_event`) is bisected by exact bridges in noise space (below), only its
+// candidate halves again,
 // down to event_depth bisections; on those finest substeps a_g is taken linear between its end
 // values and the body is stepped exactly for that line by newmark::linear_step (the record
 // integrator's own step).
 //
+// Bridges in noise space (filter.hpp, root_levels; docs/filtered.md): every interval carries
+// its noise coordinates xi (Y_end = Phi(L) Y_start + sigma R(L) xi; the skeleton's are its
+// normals), and its halves' are (xi_left; xi_right) = split (xi; eta) with eta ~ N(0, I_m) the
+// node's normals: the midpoint is Y_mid = Phi(L/2) Y_start + sigma R(L/2) xi_left and the right
+// half's (G, D) Phi(L/2) (z_mid, 0, 0) + sigma R(L/2) xi_right, both forward; the right half's
+// end z is the interval's own (shared with the next interval). No state is conditioned on at run
+// time, so nothing amplifies the rounding of the path's numbers.
+//
 // Coupled grids (run_samples, Richardson's methods): grid g's skeleton is every 2^g-th point of
 // the walked grid, its (G, D) over a coarse step composed exactly from the fine steps'; its
 // event search bisects a coarse step first at the fine grid's points, then inside a fine step
-// with that step's own bridges and random numbers. Every interval's numbers are a function of
+// with that step's own noise tree and random numbers (a composite interval is never split in
+// noise space, so it needs no xi of its own: its first splits are at fine points, whose
+// intervals carry the fine steps' xi). Every interval's numbers are a function of
 // its place in that tree only, so the grids see one and the same path.
 //
 // Random numbers: Philox keyed by the seed; the counter is (index, path word), index = 2 k + j
 // for the j-th block of 4 normals of fine step k, path word = path + ((2^22 + node) << 40) with
-// node 0 for the skeleton's step and node >= 1 for the bridge that splits node's interval of that
+// node 0 for the skeleton's step and node >= 1 for the eta that splits node's interval of that
 // step (node 1 the whole step, children 2 node and 2 node + 1). Paths are < 2^40 and nodes
 // < 2^21, so these counters never meet each other nor the white-noise kernel's (path words below
 // 2^40, or with bit 63 set).
@@ -72,6 +83,7 @@ void normals(std::uint64_t seed, std::uint64_t path, std::uint64_t step, std::ui
 // A fine step of the walked grid: z at both ends, (G, D) over it, its index and start time.
 struct FineStep {
   double z0[kMaxFilter], z1[kMaxFilter];
+  double xi[kMaxAugmented];  // the skeleton's normals (noise coordinates in R(step))
   double g, d;
   std::uint64_t k;
   double t0;
@@ -80,10 +92,11 @@ struct FineStep {
 // An interval the event search looks at: its start time and length, z at both ends, (G, D)
 // over it, and where its midpoint comes from: `count` >= 2 fine steps of the group (fine points
 // split it), or (count <= 1) inside fine step `k` as its bisection tree's `node` at relative
-// depth `rel` (length step / 2^rel).
+// depth `rel` (length step / 2^rel) with noise coordinates xi (count <= 1 only).
 struct Interval {
   double t0, len;
   double za[kMaxFilter], zb[kMaxFilter];
+  double xi[kMaxAugmented];
   double g, d;
   int first, count;
   std::uint64_t k;
@@ -212,14 +225,15 @@ class Walker {
     for (int r = 0; r < m_; ++r) {
       double mean = 0.0, noise = 0.0;
       for (int c = 0; c < n_; ++c) mean += tr.phi[static_cast<std::size_t>(r * m_ + c)] * z_[c];
-      if (sigma != 0.0)
-        for (int c = 0; c < m_; ++c) noise += tr.root[static_cast<std::size_t>(r * m_ + c)] * xi[c];
+      if (sigma != 0.0)  // (the tree's root: lower triangular)
+        for (int c = 0; c <= r; ++c) noise += tr.root[static_cast<std::size_t>(r * m_ + c)] * xi[c];
       y[r] = mean + sigma * noise;
     }
     for (int i = 0; i < n_; ++i) {
       f.z0[i] = z_[i];
       f.z1[i] = z_[i] = y[i];
     }
+    for (int i = 0; i < m_; ++i) f.xi[i] = xi[i];
     f.g = y[n_];
     f.d = y[n_ + 1];
     f.k = k;
@@ -257,6 +271,7 @@ class Walker {
     }
     iv.g = g;
     iv.d = d;
+    for (int i = 0; i < m_; ++i) iv.xi[i] = count == 1 ? a.xi[i] : 0.0;
     iv.first = first;
     iv.count = count;
     iv.k = a.k;
@@ -310,7 +325,7 @@ class Walker {
     search(right, depth_left - 1, b);
   }
 
-  // The two halves of an interval: at a fine point, or by the bridge of its node.
+  // The two halves of an interval: at a fine point, or by the noise-space split of its node.
   void bisect(const Interval& iv, Interval& left, Interval& right) const {
     if (iv.count >= 2) {
       const int half = iv.count / 2;
@@ -318,40 +333,52 @@ class Walker {
       compose(iv.first + half, half, right);
       return;
     }
-    const Bridge& br = table_->bridges[static_cast<std::size_t>(iv.rel)];
-    double y[kMaxAugmented];
-    if (sigma_ == 0.0) {
-      // No noise: the midpoint is the deterministic flow from the start.
-      for (int r = 0; r < m_; ++r) {
+    const std::size_t level = static_cast<std::size_t>(kLevelsUp + iv.rel);
+    const RootLevel& half = table_->levels[level + 1];  // Phi(len / 2), R(len / 2)
+    double y[kMaxAugmented], gd[2];
+    double children[2 * kMaxAugmented] = {};  // (xi_left; xi_right)
+    if (sigma_ != 0.0) {
+      // (xi_left; xi_right) = split (xi; eta): iid N(0, I_m) with
+      // Phi(L/2) R(L/2) xi_left + R(L/2) xi_right = R(L) xi.
+      const std::vector<double>& split = table_->levels[level].split;
+      double u[2 * kMaxAugmented];
+      for (int i = 0; i < m_; ++i) u[i] = iv.xi[i];
+      normals(o_.seed, path_, iv.k, iv.node, m_, u + m_);
+      const int w = 2 * m_;
+      for (int r = 0; r < w; ++r) {
         double sum = 0.0;
-        for (int c = 0; c < n_; ++c) sum += br.phi_half[static_cast<std::size_t>(r * m_ + c)] * iv.za[c];
-        y[r] = sum;
-      }
-    } else {
-      double xi[kMaxAugmented];
-      normals(o_.seed, path_, iv.k, iv.node, m_, xi);
-      double end[kMaxAugmented];
-      for (int i = 0; i < n_; ++i) end[i] = iv.zb[i];
-      end[n_] = iv.g;
-      end[n_ + 1] = iv.d;
-      for (int r = 0; r < m_; ++r) {
-        double mean = 0.0, noise = 0.0;
-        for (int c = 0; c < n_; ++c) mean += br.from_start[static_cast<std::size_t>(r * n_ + c)] * iv.za[c];
-        for (int c = 0; c < m_; ++c) mean += br.from_end[static_cast<std::size_t>(r * m_ + c)] * end[c];
-        for (int c = 0; c < m_; ++c) noise += br.root[static_cast<std::size_t>(r * m_ + c)] * xi[c];
-        y[r] = mean + sigma_ * noise;
+        for (int c = 0; c < w; ++c) sum += split[static_cast<std::size_t>(r * w + c)] * u[c];
+        children[r] = sum;
       }
     }
-    const double half = 0.5 * iv.len;
+    // The midpoint, forward from the start: Phi(L/2) (za, 0, 0) + sigma R(L/2) xi_left (the
+    // roots are lower triangular: root_levels).
+    for (int r = 0; r < m_; ++r) {
+      double mean = 0.0, noise = 0.0;
+      for (int c = 0; c < n_; ++c) mean += half.phi[static_cast<std::size_t>(r * m_ + c)] * iv.za[c];
+      if (sigma_ != 0.0)
+        for (int c = 0; c <= r; ++c) noise += half.root[static_cast<std::size_t>(r * m_ + c)] * children[c];
+      y[r] = mean + sigma_ * noise;
+    }
+    // The right half's own (G, D), forward from the midpoint: Phi(L/2) (z_mid, 0, 0) + sigma
+    // R(L/2) xi_right; its end z is the interval's (the point it shares with the next one).
+    for (int r = n_; r < m_; ++r) {
+      double mean = 0.0, noise = 0.0;
+      for (int c = 0; c < n_; ++c) mean += half.phi[static_cast<std::size_t>(r * m_ + c)] * y[c];
+      if (sigma_ != 0.0)
+        for (int c = 0; c <= r; ++c) noise += half.root[static_cast<std::size_t>(r * m_ + c)] * children[m_ + c];
+      gd[r - n_] = mean + sigma_ * noise;
+    }
+    const double mid = 0.5 * iv.len;
     for (Interval* p : {&left, &right}) {
-      p->len = half;
+      p->len = mid;
       p->count = 1;
       p->first = iv.first;
       p->k = iv.k;
       p->rel = iv.rel + 1;
     }
     left.t0 = iv.t0;
-    right.t0 = iv.t0 + half;
+    right.t0 = iv.t0 + mid;
     left.node = 2 * iv.node;
     right.node = 2 * iv.node + 1;
     for (int i = 0; i < n_; ++i) {
@@ -359,10 +386,14 @@ class Walker {
       left.zb[i] = right.za[i] = y[i];
       right.zb[i] = iv.zb[i];
     }
+    for (int i = 0; i < m_; ++i) {
+      left.xi[i] = children[i];
+      right.xi[i] = children[m_ + i];
+    }
     left.g = y[n_];
     left.d = y[n_ + 1];
-    right.g = iv.g - y[n_];
-    right.d = iv.d - y[n_ + 1] - y[n_] * half;
+    right.g = gd[0];
+    right.d = gd[1];
   }
 
   // A finest substep: a_g linear between its ends, the body stepped exactly for that line

@@ -1,12 +1,14 @@
 // The filtered excitation's skeleton (filter.hpp) against independent computations: Eigen's
 // matrix exponential of Van Loan's block matrix, closed forms of Kanai-Tajimi's stationary
-// variances and of the small-step variances, and the Gaussian bridge's identities.
+// variances and of the small-step variances, and the noise-space bisection tree's identities and law.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 #include <cmath>
 #include <stdexcept>
+#include <random>
 #include <string>
+#include <vector>
 #include <unsupported/Eigen/MatrixFunctions>
 
 #include "crandall/filter.hpp"
@@ -138,38 +140,162 @@ TEST(FilterSkeleton, TinyStepResolvesEveryVariance) {
   EXPECT_NEAR(q(2, 3) / std::sqrt(q(2, 2) * q(3, 3)), std::sqrt(15.0) / 4, tol);
 }
 
-// Checked in double from the stored (double) matrices, so only where the gains are moderate: the
-// gain K grows like 1 / (omega L)^2 (the augmented state's near-degenerate direction, filter.cpp),
-// and the identities multiply the stored Q(L)'s rounding by K twice (2e-16 K^2 ~ 1e-6 at
-// L = 2e-3, the tolerance).
-TEST(FilterBridge, MeanAndCovarianceIdentities) {
-  for (const LinearFilter* f : {&kt, &cp})
-    for (double length : {2e-3, 0.02, 0.5}) {
-      const int n = f->n, m = n + 2;
-      const auto br = crandall::bridge(*f, length);
-      const auto half = crandall::transition(*f, 0.5 * length);
-      const auto whole = crandall::transition(*f, length);
-      const Mat F = mat(br.from_start, m, n), K = mat(br.from_end, m, m), R = mat(br.root, m, m);
-      const Mat qm = mat(half.q, m, m), qh = mat(whole.q, m, m), pm = mat(half.phi, m, m);
-      // Tower property: E[E[Ym | Y0, Y1] | Y0] = Phi(L/2) Y0 for every z0.
-      const Mat tower = F + K * mat(whole.phi, m, m).leftCols(n);
+// The noise-space tree (root_levels, docs/filtered.md "Bridges in noise space") against the
+// Taylor/doubling Q (reliable entry by entry relative to sqrt(Q_ii Q_jj), TransitionMatches... and
+// TinyStep... above). Kanai-Tajimi with omega = 1 from L = 1 down to L = 2^-20 (omega L from 1 to
+// 1e-6, where the old conditioning's gains reached 1 / (omega L)^4), and Clough-Penzien (Q of rank
+// n < m: exact degeneracies).
+const LinearFilter kt1 = crandall::kanai_tajimi(1.0, 0.6);
+
+TEST(FilterRoots, QuadratureRootReproducesQ) {
+  for (const LinearFilter* f : {&kt1, &kt, &cp})
+    for (double length : {1e-6, 1e-4, 1e-2, 0.3, 2.0}) {
+      const int m = f->n + 2;
+      const Mat r = mat(crandall::quadrature_root(*f, length), m, m);
+      const Mat q = mat(crandall::transition(*f, length).q, m, m);
+      expect_close_scaled(r * r.transpose(), q, q, 1e-12, "quadrature root at " + std::to_string(length));
       for (int i = 0; i < m; ++i)
-        for (int j = 0; j < n; ++j)
-          EXPECT_LE(std::abs(tower(i, j) - pm(i, j)), 1e-6 * std::sqrt(qm(i, i) / qm(j, j)) + 1e-12 * std::abs(pm(i, j)))
-              << length << " tower " << i << j;
-      // Total covariance: Var Ym = E Var[Ym | Y1] + Var E[Ym | Y1] = R R^T + K Q(L) K^T.
-      expect_close_scaled(R * R.transpose() + K * qh * K.transpose(), qm, qm, 1e-6, "total covariance");
-      // Cov(Ym, Y1) = Q(L/2) Phi(L/2)^T = K Q(L) (the gain's defining equation).
-      const Mat cross = qm * pm.transpose();
-      for (int i = 0; i < m; ++i)
-        for (int j = 0; j < m; ++j)
-          EXPECT_LE(std::abs((K * qh)(i, j) - cross(i, j)), 1e-6 * std::sqrt(qm(i, i) * qh(j, j))) << "cross";
-      // The conditional variance of a_g at the midpoint: positive, below its prior variance.
-      Eigen::VectorXd c = Eigen::VectorXd::Zero(m);
-      for (int j = 0; j < n; ++j) c(j) = f->c[j];
-      EXPECT_GT(br.spread, 0.0);
-      EXPECT_LT(br.spread * br.spread, c.dot(qm * c));
+        for (int j = i + 1; j < m; ++j) EXPECT_EQ(r(i, j), 0.0);  // lower triangular
     }
+}
+
+struct TreeCase {
+  const LinearFilter* f;
+  double longest;
+  int count;
+};
+
+TEST(FilterRoots, LevelsReproduceQComposeAndSplitOrthonormally) {
+  const TreeCase cases[] = {{&kt1, 1.0, 21}, {&kt, 0.08, 12}, {&cp, 0.08, 12}, {&cp, 4.0, 24}};
+  for (const TreeCase& tc : cases) {
+    const int n = tc.f->n, m = n + 2;
+    const auto levels = crandall::root_levels(*tc.f, tc.longest, tc.count);
+    ASSERT_EQ(levels.size(), static_cast<std::size_t>(tc.count));
+    for (int i = 0; i < tc.count; ++i) {
+      const auto& lv = levels[static_cast<std::size_t>(i)];
+      const std::string where = "n " + std::to_string(n) + " L " + std::to_string(lv.length);
+      EXPECT_EQ(lv.length, std::ldexp(tc.longest, -i));
+      const auto t = crandall::transition(*tc.f, lv.length);
+      EXPECT_EQ(lv.phi, t.phi);
+      const Mat q = mat(t.q, m, m), r = mat(lv.root, m, m);
+      expect_close_scaled(r * r.transpose(), q, q, 1e-10, "R R^T = Q, " + where);
+      if (i + 1 == tc.count) {
+        EXPECT_TRUE(lv.split.empty());
+        continue;
+      }
+      // The split is orthogonal (its first m columns orthonormal, the rest their complement).
+      const Mat s = mat(lv.split, 2 * m, 2 * m);
+      EXPECT_LE((s.transpose() * s - Mat::Identity(2 * m, 2 * m)).cwiseAbs().maxCoeff(), 1e-14) << where;
+      // Composition: [Phi(L/2) R(L/2), R(L/2)] split = [R(L), 0], each row to 1e-12 of its
+      // scale sqrt(Q_rr(L)) (the rows of W have that norm, the columns of split are unit).
+      const auto& below = levels[static_cast<std::size_t>(i + 1)];
+      const Mat rh = mat(below.root, m, m);
+      Mat w(m, 2 * m);
+      w << mat(below.phi, m, m) * rh, rh;
+      Mat want = Mat::Zero(m, 2 * m);
+      want.leftCols(m) = r;
+      const Mat got = w * s;
+      for (int a = 0; a < m; ++a)
+        for (int b = 0; b < 2 * m; ++b)
+          EXPECT_LE(std::abs(got(a, b) - want(a, b)), 1e-12 * std::sqrt(q(a, a)))
+              << "composition, " << where << " (" << a << ", " << b << ")";
+      // The a_g spread: positive, below a_g's unconditional variance over L/2.
+      Eigen::VectorXd c = Eigen::VectorXd::Zero(m);
+      for (int j = 0; j < n; ++j) c(j) = tc.f->c[j];
+      const Mat qh = mat(crandall::transition(*tc.f, below.length).q, m, m);
+      EXPECT_GT(lv.spread, 0.0) << where;
+      EXPECT_LT(lv.spread * lv.spread, c.dot(qh * c)) << where;
+    }
+  }
+}
+
+// For a full-rank Q the noise-space spread is the textbook bridge's: Var[c.Y(L/2) | Y(0), Y(L)] =
+// c (Q_h - Q_h Phi_h^T Q_L^-1 Phi_h Q_h) c, Q_h = Q(L/2). Checked in double at moderate omega L
+// only (0.3 to 0.6), where that formula (the old construction's) is still accurate to 1e-6.
+TEST(FilterRoots, SpreadIsTheConditionalSpreadOfTheClassicBridge) {
+  for (double length : {0.02, 0.04}) {
+    const auto levels = crandall::root_levels(kt, length, 2);
+    const Mat qh = mat(crandall::transition(kt, 0.5 * length).q, 4, 4);
+    const Mat ph = mat(levels[1].phi, 4, 4);
+    const Mat ql = mat(crandall::transition(kt, length).q, 4, 4);
+    const Mat cond = qh - qh * ph.transpose() * ql.ldlt().solve(ph * qh);
+    Eigen::Vector4d c(kt.c[0], kt.c[1], 0.0, 0.0);
+    EXPECT_NEAR(levels[0].spread, std::sqrt(c.dot(cond * c)), 1e-6 * levels[0].spread) << length;
+  }
+}
+
+// The tree's law, sampled as the path loop samples it: a step of h = 0.02 from Y(0) = (z0, 0, 0)
+// (omega = 0.5, zeta = 0.6, depth 8), xi ~ N(0, I), descended by the splits along a fixed
+// pattern of halves (right, left, right, ...): every midpoint Y_mid = Phi(L/2) S + R(L/2) xi_left
+// (S the current interval's start, in the step's coordinates: G and D from the step's start).
+// At offset t from the step's start, Y_mid must be N(Phi(t) Y(0), Q(t)) and Cov(Y_mid, Y(h)) =
+// Q(t) Phi(h - t)^T. Scaled by sqrt(Q_ii(t)) (and sqrt(Q_jj(h))): variances 1 within 5 standard
+// errors (sqrt(2 / N)), means 0 within 5 / sqrt(N), correlations within 5 / sqrt(N) (the variance
+// of a product of unit normals is at most 2). The old construction's midpoints had sd ~ 1e3
+// here.
+TEST(FilterRoots, TreeMidpointsHaveTheExactJointLaw) {
+  const LinearFilter f = crandall::kanai_tajimi(0.5, 0.6);
+  const int m = 4, depth = 8, paths = 20000;
+  const double h = 0.02;
+  const auto levels = crandall::root_levels(f, h, depth + 1);
+  std::mt19937_64 gen(20240611);
+  std::normal_distribution<double> normal;
+  Eigen::Vector4d y0(0.3, -0.2, 0.0, 0.0);
+  std::vector<std::vector<Eigen::Vector4d>> mids(depth, std::vector<Eigen::Vector4d>(paths));
+  std::vector<Eigen::Vector4d> ends(paths);
+  std::vector<double> offsets(depth);
+  for (int p = 0; p < paths; ++p) {
+    Eigen::Vector4d xi;
+    for (int i = 0; i < m; ++i) xi(i) = normal(gen);
+    ends[p] = mat(levels[0].phi, m, m) * y0 + mat(levels[0].root, m, m) * xi;
+    Eigen::Vector4d start = y0;
+    double t = 0.0;
+    for (int d = 0; d < depth; ++d) {
+      const auto& below = levels[static_cast<std::size_t>(d + 1)];
+      Eigen::Matrix<double, 8, 1> u, ch;
+      u.head(4) = xi;
+      for (int i = 0; i < m; ++i) u(4 + i) = normal(gen);
+      ch = mat(levels[static_cast<std::size_t>(d)].split, 2 * m, 2 * m) * u;
+      const Eigen::Vector4d mid = mat(below.phi, m, m) * start + mat(below.root, m, m) * ch.head(4);
+      mids[d][p] = mid;
+      offsets[d] = t + below.length;
+      if (d % 2 == 0) {  // right half: it starts at the midpoint
+        start = mid;
+        t += below.length;
+        xi = ch.tail(4);
+      } else {
+        xi = ch.head(4);
+      }
+    }
+  }
+  const double n = paths;
+  const Mat qh = mat(crandall::transition(f, h).q, m, m);
+  for (int d = 0; d < depth; ++d) {
+    const double t = offsets[d];
+    const auto tr = crandall::transition(f, t);
+    const Mat q = mat(tr.q, m, m);
+    const Eigen::Vector4d mean = mat(tr.phi, m, m) * y0;
+    const Mat cross = q * mat(crandall::transition(f, h - t).phi, m, m).transpose();
+    const Eigen::Vector4d end_mean = mat(levels[0].phi, m, m) * y0;
+    for (int i = 0; i < m; ++i) {
+      double s1 = 0.0, s2 = 0.0;
+      for (int p = 0; p < paths; ++p) {
+        const double x = (mids[d][p](i) - mean(i)) / std::sqrt(q(i, i));
+        s1 += x;
+        s2 += x * x;
+      }
+      EXPECT_NEAR(s1 / n, 0.0, 5 / std::sqrt(n)) << "mean, depth " << d << " component " << i;
+      EXPECT_NEAR(s2 / n, 1.0, 5 * std::sqrt(2 / n)) << "variance, depth " << d << " component " << i;
+      for (int j = 0; j < m; ++j) {
+        double sc = 0.0;
+        for (int p = 0; p < paths; ++p)
+          sc += (mids[d][p](i) - mean(i)) * (ends[p](j) - end_mean(j));
+        const double scale = std::sqrt(q(i, i) * qh(j, j));
+        EXPECT_NEAR(sc / n / scale, cross(i, j) / scale, 5 * std::sqrt(2 / n))
+            << "covariance with the end, depth " << d << " (" << i << ", " << j << ")";
+      }
+    }
+  }
 }
 
 // The ring-down's bound: |c . z(s)| <= gain ||z(t)||_P for s >= t, on sampled deterministic

@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <iterator>
 #include <numeric>
 #include <unsupported/Eigen/MatrixFunctions>
 #include <vector>
@@ -72,6 +73,69 @@ TEST(FilteredRun, FrictionlessVelocityIsMinusTheGroundVelocity) {
   }
 }
 
+// Var a_g(t) = c Q_zz(t) c^T from rest (z(0) = 0), unit intensity (Van Loan by Eigen).
+double ground_acceleration_variance(const crandall::Options& o, double t) {
+  const int n = static_cast<int>(o.filter_b.size());
+  Mat a(n, n), noise(n, n);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      a(i, j) = o.filter_a[i * n + j];
+      noise(i, j) = o.filter_b[i] * o.filter_b[j];
+    }
+  Mat big = Mat::Zero(2 * n, 2 * n);
+  big.topLeftCorner(n, n) = -a;
+  big.topRightCorner(n, n) = noise;
+  big.bottomRightCorner(n, n) = a.transpose();
+  const Mat e = (big * t).exp();
+  const Mat q = e.bottomRightCorner(n, n).transpose() * e.topRightCorner(n, n);
+  Eigen::VectorXd c(n);
+  for (int j = 0; j < n; ++j) c(j) = o.filter_c[j];
+  return c.dot(q * c);
+}
+
+// The path loop's bridge points have the exact process's marginal law. Kanai-Tajimi omega = 0.5,
+// zeta = 0.6, dt = 0.02, depth 8 (omega L from 1e-2 at the skeleton to 4e-5 at the finest
+// substeps: the old bridges' a_g had sd ~ 1e3 there instead of ~ 0.1). With an event margin of
+// 1e6 and a static friction of 1e3 the body never moves and every step is bisected to the full
+// depth, so the trajectory holds a_g at every point t = i dt / 256. At the last step's midpoints
+// of depths 1, 2, 3, 8 (and its end, a skeleton point) a_g over the paths must have mean 0 within
+// 5 sqrt(Var / N) and variance Var a_g(t) within 5 standard errors Var sqrt(2 / N).
+TEST(FilteredRun, BridgePointsHaveTheExactMarginalLaw) {
+  auto o = kt_options(0.5, 0.6);
+  o.drift = 1.0;
+  o.static_drift = 1e3;
+  o.noise = 1.0;
+  o.times = {0.2};
+  o.switch_off = 0.2;
+  o.dt = 0.02;
+  o.event_depth = 8;
+  o.seed = 5;
+  o.paths = 4000;
+  const double margin = crandall::set_event_margin(1e6);
+  const crandall::Plan plan(o);
+  const std::size_t fine = 256, last = 10 * fine;
+  const std::size_t at[] = {last - 128, last - 64, last - 32, last - 1, last - 85, last};
+  std::vector<double> s1(std::size(at)), s2(std::size(at));
+  for (std::uint64_t p = 0; p < o.paths; ++p) {
+    const auto t = crandall::filtered_trajectory(plan, p);
+    ASSERT_EQ(t.time.size(), last + 1) << p;
+    for (std::size_t j = 0; j < std::size(at); ++j) {
+      const double x = t.ground[at[j]];
+      s1[j] += x;
+      s2[j] += x * x;
+    }
+  }
+  crandall::set_event_margin(margin);
+  const double n = static_cast<double>(o.paths);
+  for (std::size_t j = 0; j < std::size(at); ++j) {
+    const double time = o.dt * static_cast<double>(at[j]) / static_cast<double>(fine);
+    const double want = ground_acceleration_variance(o, time);
+    const double mean = s1[j] / n, var = s2[j] / n - mean * mean;
+    EXPECT_NEAR(mean, 0.0, 5 * std::sqrt(want / n)) << time;
+    EXPECT_NEAR(var, want, 5 * want * std::sqrt(2 / n)) << time;
+  }
+}
+
 crandall::Options stop_scene() {
   auto o = kt_options(15.6, 0.6);
   o.drift = 2.0;
@@ -116,6 +180,7 @@ TEST(FilteredRun, RingDownMatchesNewmarkOnAFineRecord) {
   o.static_drift = 3.0;
   o.noise = 0.0;
   o.switch_off = 0.0;
+  o.ring_down = true;  // the filter rings down from its start (else the shaking, a_g, ends at once)
   o.filter_start = {0.3, -2.0};  // a_g(0) = -18
   o.times = {0.1, 0.2, 0.35, 0.5, 1.0};
   o.dt = 0.01;

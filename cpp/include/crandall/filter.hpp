@@ -12,8 +12,10 @@
 // a linear SDE whose transition over a step h is exactly Gaussian:
 //   Y(h) = Phi(h) Y(0) + sigma L(h) xi,  xi ~ N(0, I_m),  Phi = exp(Abar h),
 //   Q(h) = L L^T = int_0^h exp(Abar s) bbar bbar^T exp(Abar^T s) ds.
-// And the state at the middle of an interval, given both ends, is Gaussian too (the bridge):
-//   Y(h/2) = F z(0) + K Y(h) + sigma R xi.
+// The event search bisects steps by carrying the standard normals, not the states, down a tree
+// (docs/filtered.md, "Bridges in noise space"): every interval holds its noise coordinates xi in
+// a square root R(L) of Q(L), and an interval's xi is split into its halves' by an orthogonal
+// 2m x 2m matrix, with no inversion at run time (root_levels).
 // Everything here is computed once per plan (per distinct step length), never per path.
 #pragma once
 
@@ -55,18 +57,33 @@ struct Transition {
 // std::invalid_argument for h not finite and > 0 or a filter whose numbers are not finite.
 Transition transition(const LinearFilter& f, double h);
 
-// The midpoint of an interval of length `length` given its ends, for unit intensity: with
-// Y(0) = (z0, 0, 0) and Y(length) = Y1,
-//   Y(length / 2) = from_start z0 + from_end Y1 + R xi,   R = root (m x m), xi ~ N(0, I),
-// from_start m x n, from_end m x m (row-major). With intensity sigma the mean is the same and R
-// is scaled by sigma. phi_half is Phi(length / 2) (the midpoint without noise), and spread the
-// standard deviation of a_g = c . z at the midpoint given both ends (unit intensity).
-struct Bridge {
+// The noise-space bisection tree (docs/filtered.md, "Bridges in noise space"). levels[i] is an
+// interval of length L_i = longest / 2^i (i = 0 .. count - 1), built from the deepest level up:
+//   R_{count-1}: from a Gauss-Legendre quadrature of Q's integral (quadrature_root);
+//   i < count - 1: the Householder QR [Phi(L_{i+1}) R_{i+1}, R_{i+1}]^T = U T (U 2m x 2m
+//     orthogonal, T m x m upper triangular in its top rows), R_i = T^T, split = U.
+// So Q(L_i) = R_i R_i^T, and for an interval of level i with noise coordinates xi (Y_end =
+// Phi(L_i) Y_start + sigma R_i xi) and eta ~ N(0, I_m) independent of it, its halves' noise
+// coordinates (xi_left; xi_right) = split (xi; eta) are iid N(0, I_m) and
+//   Phi(L_{i+1}) R_{i+1} xi_left + R_{i+1} xi_right = R_i xi
+// (the first m columns of split are U's thin factor: (xi; 0) -> the part fixed by xi). The
+// midpoint is then Y_mid = Phi(L_{i+1}) Y_start + sigma R_{i+1} xi_left, forward only.
+struct RootLevel {
   double length = 0.0;
-  std::vector<double> from_start, from_end, root, phi_half;
+  std::vector<double> phi;    // Phi(length), m x m row-major
+  std::vector<double> root;   // R(length), m x m row-major (lower triangular), Q = R R^T
+  std::vector<double> split;  // 2m x 2m row-major orthogonal; empty at the deepest level
+  // The standard deviation of a_g at the midpoint given the interval's start and its xi (unit
+  // intensity): |N_top^T R_{i+1}^T c|, N_top = split's top-right m x m block. 0 at the deepest.
   double spread = 0.0;
 };
-Bridge bridge(const LinearFilter& f, double length);
+std::vector<RootLevel> root_levels(const LinearFilter& f, double longest, int count);
+
+// A square root R (m x m, lower triangular) of Q(length) from the columns exp(Abar s_j) bbar
+// sqrt(w_j) at k = m + 4 Gauss-Legendre nodes on [0, length] (for ||Abar length|| <= 1/2; a
+// longer interval is halved until it is, and the roots composed back up by the QR above),
+// reduced to m x m by a Householder QR of their transpose. Long double inside.
+std::vector<double> quadrature_root(const LinearFilter& f, double length);
 
 // Solves A X + X A^T = -rhs for X (n x n row-major; rhs n x n, usually symmetric) by the
 // Kronecker form (I (x) A + A (x) I) vec X = -vec rhs. With A Hurwitz and rhs = b b^T, X is the
@@ -95,14 +112,16 @@ LinearFilter options_filter(const Options& o);
 // filtered); throws std::invalid_argument naming the field.
 void validate_filter_options(const Options& o);
 
-// What a filtered plan precomputes: for every distinct step length the skeleton's transition,
-// the bridges of the intervals the event search bisects (lengths step / 2^d, d = 0 ..
-// event_depth - 1) and the a_g spreads of the intervals a step may be tested on (coarse grids'
-// steps step 2^g included).
+// What a filtered plan precomputes for every distinct step length h: the skeleton's transition
+// (its root the tree's R(h)) and the noise-space tree over the lengths h 2^(kLevelsUp - i), i = 0
+// .. event_depth + kLevelsUp + 1: the coarse grids' steps 4h and 2h (their spreads), h, and the
+// event search's intervals h / 2^d down to d = event_depth + 1 (the spread of the finest
+// intervals needs their split).
+constexpr int kLevelsUp = 2;
 struct StepTable {
   double step = 0.0;
-  Transition skeleton;
-  std::vector<Bridge> bridges;      // bridges[d]: an interval of length step / 2^d
+  Transition skeleton;              // phi, q by Taylor; root = levels[kLevelsUp].root
+  std::vector<RootLevel> levels;    // levels[kLevelsUp + d]: an interval of length step / 2^d
   std::vector<double> spread_fine;  // [d]: the a_g spread of an interval of length step / 2^d
   std::vector<double> spread_coarse;  // [g]: of an interval of length step 2^g (g = 0 .. 2)
 };
