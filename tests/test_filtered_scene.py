@@ -71,8 +71,10 @@ def test_the_default_step_resolves_the_filter():
     slow = Scene(mu=1.0, g=1.0, excitation=_kt(omega=0.5, h=1.0), t0=10.0, times=[5.0])
     fast = Scene(mu=1.0, g=1.0, excitation=_kt(omega=40.0, h=1.0), t0=10.0, times=[5.0])
     white = Scene(mu=1.0, g=1.0, h=1.0, t0=10.0, times=[5.0])
-    assert crandall.default_dt(slow) == crandall.default_dt(white)
-    assert crandall.default_dt(fast) == pytest.approx(0.1 / 40.0)
+    # 0.1 t* (t* = 2 h^2 / (mu g)^2 = 2 s), at most 1 / omega.
+    assert crandall.default_dt(slow) == pytest.approx(0.2)
+    assert crandall.default_dt(white) == pytest.approx(0.02)
+    assert crandall.default_dt(fast) == pytest.approx(1.0 / 40.0)
 
 
 def test_a_filtered_result_saves_and_loads(tmp_path):

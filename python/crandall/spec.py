@@ -17,7 +17,7 @@ from typing import Any, Dict, Optional
 
 import numpy as np
 
-from .methods import DEFAULT_DT_FILTER, DEFAULT_DT_TAU, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, METHODS
+from .methods import DEFAULT_DT_FILTER, DEFAULT_DT_TAU, DEFAULT_DT_TAU_FILTER, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, METHODS
 from .errors import ParameterError, UnresolvableGrid
 from .model import GRID_ORDERS, Identity, check_simulated, holds, require
 from .scene import Scene
@@ -71,7 +71,9 @@ def default_dt(scene: Scene) -> float:
     or when that time scale is beyond doubles (``Scene.scaling`` is None): the horizon (the
     last output time or t0) over ``DEFAULT_STEPS_FREE``. Without excitation
     (h = 0) the body stays at rest and the step does not matter. A filtered excitation's step
-    is also at most ``DEFAULT_DT_FILTER`` of its time scale 1 / omega.
+    is ``DEFAULT_DT_TAU_FILTER`` scaled units (its skeleton is exact at any step; the step sets
+    how often its event test looks) and at most ``DEFAULT_DT_FILTER`` of its time scale
+    1 / omega.
 
     With ``dt=None`` the grid is also graded (``DEFAULT_MIN_STEPS``): before an output time or
     the switch-off t the step is at most ``t / DEFAULT_MIN_STEPS``, so horizons far shorter
@@ -85,8 +87,9 @@ def default_dt(scene: Scene) -> float:
                      if scene.pieces is not None else 1.0)
         return DEFAULT_DT_TAU / strongest ** 2 if strongest > 1.0 else DEFAULT_DT_TAU
     limit = DEFAULT_DT_FILTER * scene.excitation.time_scale()  # inf for white noise
+    tau = DEFAULT_DT_TAU if math.isinf(limit) else DEFAULT_DT_TAU_FILTER
     if scene.scaling is not None:
-        return min(scene.scaling.to_t(DEFAULT_DT_TAU), limit)
+        return min(scene.scaling.to_t(tau), limit)
     horizon = max([t for t in (scene.times[-1] if scene.times.size else 0.0, scene.t0)
                    if math.isfinite(t)] + [0.0])
     return min(horizon / DEFAULT_STEPS_FREE if horizon > 0 else 1.0, limit)
