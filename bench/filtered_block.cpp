@@ -6,8 +6,9 @@
 //   /tmp/filtered_block time 8192            the probe's scenes: ns per skeleton step
 //   /tmp/filtered_block save 20000 FILE 2 2  per-path (stop time, distance) with the margin x2
 //                                            and depth + 2 (binary), for `bias` against another build
-//   /tmp/filtered_block bias 20000 [FILE]    paired differences: default against margin x2 and
-//                                            depth + 2 of this build (or FILE's)
+//   /tmp/filtered_block bias 20000           paired differences: default against margin x2 and
+//                                            depth + 2 of this build
+//   /tmp/filtered_block bias 20000 FILE 1 0  margin x1 and depth + 0 of this build against FILE
 // Scenes: Kanai-Tajimi omega t* = 1, 4, 16 (omega = wt / 2), zeta 0.6, h = 1, mu g = 1, t0 = 10.
 #include <chrono>
 #include <cmath>
@@ -99,8 +100,8 @@ int main(int argc, char** argv) {
     }
     return 0;
   }
-  const double mult = argc > 4 ? std::atof(argv[4]) : 2.0;
-  const int add = argc > 5 ? std::atoi(argv[5]) : 2;
+  const double mult = argc > 4 ? std::atof(argv[4]) : mode == "bias" ? 1.0 : 2.0;
+  const int add = argc > 5 ? std::atoi(argv[5]) : mode == "bias" ? 0 : 2;
   if (mode == "save") {
     FILE* f = std::fopen(argv[3], "wb");
     for (double wt : wts) {
@@ -112,7 +113,9 @@ int main(int argc, char** argv) {
   }
   FILE* f = argc > 3 ? std::fopen(argv[3], "rb") : nullptr;
   for (double wt : wts) {
-    const auto a = samples(wt, paths, crandall::kEventMargin, crandall::kDefaultEventDepth);
+    // (with FILE: this build's margin x mult and depth + add against it)
+    const auto a = f ? samples(wt, paths, crandall::kEventMargin * mult, crandall::kDefaultEventDepth + add)
+                     : samples(wt, paths, crandall::kEventMargin, crandall::kDefaultEventDepth);
     std::vector<double> b;
     if (f) {
       b.resize(a.size());

@@ -308,21 +308,50 @@ class Walker {
   }
 
   // Whether an event (a stop, an onset, a reversal) may happen in the interval for a body with
-  // velocity v at its start. a_g on the interval stays within M = max(|a_g| at the ends) +
-  // margin (sigma spread + L^2 / 8 max |c A^2 z| at the ends): the bridge's deviation from the
-  // line between the ends (its standard deviation at the midpoint, `spread`; a Brownian bridge
-  // exceeds its line by margin such deviations with probability exp(-margin^2 / 2)) and the
-  // curvature of its mean. At rest: an onset needs M > static_drift. Sliding: V moves by at most
-  // (M + drift) per unit time, so a zero of V needs |V0| + |V1| <= L (M + drift) (V1 the
-  // no-event value), or V1 on the other side of 0.
+  // velocity v at its start (docs/filtered.md, "Events"). a_g on the interval is taken to stay
+  // within R = margin (sigma spread + L^2 / 8 max |c A^2 z| at the ends) of the line between its
+  // end values: the bridge's deviation from that line (its standard deviation at the midpoint,
+  // `spread`) and the curvature of its mean.
+  // At rest: an onset needs a_g to cross +static_drift or -static_drift. For a Brownian bridge
+  // from a to b with standard deviation s at its midpoint, P(max > K) = exp(-(K - a)(K - b) /
+  // (2 s^2)), so the interval is searched when (K - a)(K - b) < R^2 for either sign (an end at
+  // or beyond K included): a miss probability of at most exp(-margin^2 / 2), as for the worst
+  // end alone, with the other end's distance counted too.
+  // Sliding (s = sgn V0, V1 the no-event value): V1 on the other side of 0 is an event. Else V
+  // cannot reach 0 when, within the band, V stays positive (times s) on both halves: on the
+  // first V(t) >= s V0 - (L/2) max(0, max(s a) + R + drift), on the second (from the end)
+  // V(t) >= s V1 - (L/2) max(0, R - drift - min(s a)), max and min over the ends.
+  // The mean of a_g at the interval's midpoint given its start and xi (a composite interval's
+  // midpoint is a fine point: its value).
+  double middle(const Iv& iv) const {
+    if (iv.count >= 2) return ground(buffer_[iv.first + iv.count / 2 - 1].z1);
+    const double* wz = table_->mid_z.data() + iv.rel * N;
+    const double* wx = table_->mid_xi.data() + iv.rel * M;
+    double a = 0.0, x = 0.0;
+    for (int i = 0; i < N; ++i) a += wz[i] * iv.za[i];
+    for (int i = 0; i < M; ++i) x += wx[i] * iv.xi[i];
+    return a + sigma_ * x;
+  }
+
   bool possible_event(const Iv& iv, double v) const {
-    const double aa = ground(iv.za), ab = ground(iv.zb);
+    const double aa = ground(iv.za), ab = ground(iv.zb), am = middle(iv);
     const double curve = 0.125 * iv.len * iv.len * std::max(curvature(iv.za), curvature(iv.zb));
-    const double reach = std::max(std::abs(aa), std::abs(ab)) + margin_ * (sigma_ * spread(iv) + curve);
-    if (v == 0.0) return reach > static_;
+    const double band = margin_ * (sigma_ * spread(iv) + curve);
+    if (v == 0.0) {
+      const double ua = static_ - aa, ub = static_ - ab, um = static_ - am;
+      const double la = static_ + aa, lb = static_ + ab, lm = static_ + am;
+      const double b2 = band * band;
+      return ua <= 0.0 || ub <= 0.0 || um <= 0.0 || la <= 0.0 || lb <= 0.0 || lm <= 0.0 ||
+             ua * um < b2 || um * ub < b2 || la * lm < b2 || lm * lb < b2;
+    }
     const double s = v > 0.0 ? 1.0 : -1.0;
     const double v1 = v - iv.g - s * drift_ * iv.len;
-    return s * v1 <= 0.0 || std::abs(v) + std::abs(v1) <= iv.len * (reach + drift_);
+    if (s * v1 <= 0.0) return true;
+    const double sa = s * aa, sb = s * ab, sm = s * am;
+    const double half = 0.5 * iv.len;
+    const double fall0 = std::max(std::max(sa, sm), sb) + band + drift_;  // the fastest fall of s V
+    const double fall1 = band - drift_ - std::min(std::min(sa, sm), sb);  // the fastest fall towards the end
+    return s * v <= half * std::max(0.0, fall0) || s * v1 <= half * std::max(0.0, fall1);
   }
 
   void search(const Iv& iv, int depth_left, Body& b) {
