@@ -87,6 +87,42 @@ void normals(std::uint64_t seed, std::uint64_t path, std::uint64_t step, std::ui
   }
 }
 
+// The normals of node 0 (the skeleton's) of steps first .. first + count - 1, count <= kBatch:
+// out[i * M + r] the r-th of step first + i, the same bits as normals<M> step by step; every
+// pair of the batch goes through the log and the sine/cosine in one vectorised loop, so the
+// steps' latencies overlap.
+constexpr int kBatch = 16;
+template <int M>
+void skeleton_normals(std::uint64_t seed, std::uint64_t path, std::uint64_t first, int count,
+                      double* out) {
+  constexpr int kBlocks = (M + 3) / 4;
+  const std::uint64_t word = path + (kNodeTag << kPathBits);
+  std::uint64_t radial[2 * kBlocks * kBatch], angular[2 * kBlocks * kBatch];
+  for (int i = 0; i < count; ++i)
+    for (int j = 0; j < kBlocks; ++j) {
+      std::uint64_t w[4];
+      detail::philox_scalar(seed, word, 2 * (first + static_cast<std::uint64_t>(i)) + static_cast<std::uint64_t>(j), w);
+      for (int p = 0; p < 2; ++p) {
+        radial[(i * kBlocks + j) * 2 + p] = w[2 * p];
+        angular[(i * kBlocks + j) * 2 + p] = w[2 * p + 1];
+      }
+    }
+  double radius[2 * kBlocks * kBatch], sn[2 * kBlocks * kBatch], cs[2 * kBlocks * kBatch];
+  const int pairs = 2 * kBlocks * count;
+#pragma omp simd
+  for (int q = 0; q < pairs; ++q) {
+    radius[q] = std::sqrt(-2.0 * detmath::log_positive(detmath::unit_of_word(radial[q])));
+    detmath::sincos_turn30((angular[q] & 0xFFFFFFFFull) >> 2, sn[q], cs[q]);
+  }
+  for (int i = 0; i < count; ++i)
+    for (int j = 0; j < kBlocks; ++j)
+      for (int p = 0; p < 2; ++p) {
+        const int q = (i * kBlocks + j) * 2 + p;
+        if (4 * j + 2 * p < M) out[i * M + 4 * j + 2 * p] = radius[q] * cs[q];
+        if (4 * j + 2 * p + 1 < M) out[i * M + 4 * j + 2 * p + 1] = radius[q] * sn[q];
+      }
+}
+
 // A fine step of the walked grid: z at both ends, (G, D) over it, its index and start time.
 template <int N>
 struct FineStep {
@@ -147,6 +183,7 @@ class Walker {
             std::vector<std::array<double, 3>>& stops, const std::function<bool()>& cancelled,
             std::uint64_t& poll) {
     path_ = path;
+    batch_first_ = ~std::uint64_t{0} - kBatch;  // (no step's)
     for (int g = 0; g < grids_; ++g) {
       bodies_[g] = Body{};
       bodies_[g].v = o_.start_velocity;
@@ -242,8 +279,16 @@ class Walker {
     const double* phi = table.skeleton.phi.data();
     const double* root = table.skeleton.root.data();
     double xi[M];
-    if (sigma != 0.0) normals<M>(o_.seed, path_, k, 0, xi);
-    else for (int i = 0; i < M; ++i) xi[i] = 0.0;
+    if (sigma != 0.0) {
+      // (drawn kBatch steps ahead: the path's stop may leave some unused)
+      if (k < batch_first_ || k >= batch_first_ + kBatch) {
+        batch_first_ = k;
+        skeleton_normals<M>(o_.seed, path_, k, kBatch, batch_);
+      }
+      for (int i = 0; i < M; ++i) xi[i] = batch_[(k - batch_first_) * M + static_cast<std::uint64_t>(i)];
+    } else {
+      for (int i = 0; i < M; ++i) xi[i] = 0.0;
+    }
     double y[M];
     for (int r = 0; r < M; ++r) {
       double mean = 0.0, noise = 0.0;
@@ -487,6 +532,8 @@ class Walker {
   newmark::Yield yield_{};
   double c_[N] = {}, ca2_[N] = {};
   std::uint64_t path_ = 0;
+  std::uint64_t batch_first_ = 0;  // the skeleton's normals of steps batch_first_ + [0, kBatch)
+  double batch_[kBatch * M] = {};
   double z_[N] = {};
   Body bodies_[3];
   FineStep<N> buffer_[4];
