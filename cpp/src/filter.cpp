@@ -317,6 +317,43 @@ std::vector<RootLevel> root_levels(const LinearFilter& f, double longest, int co
   return out;
 }
 
+namespace {
+
+// widest_spread's recursion: zs (n x E) and xi (m x E) are the start state's and the noise
+// coordinates' coefficients on the E normals of the nodes below the interval (its own xi and
+// start are given: they carry no variance).
+void widest_below(const std::vector<RootLevel>& levels, const Vec& c, std::size_t level, int sub,
+                  const Mat& zs, const Mat& xi, int& node, double& widest) {
+  if (sub == 0 || level + 1 >= levels.size() || levels[level].split.empty()) return;
+  const Eigen::Index n = c.size(), m = xi.rows(), e = xi.cols();
+  const Mat split = from_row_major(levels[level].split, static_cast<int>(2 * m), static_cast<int>(2 * m));
+  const Mat phi = from_row_major(levels[level + 1].phi, static_cast<int>(m), static_cast<int>(m));
+  const Mat root = from_row_major(levels[level + 1].root, static_cast<int>(m), static_cast<int>(m));
+  Mat eta = Mat::Zero(m, e);
+  for (Eigen::Index i = 0; i < m; ++i) eta(i, node * m + i) = 1.0;
+  ++node;
+  const Mat left = split.topLeftCorner(m, m) * xi + split.topRightCorner(m, m) * eta;
+  const Mat right = split.bottomLeftCorner(m, m) * xi + split.bottomRightCorner(m, m) * eta;
+  const Mat mid = phi.topLeftCorner(n, n) * zs + root.topRows(n) * left;
+  widest = std::max(widest, (c.transpose() * mid).norm());
+  widest_below(levels, c, level + 1, sub - 1, zs, left, node, widest);
+  widest_below(levels, c, level + 1, sub - 1, mid, right, node, widest);
+}
+
+}  // namespace
+
+double widest_spread(const std::vector<RootLevel>& levels, const std::vector<double>& c,
+                     std::size_t level, int sub) {
+  const auto n = static_cast<Eigen::Index>(c.size()), m = n + 2;
+  Vec cv(n);
+  for (Eigen::Index j = 0; j < n; ++j) cv(j) = c[static_cast<std::size_t>(j)];
+  const Eigen::Index e = m * ((Eigen::Index{1} << sub) - 1);
+  int node = 0;
+  double widest = 0.0;
+  widest_below(levels, cv, level, sub, Mat::Zero(n, e), Mat::Zero(m, e), node, widest);
+  return widest;
+}
+
 std::vector<double> lyapunov(const std::vector<double>& a, int n, const std::vector<double>& rhs) {
   const Mat am = from_row_major(a, n, n);
   const int nn = n * n;
@@ -461,10 +498,27 @@ std::shared_ptr<const FilterModel> make_filter_model(const Options& o,
     StepTable t;
     t.step = h;
     t.skeleton = transition(fm.filter, h);
-    t.levels = root_levels(fm.filter, std::ldexp(h, kLevelsUp), fm.depth + kLevelsUp + 2);
+    // (kSpreadDepth - 1 levels more than the search uses, for the widest spreads of its finest)
+    t.levels = root_levels(fm.filter, std::ldexp(h, kLevelsUp), fm.depth + kLevelsUp + 1 + kSpreadDepth);
+    const auto widest = [&](int level) {
+      return widest_spread(t.levels, fm.filter.c, static_cast<std::size_t>(level), kSpreadDepth);
+    };
+    for (int d = 0; d <= fm.depth; ++d) t.spread_fine.push_back(widest(kLevelsUp + d));
+    for (int g = 0; g <= kLevelsUp; ++g) t.spread_coarse.push_back(widest(kLevelsUp - g));
+    t.levels.resize(static_cast<std::size_t>(fm.depth + kLevelsUp + 2));
+    // The midpoint's mean a_g given the start and xi: c Phi(L/2) (z, 0, 0) + c R(L/2) Q_top xi.
+    for (int d = 0; d <= fm.depth; ++d) {
+      const RootLevel& whole = t.levels[static_cast<std::size_t>(kLevelsUp + d)];
+      const RootLevel& half = t.levels[static_cast<std::size_t>(kLevelsUp + d + 1)];
+      const int m = n + 2;
+      const Mat phi = from_row_major(half.phi, m, m), root = from_row_major(half.root, m, m);
+      const Mat q_top = from_row_major(whole.split, 2 * m, 2 * m).topLeftCorner(m, m);
+      const Vec cz = (c.transpose() * phi.topLeftCorner(n, n)).transpose();
+      const Vec cx = (c.transpose() * root.topRows(n) * q_top).transpose();
+      for (int j = 0; j < n; ++j) t.mid_z.push_back(cz(j));
+      for (int j = 0; j < m; ++j) t.mid_xi.push_back(cx(j));
+    }
     t.skeleton.root = t.levels[kLevelsUp].root;
-    for (int d = 0; d <= fm.depth; ++d) t.spread_fine.push_back(t.levels[static_cast<std::size_t>(kLevelsUp + d)].spread);
-    for (int g = 0; g <= kLevelsUp; ++g) t.spread_coarse.push_back(t.levels[static_cast<std::size_t>(kLevelsUp - g)].spread);
     fm.tables.push_back(std::move(t));
     return static_cast<int>(fm.tables.size() - 1);
   };

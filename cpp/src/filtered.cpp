@@ -47,6 +47,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <type_traits>
 
 #include "crandall/filter.hpp"
 #include "crandall/kernel.hpp"
@@ -61,29 +62,73 @@ std::atomic<double> event_margin{kEventMargin};
 constexpr std::uint64_t kNodeTag = std::uint64_t{1} << 22;
 constexpr int kPathBits = 40;
 
-// The m <= 8 standard normals of one (path, step, node): Box-Muller on pairs of Philox words
+// The M <= 8 standard normals of one (path, step, node): Box-Muller on pairs of Philox words
 // (radius from the first, angle from bits 2..31 of the second), with the project's
-// deterministic log and sine/cosine (detmath.hpp), so the same bits on every CPU.
-void normals(std::uint64_t seed, std::uint64_t path, std::uint64_t step, std::uint64_t node, int m,
+// deterministic log and sine/cosine (detmath.hpp), so the same bits on every CPU. A Philox block
+// gives two pairs; the two go through the log and the sine/cosine side by side (one SSE2 vector:
+// the same bits as one at a time, IEEE operations without contraction).
+template <int M>
+void normals(std::uint64_t seed, std::uint64_t path, std::uint64_t step, std::uint64_t node,
              double* out) {
   const std::uint64_t word = path + ((kNodeTag + node) << kPathBits);
-  for (int j = 0; 2 * j < m; ++j) {
+  for (int j = 0; 4 * j < M; ++j) {
     std::uint64_t w[4];
     detail::philox_scalar(seed, word, 2 * step + static_cast<std::uint64_t>(j), w);
-    for (int p = 0; p < 2 && 4 * j + 2 * p < m; ++p) {
-      const double radius = std::sqrt(-2.0 * detmath::log_positive(detmath::unit_of_word(w[2 * p])));
-      double sn, cs;
-      detmath::sincos_turn30((w[2 * p + 1] & 0xFFFFFFFFull) >> 2, sn, cs);
-      out[4 * j + 2 * p] = radius * cs;
-      if (4 * j + 2 * p + 1 < m) out[4 * j + 2 * p + 1] = radius * sn;
+    double radius[2], sn[2], cs[2];
+#pragma omp simd
+    for (int p = 0; p < 2; ++p) {
+      radius[p] = std::sqrt(-2.0 * detmath::log_positive(detmath::unit_of_word(w[2 * p])));
+      detmath::sincos_turn30((w[2 * p + 1] & 0xFFFFFFFFull) >> 2, sn[p], cs[p]);
+    }
+    for (int p = 0; p < 2; ++p) {
+      if (4 * j + 2 * p < M) out[4 * j + 2 * p] = radius[p] * cs[p];
+      if (4 * j + 2 * p + 1 < M) out[4 * j + 2 * p + 1] = radius[p] * sn[p];
     }
   }
 }
 
+// The normals of node 0 (the skeleton's) of steps first .. first + count - 1, count <= kBatch:
+// out[i * M + r] the r-th of step first + i, the same bits as normals<M> step by step; every
+// pair of the batch goes through the log and the sine/cosine in one vectorised loop, so the
+// steps' latencies overlap.
+constexpr int kBatch = 16;
+template <int M>
+void skeleton_normals(std::uint64_t seed, std::uint64_t path, std::uint64_t first, int count,
+                      double* out) {
+  constexpr int kBlocks = (M + 3) / 4;
+  const std::uint64_t word = path + (kNodeTag << kPathBits);
+  std::uint64_t radial[2 * kBlocks * kBatch], angular[2 * kBlocks * kBatch];
+  for (int i = 0; i < count; ++i)
+    for (int j = 0; j < kBlocks; ++j) {
+      std::uint64_t w[4];
+      detail::philox_scalar(seed, word, 2 * (first + static_cast<std::uint64_t>(i)) + static_cast<std::uint64_t>(j), w);
+      for (int p = 0; p < 2; ++p) {
+        radial[(i * kBlocks + j) * 2 + p] = w[2 * p];
+        angular[(i * kBlocks + j) * 2 + p] = w[2 * p + 1];
+      }
+    }
+  double radius[2 * kBlocks * kBatch], sn[2 * kBlocks * kBatch], cs[2 * kBlocks * kBatch];
+  const int pairs = 2 * kBlocks * count;
+#pragma omp simd
+  for (int q = 0; q < pairs; ++q) {
+    radius[q] = std::sqrt(-2.0 * detmath::log_positive(detmath::unit_of_word(radial[q])));
+    detmath::sincos_turn30((angular[q] & 0xFFFFFFFFull) >> 2, sn[q], cs[q]);
+  }
+  for (int i = 0; i < count; ++i)
+    for (int j = 0; j < kBlocks; ++j)
+      for (int p = 0; p < 2; ++p) {
+        const int q = (i * kBlocks + j) * 2 + p;
+        if (4 * j + 2 * p < M) out[i * M + 4 * j + 2 * p] = radius[q] * cs[q];
+        if (4 * j + 2 * p + 1 < M) out[i * M + 4 * j + 2 * p + 1] = radius[q] * sn[q];
+      }
+}
+
 // A fine step of the walked grid: z at both ends, (G, D) over it, its index and start time.
+template <int N>
 struct FineStep {
-  double z0[kMaxFilter], z1[kMaxFilter];
-  double xi[kMaxAugmented];  // the skeleton's normals (noise coordinates in R(step))
+  static constexpr int M = N + 2;
+  double z0[N], z1[N];
+  double xi[M];  // the skeleton's normals (noise coordinates in R(step))
   double g, d;
   std::uint64_t k;
   double t0;
@@ -93,10 +138,12 @@ struct FineStep {
 // over it, and where its midpoint comes from: `count` >= 2 fine steps of the group (fine points
 // split it), or (count <= 1) inside fine step `k` as its bisection tree's `node` at relative
 // depth `rel` (length step / 2^rel) with noise coordinates xi (count <= 1 only).
+template <int N>
 struct Interval {
+  static constexpr int M = N + 2;
   double t0, len;
-  double za[kMaxFilter], zb[kMaxFilter];
-  double xi[kMaxAugmented];
+  double za[N], zb[N];
+  double xi[M];
   double g, d;
   int first, count;
   std::uint64_t k;
@@ -111,13 +158,23 @@ struct Body {
   bool done = false;        // at rest for good (after the switch-off, by the decay bound)
 };
 
+// The walker of a filter of dimension N (m = N + 2): fixed-size arrays and loops the compiler
+// unrolls (Kanai-Tajimi N = 2, Clough-Penzien N = 4).
+template <int N>
 class Walker {
+  static constexpr int M = N + 2;
+  using Iv = Interval<N>;
+
  public:
   Walker(const Plan& plan, int grids, Trajectory* trace)
-      : plan_(plan), o_(plan.options()), fm_(*plan.filter()), n_(fm_.filter.n), m_(fm_.m),
+      : plan_(plan), o_(plan.options()), fm_(*plan.filter()),
         grids_(grids), group_(1 << (grids - 1)), drift_(o_.drift), static_(fm_.static_drift),
         margin_(event_margin.load()), trace_(trace) {
     yield_ = {drift_, drift_, static_, static_};
+    for (int i = 0; i < N; ++i) {
+      c_[i] = fm_.filter.c[static_cast<std::size_t>(i)];
+      ca2_[i] = fm_.c_a2[static_cast<std::size_t>(i)];
+    }
   }
 
   // Walks one path; outputs[g][slot] = (V, U, S) at output slot `slot` of grid g, and stops[g]
@@ -126,12 +183,13 @@ class Walker {
             std::vector<std::array<double, 3>>& stops, const std::function<bool()>& cancelled,
             std::uint64_t& poll) {
     path_ = path;
+    batch_first_ = ~std::uint64_t{0} - kBatch;  // (no step's)
     for (int g = 0; g < grids_; ++g) {
       bodies_[g] = Body{};
       bodies_[g].v = o_.start_velocity;
       bodies_[g].u = o_.start_displacement;
     }
-    for (int i = 0; i < n_; ++i) z_[i] = fm_.start[static_cast<std::size_t>(i)];
+    for (int i = 0; i < N; ++i) z_[i] = fm_.start[static_cast<std::size_t>(i)];
     if (trace_) point(0.0, ground(z_), bodies_[0]);
     std::uint64_t k = 0;
     double start = 0.0;
@@ -177,17 +235,17 @@ class Walker {
   // steps after it move the body by friction alone (exactly: a_g = 0 is a straight line).
   void end_shaking() {
     if (o_.ring_down) return;
-    for (int i = 0; i < n_; ++i) z_[i] = 0.0;
+    for (int i = 0; i < N; ++i) z_[i] = 0.0;
   }
 
   double ground(const double* z) const {
     double a = 0.0;
-    for (int i = 0; i < n_; ++i) a += fm_.filter.c[static_cast<std::size_t>(i)] * z[i];
+    for (int i = 0; i < N; ++i) a += c_[i] * z[i];
     return a;
   }
   double curvature(const double* z) const {
     double a = 0.0;
-    for (int i = 0; i < n_; ++i) a += fm_.c_a2[static_cast<std::size_t>(i)] * z[i];
+    for (int i = 0; i < N; ++i) a += ca2_[i] * z[i];
     return std::abs(a);
   }
   void point(double t, double a, const Body& b) {
@@ -207,7 +265,7 @@ class Walker {
     for (int g = 0; g < grids_; ++g) {
       Body& b = bodies_[g];
       if (!b.done && (k_end & ((std::uint64_t{1} << g) - 1)) == 0 && b.v == 0.0) {
-        if (bound < 0.0) bound = fm_.bound.bound(z_, n_);
+        if (bound < 0.0) bound = fm_.bound.bound(z_, N);
         if (bound <= static_) b.done = true;
       }
       all = all && b.done;
@@ -217,25 +275,35 @@ class Walker {
 
   // Fine step k from time t0: the skeleton's transition, then every grid whose step ends here.
   void step(const StepTable& table, double sigma, std::uint64_t k, double t0) {
-    FineStep& f = buffer_[k & static_cast<std::uint64_t>(group_ - 1)];
-    const Transition& tr = table.skeleton;
-    double xi[kMaxAugmented] = {};
-    if (sigma != 0.0) normals(o_.seed, path_, k, 0, m_, xi);
-    double y[kMaxAugmented];
-    for (int r = 0; r < m_; ++r) {
+    FineStep<N>& f = buffer_[k & static_cast<std::uint64_t>(group_ - 1)];
+    const double* phi = table.skeleton.phi.data();
+    const double* root = table.skeleton.root.data();
+    double xi[M];
+    if (sigma != 0.0) {
+      // (drawn kBatch steps ahead: the path's stop may leave some unused)
+      if (k < batch_first_ || k >= batch_first_ + kBatch) {
+        batch_first_ = k;
+        skeleton_normals<M>(o_.seed, path_, k, kBatch, batch_);
+      }
+      for (int i = 0; i < M; ++i) xi[i] = batch_[(k - batch_first_) * M + static_cast<std::uint64_t>(i)];
+    } else {
+      for (int i = 0; i < M; ++i) xi[i] = 0.0;
+    }
+    double y[M];
+    for (int r = 0; r < M; ++r) {
       double mean = 0.0, noise = 0.0;
-      for (int c = 0; c < n_; ++c) mean += tr.phi[static_cast<std::size_t>(r * m_ + c)] * z_[c];
+      for (int c = 0; c < N; ++c) mean += phi[r * M + c] * z_[c];
       if (sigma != 0.0)  // (the tree's root: lower triangular)
-        for (int c = 0; c <= r; ++c) noise += tr.root[static_cast<std::size_t>(r * m_ + c)] * xi[c];
+        for (int c = 0; c <= r; ++c) noise += root[r * M + c] * xi[c];
       y[r] = mean + sigma * noise;
     }
-    for (int i = 0; i < n_; ++i) {
+    for (int i = 0; i < N; ++i) {
       f.z0[i] = z_[i];
       f.z1[i] = z_[i] = y[i];
     }
-    for (int i = 0; i < m_; ++i) f.xi[i] = xi[i];
-    f.g = y[n_];
-    f.d = y[n_ + 1];
+    for (int i = 0; i < M; ++i) f.xi[i] = xi[i];
+    f.g = y[N];
+    f.d = y[N + 1];
     f.k = k;
     f.t0 = t0;
     table_ = &table;
@@ -245,7 +313,7 @@ class Walker {
       if (((k + 1) & static_cast<std::uint64_t>(span - 1)) != 0 || bodies_[g].done) continue;
       const int first = static_cast<int>((k + 1 - static_cast<std::uint64_t>(span)) &
                                          static_cast<std::uint64_t>(group_ - 1));
-      Interval iv;
+      Iv iv;
       compose(first, span, iv);
       trace_grid_ = trace_ != nullptr && g == 0;
       search(iv, fm_.depth, bodies_[g]);
@@ -254,13 +322,13 @@ class Walker {
 
   // The interval of fine steps [first, first + count) of the group: its ends and the (G, D)
   // composed step by step (G = G1 + G2, D = D1 + D2 + G1 L2).
-  void compose(int first, int count, Interval& iv) const {
-    const FineStep& a = buffer_[first];
-    const FineStep& b = buffer_[first + count - 1];
+  void compose(int first, int count, Iv& iv) const {
+    const FineStep<N>& a = buffer_[first];
+    const FineStep<N>& b = buffer_[first + count - 1];
     const double h = table_->step;
     iv.t0 = a.t0;
     iv.len = h * static_cast<double>(count);
-    for (int i = 0; i < n_; ++i) {
+    for (int i = 0; i < N; ++i) {
       iv.za[i] = a.z0[i];
       iv.zb[i] = b.z1[i];
     }
@@ -271,7 +339,7 @@ class Walker {
     }
     iv.g = g;
     iv.d = d;
-    for (int i = 0; i < m_; ++i) iv.xi[i] = count == 1 ? a.xi[i] : 0.0;
+    for (int i = 0; i < M; ++i) iv.xi[i] = count == 1 ? a.xi[i] : 0.0;
     iv.first = first;
     iv.count = count;
     iv.k = a.k;
@@ -279,30 +347,59 @@ class Walker {
     iv.rel = 0;
   }
 
-  double spread(const Interval& iv) const {
+  double spread(const Iv& iv) const {
     if (iv.count >= 2) return table_->spread_coarse[iv.count == 2 ? 1 : 2];
     return table_->spread_fine[static_cast<std::size_t>(iv.rel)];
   }
 
   // Whether an event (a stop, an onset, a reversal) may happen in the interval for a body with
-  // velocity v at its start. a_g on the interval stays within M = max(|a_g| at the ends) +
-  // margin (sigma spread + L^2 / 8 max |c A^2 z| at the ends): the bridge's deviation from the
-  // line between the ends (its standard deviation at the midpoint, `spread`; a Brownian bridge
-  // exceeds its line by margin such deviations with probability exp(-margin^2 / 2)) and the
-  // curvature of its mean. At rest: an onset needs M > static_drift. Sliding: V moves by at most
-  // (M + drift) per unit time, so a zero of V needs |V0| + |V1| <= L (M + drift) (V1 the
-  // no-event value), or V1 on the other side of 0.
-  bool possible_event(const Interval& iv, double v) const {
-    const double aa = ground(iv.za), ab = ground(iv.zb);
-    const double curve = 0.125 * iv.len * iv.len * std::max(curvature(iv.za), curvature(iv.zb));
-    const double reach = std::max(std::abs(aa), std::abs(ab)) + margin_ * (sigma_ * spread(iv) + curve);
-    if (v == 0.0) return reach > static_;
-    const double s = v > 0.0 ? 1.0 : -1.0;
-    const double v1 = v - iv.g - s * drift_ * iv.len;
-    return s * v1 <= 0.0 || std::abs(v) + std::abs(v1) <= iv.len * (reach + drift_);
+  // velocity v at its start (docs/filtered.md, "Events"). a_g on the interval is taken to stay
+  // within R = margin (sigma spread + L^2 / 8 max |c A^2 z| at the ends) of the line between its
+  // end values: the bridge's deviation from that line (its standard deviation at the midpoint,
+  // `spread`) and the curvature of its mean.
+  // At rest: an onset needs a_g to cross +static_drift or -static_drift. For a Brownian bridge
+  // from a to b with standard deviation s at its midpoint, P(max > K) = exp(-(K - a)(K - b) /
+  // (2 s^2)), so the interval is searched when (K - a)(K - b) < R^2 for either sign (an end at
+  // or beyond K included): a miss probability of at most exp(-margin^2 / 2), as for the worst
+  // end alone, with the other end's distance counted too.
+  // Sliding (s = sgn V0, V1 the no-event value): V1 on the other side of 0 is an event. Else V
+  // cannot reach 0 when, within the band, V stays positive (times s) on both halves: on the
+  // first V(t) >= s V0 - (L/2) max(0, max(s a) + R + drift), on the second (from the end)
+  // V(t) >= s V1 - (L/2) max(0, R - drift - min(s a)), max and min over the ends.
+  // The mean of a_g at the interval's midpoint given its start and xi (a composite interval's
+  // midpoint is a fine point: its value).
+  double middle(const Iv& iv) const {
+    if (iv.count >= 2) return ground(buffer_[iv.first + iv.count / 2 - 1].z1);
+    const double* wz = table_->mid_z.data() + iv.rel * N;
+    const double* wx = table_->mid_xi.data() + iv.rel * M;
+    double a = 0.0, x = 0.0;
+    for (int i = 0; i < N; ++i) a += wz[i] * iv.za[i];
+    for (int i = 0; i < M; ++i) x += wx[i] * iv.xi[i];
+    return a + sigma_ * x;
   }
 
-  void search(const Interval& iv, int depth_left, Body& b) {
+  bool possible_event(const Iv& iv, double v) const {
+    const double aa = ground(iv.za), ab = ground(iv.zb), am = middle(iv);
+    const double curve = 0.125 * iv.len * iv.len * std::max(curvature(iv.za), curvature(iv.zb));
+    const double band = margin_ * (sigma_ * spread(iv) + curve);
+    if (v == 0.0) {
+      const double ua = static_ - aa, ub = static_ - ab, um = static_ - am;
+      const double la = static_ + aa, lb = static_ + ab, lm = static_ + am;
+      const double b2 = band * band;
+      return ua <= 0.0 || ub <= 0.0 || um <= 0.0 || la <= 0.0 || lb <= 0.0 || lm <= 0.0 ||
+             ua * um < b2 || um * ub < b2 || la * lm < b2 || lm * lb < b2;
+    }
+    const double s = v > 0.0 ? 1.0 : -1.0;
+    const double v1 = v - iv.g - s * drift_ * iv.len;
+    if (s * v1 <= 0.0) return true;
+    const double sa = s * aa, sb = s * ab, sm = s * am;
+    const double half = 0.5 * iv.len;
+    const double fall0 = std::max(std::max(sa, sm), sb) + band + drift_;  // the fastest fall of s V
+    const double fall1 = band - drift_ - std::min(std::min(sa, sm), sb);  // the fastest fall towards the end
+    return s * v <= half * std::max(0.0, fall0) || s * v1 <= half * std::max(0.0, fall1);
+  }
+
+  void search(const Iv& iv, int depth_left, Body& b) {
     if (!possible_event(iv, b.v)) {
       if (b.v != 0.0) {
         const double s = b.v > 0.0 ? 1.0 : -1.0;
@@ -319,14 +416,14 @@ class Walker {
       finest(iv, b);
       return;
     }
-    Interval left, right;
+    Iv left, right;
     bisect(iv, left, right);
     search(left, depth_left - 1, b);
     search(right, depth_left - 1, b);
   }
 
   // The two halves of an interval: at a fine point, or by the noise-space split of its node.
-  void bisect(const Interval& iv, Interval& left, Interval& right) const {
+  void bisect(const Iv& iv, Iv& left, Iv& right) const {
     if (iv.count >= 2) {
       const int half = iv.count / 2;
       compose(iv.first, half, left);
@@ -335,42 +432,46 @@ class Walker {
     }
     const std::size_t level = static_cast<std::size_t>(kLevelsUp + iv.rel);
     const RootLevel& half = table_->levels[level + 1];  // Phi(len / 2), R(len / 2)
-    double y[kMaxAugmented], gd[2];
-    double children[2 * kMaxAugmented] = {};  // (xi_left; xi_right)
+    const double* phi = half.phi.data();
+    const double* root = half.root.data();
+    double y[M], gd[2];
+    double children[2 * M];  // (xi_left; xi_right)
     if (sigma_ != 0.0) {
       // (xi_left; xi_right) = split (xi; eta): iid N(0, I_m) with
       // Phi(L/2) R(L/2) xi_left + R(L/2) xi_right = R(L) xi.
-      const std::vector<double>& split = table_->levels[level].split;
-      double u[2 * kMaxAugmented];
-      for (int i = 0; i < m_; ++i) u[i] = iv.xi[i];
-      normals(o_.seed, path_, iv.k, iv.node, m_, u + m_);
-      const int w = 2 * m_;
+      const double* split = table_->levels[level].split.data();
+      double u[2 * M];
+      for (int i = 0; i < M; ++i) u[i] = iv.xi[i];
+      normals<M>(o_.seed, path_, iv.k, iv.node, u + M);
+      constexpr int w = 2 * M;
       for (int r = 0; r < w; ++r) {
         double sum = 0.0;
-        for (int c = 0; c < w; ++c) sum += split[static_cast<std::size_t>(r * w + c)] * u[c];
+        for (int c = 0; c < w; ++c) sum += split[r * w + c] * u[c];
         children[r] = sum;
       }
+    } else {
+      for (int i = 0; i < 2 * M; ++i) children[i] = 0.0;
     }
     // The midpoint, forward from the start: Phi(L/2) (za, 0, 0) + sigma R(L/2) xi_left (the
     // roots are lower triangular: root_levels).
-    for (int r = 0; r < m_; ++r) {
+    for (int r = 0; r < M; ++r) {
       double mean = 0.0, noise = 0.0;
-      for (int c = 0; c < n_; ++c) mean += half.phi[static_cast<std::size_t>(r * m_ + c)] * iv.za[c];
+      for (int c = 0; c < N; ++c) mean += phi[r * M + c] * iv.za[c];
       if (sigma_ != 0.0)
-        for (int c = 0; c <= r; ++c) noise += half.root[static_cast<std::size_t>(r * m_ + c)] * children[c];
+        for (int c = 0; c <= r; ++c) noise += root[r * M + c] * children[c];
       y[r] = mean + sigma_ * noise;
     }
     // The right half's own (G, D), forward from the midpoint: Phi(L/2) (z_mid, 0, 0) + sigma
     // R(L/2) xi_right; its end z is the interval's (the point it shares with the next one).
-    for (int r = n_; r < m_; ++r) {
+    for (int r = N; r < M; ++r) {
       double mean = 0.0, noise = 0.0;
-      for (int c = 0; c < n_; ++c) mean += half.phi[static_cast<std::size_t>(r * m_ + c)] * y[c];
+      for (int c = 0; c < N; ++c) mean += phi[r * M + c] * y[c];
       if (sigma_ != 0.0)
-        for (int c = 0; c <= r; ++c) noise += half.root[static_cast<std::size_t>(r * m_ + c)] * children[m_ + c];
-      gd[r - n_] = mean + sigma_ * noise;
+        for (int c = 0; c <= r; ++c) noise += root[r * M + c] * children[M + c];
+      gd[r - N] = mean + sigma_ * noise;
     }
     const double mid = 0.5 * iv.len;
-    for (Interval* p : {&left, &right}) {
+    for (Iv* p : {&left, &right}) {
       p->len = mid;
       p->count = 1;
       p->first = iv.first;
@@ -381,24 +482,24 @@ class Walker {
     right.t0 = iv.t0 + mid;
     left.node = 2 * iv.node;
     right.node = 2 * iv.node + 1;
-    for (int i = 0; i < n_; ++i) {
+    for (int i = 0; i < N; ++i) {
       left.za[i] = iv.za[i];
       left.zb[i] = right.za[i] = y[i];
       right.zb[i] = iv.zb[i];
     }
-    for (int i = 0; i < m_; ++i) {
+    for (int i = 0; i < M; ++i) {
       left.xi[i] = children[i];
-      right.xi[i] = children[m_ + i];
+      right.xi[i] = children[M + i];
     }
-    left.g = y[n_];
-    left.d = y[n_ + 1];
+    left.g = y[N];
+    left.d = y[N + 1];
     right.g = gd[0];
     right.d = gd[1];
   }
 
   // A finest substep: a_g linear between its ends, the body stepped exactly for that line
   // (newmark's sliding velocity W is -V, its displacement -U).
-  void finest(const Interval& iv, Body& b) {
+  void finest(const Iv& iv, Body& b) {
     const double aa = ground(iv.za), ab = ground(iv.zb);
     newmark::Motion mo;
     mo.w = -b.v;
@@ -424,18 +525,36 @@ class Walker {
   const Plan& plan_;
   const Options& o_;
   const FilterModel& fm_;
-  const int n_, m_, grids_, group_;
+  const int grids_, group_;
   const double drift_, static_, margin_;
   Trajectory* trace_;
   bool trace_grid_ = false;
   newmark::Yield yield_{};
+  double c_[N] = {}, ca2_[N] = {};
   std::uint64_t path_ = 0;
-  double z_[kMaxFilter] = {};
+  std::uint64_t batch_first_ = 0;  // the skeleton's normals of steps batch_first_ + [0, kBatch)
+  double batch_[kBatch * M] = {};
+  double z_[N] = {};
   Body bodies_[3];
-  FineStep buffer_[4];
+  FineStep<N> buffer_[4];
   const StepTable* table_ = nullptr;
   double sigma_ = 0.0;
 };
+
+// Calls fn(std::integral_constant<int, N>{}) for the plan's filter dimension N.
+template <class Fn>
+void with_dimension(const Plan& plan, Fn&& fn) {
+  switch (plan.filter()->filter.n) {
+    case 1: fn(std::integral_constant<int, 1>{}); break;
+    case 2: fn(std::integral_constant<int, 2>{}); break;
+    case 3: fn(std::integral_constant<int, 3>{}); break;
+    case 4: fn(std::integral_constant<int, 4>{}); break;
+    case 5: fn(std::integral_constant<int, 5>{}); break;
+    case 6: fn(std::integral_constant<int, 6>{}); break;
+    default: throw std::logic_error("filtered: filter dimension out of range");
+  }
+}
+static_assert(kMaxFilter == 6, "with_dimension covers n = 1 .. kMaxFilter");
 
 }  // namespace
 
@@ -445,12 +564,14 @@ double set_event_margin(double margin) {
   return event_margin.exchange(margin);
 }
 
-void simulate_filtered_block(const Plan& plan, std::uint64_t first, std::uint64_t count,
-                             Workspace& ws) {
+namespace {
+
+template <int N>
+void filtered_block(const Plan& plan, std::uint64_t first, std::uint64_t count, Workspace& ws) {
   const Options& o = plan.options();
   const int grids = o.grids();
   const std::size_t slots = o.times.size();
-  Walker walker(plan, grids, nullptr);
+  Walker<N> walker(plan, grids, nullptr);
   std::vector<std::vector<std::array<double, 3>>> outputs(
       static_cast<std::size_t>(grids), std::vector<std::array<double, 3>>(slots));
   std::vector<std::array<double, 3>> stops(static_cast<std::size_t>(grids));
@@ -505,16 +626,29 @@ void simulate_filtered_block(const Plan& plan, std::uint64_t first, std::uint64_
   }
 }
 
+template <int N>
+void trace(const Plan& plan, std::uint64_t path, Trajectory& out) {
+  const Options& o = plan.options();
+  Walker<N> walker(plan, 1, &out);
+  std::vector<std::vector<std::array<double, 3>>> outputs(1, std::vector<std::array<double, 3>>(o.times.size()));
+  std::vector<std::array<double, 3>> stops(1);
+  std::uint64_t poll = 0;
+  walker.walk(path, outputs, stops, {}, poll);
+}
+
+}  // namespace
+
+void simulate_filtered_block(const Plan& plan, std::uint64_t first, std::uint64_t count,
+                             Workspace& ws) {
+  with_dimension(plan, [&](auto n) { filtered_block<decltype(n)::value>(plan, first, count, ws); });
+}
+
 Trajectory filtered_trajectory(const Plan& plan, std::uint64_t path) {
   const Options& o = plan.options();
   if (!o.filtered()) throw std::invalid_argument("filtered_trajectory needs excitation 'filtered'");
   if (path >= o.paths) throw std::invalid_argument("filtered_trajectory: path must be < paths");
   Trajectory out;
-  Walker walker(plan, 1, &out);
-  std::vector<std::vector<std::array<double, 3>>> outputs(1, std::vector<std::array<double, 3>>(o.times.size()));
-  std::vector<std::array<double, 3>> stops(1);
-  std::uint64_t poll = 0;
-  walker.walk(path, outputs, stops, {}, poll);
+  with_dimension(plan, [&](auto n) { trace<decltype(n)::value>(plan, path, out); });
   return out;
 }
 

@@ -224,6 +224,47 @@ TEST(FilterRoots, SpreadIsTheConditionalSpreadOfTheClassicBridge) {
   }
 }
 
+// The event search's widest spread and midpoint mean against the textbook bridge (full-rank Q,
+// moderate omega L as above): Var[c.Y(t) | Y(0), Y(L)] = c (Q_t - Q_t Phi_{L-t}^T Q_L^-1
+// Phi_{L-t} Q_t) c, its widest over t = L/4, L/2, 3L/4 is widest_spread(.., 2); and
+// E[Y(L/2) | Y(0), Y(L)] = Phi_h Y0 + Q_h Phi_h^T Q_L^-1 (Y(L) - Phi_L Y0), whose a_g is the
+// table's mid_z . z0 + mid_xi . xi for Y(L) = Phi_L Y0 + R_L xi.
+TEST(FilterRoots, WidestSpreadAndMidpointMeanAreTheClassicBridges) {
+  const double length = 0.04;
+  const auto levels = crandall::root_levels(kt, length, 3);
+  const Mat ql = mat(crandall::transition(kt, length).q, 4, 4);
+  const Eigen::Vector4d c(kt.c[0], kt.c[1], 0.0, 0.0);
+  double widest = 0.0;
+  for (double t : {0.25, 0.5, 0.75}) {
+    const Mat qt = mat(crandall::transition(kt, t * length).q, 4, 4);
+    const Mat pr = mat(crandall::transition(kt, (1 - t) * length).phi, 4, 4);
+    const Mat cond = qt - qt * pr.transpose() * ql.ldlt().solve(pr * qt);
+    widest = std::max(widest, std::sqrt(c.dot(cond * c)));
+  }
+  EXPECT_NEAR(crandall::widest_spread(levels, kt.c, 0, 1), levels[0].spread, 1e-12 * levels[0].spread);
+  EXPECT_NEAR(crandall::widest_spread(levels, kt.c, 0, 2), widest, 1e-6 * widest);
+  EXPECT_GT(widest, levels[0].spread);
+
+  crandall::Options o;
+  o.excitation = crandall::Excitation::filtered;
+  o.filter_a = kt.a;
+  o.filter_b = kt.b;
+  o.filter_c = kt.c;
+  o.event_depth = 1;
+  const auto fm = crandall::make_filter_model(o, {length}, length);
+  const auto& table = fm->tables[0];
+  const Mat ph = mat(crandall::transition(kt, 0.5 * length).phi, 4, 4);
+  const Mat qh = mat(crandall::transition(kt, 0.5 * length).q, 4, 4);
+  const Mat pl = mat(crandall::transition(kt, length).phi, 4, 4);
+  const Mat rl = mat(table.levels[crandall::kLevelsUp].root, 4, 4);
+  const Eigen::Vector4d y0(0.3, -1.2, 0.0, 0.0), xi(0.7, -0.4, 1.1, 0.2);
+  const Eigen::Vector4d yl = pl * y0 + rl * xi;
+  const Eigen::Vector4d mean = ph * y0 + qh * ph.transpose() * ql.ldlt().solve(yl - pl * y0);
+  const double got = table.mid_z[0] * y0(0) + table.mid_z[1] * y0(1) + table.mid_xi[0] * xi(0) +
+                     table.mid_xi[1] * xi(1) + table.mid_xi[2] * xi(2) + table.mid_xi[3] * xi(3);
+  EXPECT_NEAR(got, c.dot(mean), 1e-6 * std::abs(c.dot(mean)));
+}
+
 // The tree's law, sampled as the path loop samples it: a step of h = 0.02 from Y(0) = (z0, 0, 0)
 // (omega = 0.5, zeta = 0.6, depth 8), xi ~ N(0, I), descended by the splits along a fixed
 // pattern of halves (right, left, right, ...): every midpoint Y_mid = Phi(L/2) S + R(L/2) xi_left

@@ -79,6 +79,16 @@ struct RootLevel {
 };
 std::vector<RootLevel> root_levels(const LinearFilter& f, double longest, int count);
 
+// The widest a_g spread of levels[level]'s interval: the largest standard deviation of a_g
+// (unit intensity, a_g = c . z) at the points j / 2^k of the interval (k = 1 .. sub, as far as
+// the levels reach) given its start and its noise coordinates xi, through the tree's splits.
+// At k = 1 it is RootLevel::spread; the bridge of the augmented state is pinned by G and D as
+// well as by its end, so a_g's conditional deviation is smallest near the midpoint (for
+// Kanai-Tajimi at small omega L the widest is about 1.4 times the midpoint's), and the event
+// search's band takes the widest (docs/filtered.md, "Events").
+double widest_spread(const std::vector<RootLevel>& levels, const std::vector<double>& c,
+                     std::size_t level, int sub);
+
 // A square root R (m x m, lower triangular) of Q(length) from the columns exp(Abar s_j) bbar
 // sqrt(w_j) at k = m + 4 Gauss-Legendre nodes on [0, length] (for ||Abar length|| <= 1/2; a
 // longer interval is halved until it is, and the roots composed back up by the QR above),
@@ -118,12 +128,18 @@ void validate_filter_options(const Options& o);
 // event search's intervals h / 2^d down to d = event_depth + 1 (the spread of the finest
 // intervals needs their split).
 constexpr int kLevelsUp = 2;
+// The dyadic depth over which the event search's spreads take the widest (widest_spread).
+constexpr int kSpreadDepth = 3;
 struct StepTable {
   double step = 0.0;
   Transition skeleton;              // phi, q by Taylor; root = levels[kLevelsUp].root
   std::vector<RootLevel> levels;    // levels[kLevelsUp + d]: an interval of length step / 2^d
+  // The event search's a_g spreads (widest_spread over kSpreadDepth):
   std::vector<double> spread_fine;  // [d]: the a_g spread of an interval of length step / 2^d
   std::vector<double> spread_coarse;  // [g]: of an interval of length step 2^g (g = 0 .. 2)
+  // The mean of a_g at the midpoint of an interval of length step / 2^d given its start z and
+  // its xi (unit intensity): mid_z[d n ..] . z + sigma mid_xi[d m ..] . xi.
+  std::vector<double> mid_z, mid_xi;
 };
 
 struct FilterModel {
