@@ -52,6 +52,21 @@ def test_a_scene_without_the_kinetic_energy_keeps_no_extra_moments():
     assert r.accumulators.energy is None
 
 
+def _interrupt_after_the_first_chunk(sc, ck, monkeypatch):
+    """A run of two chunks with checkpoint ``ck``, interrupted after its first chunk."""
+    real = _core.run_chunk
+
+    def failing(plan, chunk, threads):
+        if chunk == 1:
+            raise KeyboardInterrupt
+        return real(plan, chunk, threads)
+
+    monkeypatch.setattr(_core, "run_chunk", failing)
+    with pytest.raises(KeyboardInterrupt):
+        crandall.simulate(sc, paths=70000, seed=5, threads=1, checkpoint=ck)
+    monkeypatch.setattr(_core, "run_chunk", real)
+
+
 def test_the_moments_travel_with_files_and_checkpoints(tmp_path, monkeypatch):
     pytest.importorskip("xarray")
     pytest.importorskip("scipy")
@@ -64,17 +79,7 @@ def test_the_moments_travel_with_files_and_checkpoints(tmp_path, monkeypatch):
     # A run interrupted after its first chunk and resumed from the checkpoint gives the
     # same bits (the moments of V^2 are part of the checkpoint's state).
     ck = tmp_path / "run.ckpt"
-    real = _core.run_chunk
-
-    def failing(plan, chunk, threads):
-        if chunk == 1:
-            raise KeyboardInterrupt
-        return real(plan, chunk, threads)
-
-    monkeypatch.setattr(_core, "run_chunk", failing)
-    with pytest.raises(KeyboardInterrupt):
-        crandall.simulate(sc, paths=70000, seed=5, threads=1, checkpoint=ck)
-    monkeypatch.setattr(_core, "run_chunk", real)
+    _interrupt_after_the_first_chunk(sc, ck, monkeypatch)
     resumed = crandall.simulate(sc, paths=70000, seed=5, threads=1, checkpoint=ck)
     assert np.array_equal(resumed.var_stderr("kinetic_energy"), r.var_stderr("kinetic_energy"))
 
@@ -82,17 +87,7 @@ def test_the_moments_travel_with_files_and_checkpoints(tmp_path, monkeypatch):
 def test_a_checkpoint_written_without_them_still_resumes(tmp_path, monkeypatch):
     sc = _scene()
     ck = tmp_path / "run.ckpt"
-    real = _core.run_chunk
-
-    def failing(plan, chunk, threads):
-        if chunk == 1:
-            raise KeyboardInterrupt
-        return real(plan, chunk, threads)
-
-    monkeypatch.setattr(_core, "run_chunk", failing)
-    with pytest.raises(KeyboardInterrupt):
-        crandall.simulate(sc, paths=70000, seed=5, threads=1, checkpoint=ck)
-    monkeypatch.setattr(_core, "run_chunk", real)
+    _interrupt_after_the_first_chunk(sc, ck, monkeypatch)
     # As a checkpoint of the version before the moments of V^2 were kept.
     with np.load(ck, allow_pickle=False) as f:
         arrays = {k: f[k] for k in f.files if not k.startswith("energy_")}

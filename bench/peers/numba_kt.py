@@ -40,18 +40,9 @@ def _kernel(rng, paths, dt, t0, omega, zeta, h, mu_g, mus_g, ring_down, dist, st
         k = 0
         while True:
             ag = -(c1 * xd + w2 * x) if k < n0 or ring_down else 0.0
-            if v == 0.0:
-                if abs(ag) > mus_g:
-                    sg = -1.0 if ag > 0.0 else 1.0
-                    v = (-ag - sg * mu_g) * dt
-            else:
-                sg = 1.0 if v > 0.0 else -1.0
-                vn = v + (-ag - sg * mu_g) * dt
-                if vn * v <= 0.0 and abs(ag) <= mus_g:
-                    vn = 0.0
-                    last_rest = (k + 1) * dt
-                s += 0.5 * (abs(v) + abs(vn)) * dt
-                v = vn
+            v, s, rest = _body(x, xd, v, s, ag, mu_g, mus_g, dt)
+            if rest:
+                last_rest = (k + 1) * dt
             noise = sq * rng.standard_normal() if k < n0 else 0.0
             xn = x + xd * dt
             xd = xd + (-w2 * x - c1 * xd) * dt - noise
