@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import _data
 from . import coast_var as _cv
 from . import switch_off as _so
-from ._check import as_tau0, as_time, scalar_or_array
+from ._check import ArrayLike, Values, as_tau0, as_time, scalar_or_array
 from ._laplace import laplace_moment, moment, signed_moment
 from .noise_on import SWITCH as _SWITCH
 from .noise_on import (
@@ -296,7 +296,7 @@ def distance_var(tau: ArrayLike, tau0: float = np.inf) -> Scalar:
                           _cv.coast_distance_var)
 
 
-def velocity_displacement_cov(tau, tau0=np.inf):
+def velocity_displacement_cov(tau: ArrayLike, tau0: ArrayLike = np.inf) -> Values:
     """E[U1(tau) U2(tau)], the covariance of the scaled velocity and displacement (both have
     mean 0), equal to (1/2) d Var U2 / d tau.
 
@@ -335,7 +335,7 @@ def velocity_displacement_cov(tau, tau0=np.inf):
                           _cv.coast_velocity_displacement_cov)
 
 
-def velocity_abs_distance_cov(tau, tau0=np.inf):
+def velocity_abs_distance_cov(tau: ArrayLike, tau0: ArrayLike = np.inf) -> Values:
     """Cov(|U1(tau)|, U3(tau)), the covariance of the scaled speed and distance, equal to
     (1/2) d Var U3 / d tau.
 

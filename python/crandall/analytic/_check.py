@@ -10,8 +10,15 @@ silently turn a caller's mistake into a number. Only the Laplace variable ``p`` 
 from __future__ import annotations
 
 import numbers
+from typing import Union
 
 import numpy as np
+import numpy.typing as npt
+
+#: What the closed forms take: a number or an array of numbers (evaluated elementwise).
+ArrayLike = npt.ArrayLike
+#: What they return: a float for a scalar input, an array of the inputs' shape otherwise.
+Values = Union[float, np.ndarray]
 
 __all__ = [
     "as_flag",

@@ -15,12 +15,14 @@ on mpmath numbers (high-precision inversion) and on sympy expressions (exact tra
 
 from __future__ import annotations
 
+from typing import Any
+
 import math
 from functools import lru_cache
 
 import numpy as np
 
-from ._check import as_flag, as_order, as_real, as_time
+from ._check import ArrayLike, Values, as_flag, as_order, as_real, as_time
 
 __all__ = ["laplace_moment", "moment", "signed_moment"]
 
@@ -192,7 +194,8 @@ def _exact(j, k, l, signed):
     return expr, p
 
 
-def laplace_moment(j, k, l, p, exact=False, *, signed=False):
+def laplace_moment(j: int, k: int, l: int, p: ArrayLike,
+                   exact: bool = False, *, signed: bool = False) -> Any:
     """Laplace transform of the mixed moment m_jkl(tau) = E[U1^j U2^k U3^l] (eq10g-eq10n, eq10i).
 
     Built by the paper's recursion on F+-_kl, with G_0,kl and G_1,kl fixed by analyticity:
@@ -320,7 +323,7 @@ def _tau_array(tau, name="tau"):
     return as_time(tau, name)
 
 
-def moment(j, k, l, tau):
+def moment(j: int, k: int, l: int, tau: ArrayLike) -> Values:
     """Mixed moment m_jkl(tau) = E[U1^j U2^k U3^l] by numerical inversion of
     :func:`laplace_moment`.
 
@@ -352,7 +355,7 @@ def moment(j, k, l, tau):
     return out[()] if t.ndim == 0 else out
 
 
-def signed_moment(j, k, l, tau):
+def signed_moment(j: int, k: int, l: int, tau: ArrayLike) -> Values:
     """E[sign(U1) U1^j U2^k U3^l](tau) by numerical inversion of
     ``laplace_moment(j, k, l, p, signed=True)``; same accuracy and domain as :func:`moment`."""
     j, k, l = _check_indices(j, k, l)

@@ -31,7 +31,7 @@ import numpy as np
 from scipy.special import erfc, erfcx
 
 from . import _data
-from ._check import as_tau0, as_time, scalar_or_array
+from ._check import ArrayLike, Values, as_tau0, as_time, scalar_or_array
 from .noise_on import SWITCH
 from .switch_off import _coast_c
 
@@ -403,23 +403,23 @@ def _coast_checked(tau, tau0, which, elapsed=None):
     return scalar_or_array(_coast(t, t0, which, elapsed))
 
 
-def coast_displacement_var(tau, tau0, elapsed=None):
+def coast_displacement_var(tau: ArrayLike, tau0: ArrayLike, elapsed: ArrayLike = None) -> Values:
     """Var U2(tau) for tau > tau0 (noise off); see :func:`crandall.analytic.displacement_var`."""
     return _coast_checked(tau, tau0, "displacement", elapsed)
 
 
-def coast_distance_var(tau, tau0, elapsed=None):
+def coast_distance_var(tau: ArrayLike, tau0: ArrayLike, elapsed: ArrayLike = None) -> Values:
     """Var U3(tau) for tau > tau0 (noise off); see :func:`crandall.analytic.distance_var`."""
     return _coast_checked(tau, tau0, "distance", elapsed)
 
 
-def coast_velocity_displacement_cov(tau, tau0):
+def coast_velocity_displacement_cov(tau: ArrayLike, tau0: ArrayLike) -> Values:
     """E[U1(tau) U2(tau)] for tau > tau0 (noise off); see
     :func:`crandall.analytic.velocity_displacement_cov`."""
     return _coast_checked(tau, tau0, "displacement_cov")
 
 
-def coast_velocity_abs_distance_cov(tau, tau0):
+def coast_velocity_abs_distance_cov(tau: ArrayLike, tau0: ArrayLike) -> Values:
     """Cov(|U1(tau)|, U3(tau)) for tau > tau0 (noise off); see
     :func:`crandall.analytic.velocity_abs_distance_cov`."""
     return _coast_checked(tau, tau0, "distance_cov")

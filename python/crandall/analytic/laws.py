@@ -21,7 +21,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.special import erfc, erfcx
 
-from ._check import as_real, as_tau0, as_time, scalar_or_array
+from ._check import ArrayLike, Values, as_real, as_tau0, as_time, scalar_or_array
 from .noise_on import velocity_pdf
 
 __all__ = [
@@ -131,7 +131,7 @@ def _tail(ay, t, t0):
     return _s(shifted, t0) if math.isfinite(shifted) else 0.0
 
 
-def velocity_sf(y, tau, tau0=np.inf):
+def velocity_sf(y: ArrayLike, tau: ArrayLike, tau0: ArrayLike = np.inf) -> Values:
     """Survival function of the scaled velocity, P(U1(tau) > y).
 
     With the noise on, P(U1 > y) = S(y)/2 for y >= 0 and 1 - S(|y|)/2 for y < 0,
@@ -167,7 +167,7 @@ def velocity_sf(y, tau, tau0=np.inf):
     return scalar_or_array(out)
 
 
-def velocity_cdf(y, tau, tau0=np.inf):
+def velocity_cdf(y: ArrayLike, tau: ArrayLike, tau0: ArrayLike = np.inf) -> Values:
     """CDF of the scaled velocity, P(U1(tau) <= y); see :func:`velocity_sf`.
 
     Equal to velocity_sf(-y) by symmetry (U1 -> -U1), which is how it is computed, so the
@@ -196,7 +196,7 @@ def velocity_cdf(y, tau, tau0=np.inf):
     return scalar_or_array(out)
 
 
-def velocity_atom(tau, tau0):
+def velocity_atom(tau: ArrayLike, tau0: ArrayLike) -> Values:
     """P(U1(tau) = 0): the mass of the velocity's atom at 0 (bodies that have stopped).
 
     0 while the noise is on (tau <= tau0, tau > 0: U1 has a density), 1 at tau = 0 or tau0 = 0;
@@ -238,7 +238,7 @@ def _check_q(q):
     return q
 
 
-def velocity_quantile(q, tau, tau0=np.inf):
+def velocity_quantile(q: ArrayLike, tau: ArrayLike, tau0: ArrayLike = np.inf) -> Values:
     """Quantile of the scaled velocity U1(tau): the smallest y with P(U1(tau) <= y) >= q.
 
     Solved from the survival function of |U1| (:func:`velocity_sf`) by Brent's method on
@@ -317,7 +317,7 @@ def _stop_law(t, tau0, sf):
     return scalar_or_array(out)
 
 
-def stop_time_cdf(t, tau0):
+def stop_time_cdf(t: ArrayLike, tau0: ArrayLike) -> Values:
     """CDF of the stop time, P(tau_s <= t) = P(|U1(tau0)| <= 2(t - tau0)) (eq14).
 
     0 for t < tau0; 1 - S(2(t - tau0); tau0) for t >= tau0, with S the survival function of
@@ -339,7 +339,7 @@ def stop_time_cdf(t, tau0):
     return _stop_law(t, tau0, sf=False)
 
 
-def stop_time_sf(t, tau0):
+def stop_time_sf(t: ArrayLike, tau0: ArrayLike) -> Values:
     """P(tau_s > t) = S(2(t - tau0); tau0) for t >= tau0, 1 before; see :func:`stop_time_cdf`.
     Relative accuracy kept in the far tail (the probability that the body still slides).
 
@@ -358,7 +358,7 @@ def stop_time_sf(t, tau0):
     return _stop_law(t, tau0, sf=True)
 
 
-def stop_time_quantile(q, tau0):
+def stop_time_quantile(q: ArrayLike, tau0: ArrayLike) -> Values:
     """Quantile of the stop time: tau0 + y/2 with P(|U1(tau0)| <= y) = q.
 
     For q >= 1/2 solved on the survival function (S(y) = 1 - q, exact), for q < 1/2 on the

@@ -12,7 +12,8 @@ import numpy as np
 from scipy.special import erfc, erfcx
 
 from . import _data
-from ._check import as_real, as_time, as_tau0, only_before_switch_off, scalar_or_array
+from ._check import (ArrayLike, Values, as_real, as_tau0, as_time, only_before_switch_off,
+                     scalar_or_array)
 
 __all__ = [
     "distance_second_moment",
@@ -28,17 +29,17 @@ __all__ = [
 SWITCH = 1.0
 
 
-def velocity_var_noise_on(tau):
+def velocity_var_noise_on(tau: ArrayLike) -> Values:
     """E[U1^2] for tau <= tau0 (eq10s); see :func:`crandall.analytic.velocity_var`."""
     return _data.M200(tau, SWITCH)
 
 
-def distance_mean_noise_on(tau):
+def distance_mean_noise_on(tau: ArrayLike) -> Values:
     """E[U3] for tau <= tau0 (eq10r); see :func:`crandall.analytic.distance_mean`."""
     return _data.M001(tau, SWITCH)
 
 
-def distance_second_moment(tau, tau0=np.inf):
+def distance_second_moment(tau: ArrayLike, tau0: ArrayLike = np.inf) -> Values:
     """E[U3^2] for tau <= tau0: the second moment of eq10u, *corrected*.
 
     .. math::
@@ -79,7 +80,7 @@ def distance_second_moment(tau, tau0=np.inf):
 _M002_TAU_MAX = 2.0 * math.sqrt(np.finfo(float).max) * (1 - 1e-12)
 
 
-def velocity_abs_mean(tau, tau0=np.inf):
+def velocity_abs_mean(tau: ArrayLike, tau0: ArrayLike = np.inf) -> Values:
     """Mean speed E|U1(tau)| for tau <= tau0.
 
     .. math:: E|U_1| = \\tfrac12 - (\\tau + \\tfrac12)\\,\\mathrm{erfc}\\sqrt\\tau
@@ -144,7 +145,7 @@ def _v_squared(ay, t, x):
         return (x + 2 * np.sqrt(t)) ** 2
 
 
-def velocity_logpdf(y, tau, tau0=np.inf):
+def velocity_logpdf(y: ArrayLike, tau: ArrayLike, tau0: ArrayLike = np.inf) -> Values:
     """Natural log of :func:`velocity_pdf`, finite wherever the density is positive (all y).
 
     Same parameters as :func:`velocity_pdf`. Use it where the density underflows (far tails
@@ -170,7 +171,7 @@ def velocity_logpdf(y, tau, tau0=np.inf):
     return scalar_or_array(out)
 
 
-def velocity_pdf(y, tau, tau0=np.inf):
+def velocity_pdf(y: ArrayLike, tau: ArrayLike, tau0: ArrayLike = np.inf) -> Values:
     """Density of the scaled velocity U1(tau) for a body at rest at tau = 0, tau <= tau0.
 
     .. math::

@@ -10,12 +10,14 @@ the next term is smaller by a factor sqrt(tau) < 1e-150 or 1/tau < 1e-300).
 
 from __future__ import annotations
 
+from typing import Optional
+
 import math
 
 import numpy as np
 
 from . import _data
-from ._check import as_real, as_tau0, as_time
+from ._check import ArrayLike, Values, as_real, as_tau0, as_time
 from ._forms import Form
 
 __all__ = ["physical", "PHYSICAL_NAMES"]
@@ -63,7 +65,8 @@ def _leading(form, tau, ctx):
     return ctx.mpf(poly[h]) * tau ** (ctx.mpf(h) / 2)
 
 
-def physical(name, t=None, *, mu, h, g=9.81, t0=np.inf):
+def physical(name: str, t: Optional[ArrayLike] = None, *, mu: float, h: float, g: float = 9.81,
+             t0: float = np.inf) -> Values:
     """An analytic quantity in SI units.
 
     Parameters

@@ -27,6 +27,8 @@ from typing import Sequence, Tuple
 import numpy as np
 from scipy.special import log_ndtr
 
+from ._check import ArrayLike, Values
+
 __all__ = ["log_transition_density", "VelocityLaw", "velocity_law", "stop_time_sf",
            "distance_mean", "noise_energy"]
 
@@ -34,7 +36,8 @@ __all__ = ["log_transition_density", "VelocityLaw", "velocity_law", "stop_time_s
 MAX_POINTS = 8001
 
 
-def log_transition_density(x, x0, t, c, sigma):
+def log_transition_density(x: ArrayLike, x0: ArrayLike, t: ArrayLike,
+                           c: ArrayLike, sigma: ArrayLike) -> Values:
     """log p(x, t | x0) of dX = -c sign(X) dt + sigma dW (any real c, sigma > 0, t > 0):
 
         p = exp(-(x - x0)^2 / (2 s2 t) - c (|x| - |x0|) / s2 - c^2 t / (2 s2)) / sqrt(2 pi s2 t)
@@ -96,7 +99,7 @@ def _steps(ps, time):
     return out
 
 
-def noise_energy(pieces, time):
+def noise_energy(pieces: Sequence[Tuple[float, float]], time: ArrayLike) -> Values:
     """int_0^time sigma(s)^2 ds: twice the kinetic energy per unit mass the noise feeds in."""
     ps, _, _ = _check(pieces, 1.0, 0.0)
     return sum(length * s * s for length, s in _steps(ps, float(time)))

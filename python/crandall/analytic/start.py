@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._check import as_real, as_tau0, scalar_or_array
+from ._check import ArrayLike, Values, as_real, as_tau0, scalar_or_array
 
 __all__ = ["distance_at_stop_mean_from", "coast_stop_time", "coast_distance",
            "distance_mean_from_velocity"]
@@ -26,7 +26,7 @@ def _v0(v0):
     return v
 
 
-def distance_at_stop_mean_from(v0, tau0):
+def distance_at_stop_mean_from(v0: ArrayLike, tau0: ArrayLike) -> Values:
     """E U3(tau_s) = (v0^2 + 2 tau0) / 4 for a start at scaled velocity v0, noise on until tau0
     (finite)."""
     v = _v0(v0)
@@ -36,19 +36,20 @@ def distance_at_stop_mean_from(v0, tau0):
     return scalar_or_array((v * v + 2.0 * t0) / 4.0)
 
 
-def coast_stop_time(v0):
+def coast_stop_time(v0: ArrayLike) -> Values:
     """The scaled stop time |v0| / 2 of a body coasting from v0 with no noise."""
     return scalar_or_array(np.abs(_v0(v0)) / 2.0)
 
 
-def coast_distance(v0):
+def coast_distance(v0: ArrayLike) -> Values:
     """The scaled distance v0^2 / 4 a body coasting from v0 with no noise travels (its
     displacement is sign(v0) times this)."""
     v = _v0(v0)
     return scalar_or_array(v * v / 4.0)
 
 
-def distance_mean_from_velocity(v0, tau, tau0, velocity_second_moment):
+def distance_mean_from_velocity(v0: ArrayLike, tau: ArrayLike, tau0: ArrayLike,
+                                velocity_second_moment: ArrayLike) -> Values:
     """E U3(tau) = (v0^2 + 2 min(tau, tau0) - E U1(tau)^2) / 4, from the velocity's second
     moment (the identity a run to an accuracy uses for the mean distance)."""
     v = _v0(v0)

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import erfc, erfcx
 
 from . import _data
-from ._check import as_real, as_time, as_tau0, scalar_or_array
+from ._check import ArrayLike, Values, as_real, as_tau0, as_time, scalar_or_array
 from .noise_on import SWITCH, velocity_pdf
 
 __all__ = [
@@ -215,7 +215,8 @@ def _coast_k(delta, tau0):
     return np.maximum(out, 0.0)
 
 
-def coast_velocity_second_moment(tau, tau0, elapsed=None):
+def coast_velocity_second_moment(tau: ArrayLike, tau0: ArrayLike,
+                                 elapsed: ArrayLike = None) -> Values:
     """E[U1(tau)^2] for tau > tau0 (noise off): E[(|U1(tau0)| - 2 (tau - tau0))_+^2].
 
     Called by :func:`crandall.analytic.velocity_var` for tau > tau0; see there. ``elapsed``:
@@ -241,7 +242,7 @@ def _coast_c(t, t0, elapsed=None):
     return np.where(np.isfinite(c), c, np.finfo(float).max)
 
 
-def coast_distance_increment(tau, tau0, elapsed=None):
+def coast_distance_increment(tau: ArrayLike, tau0: ArrayLike, elapsed: ArrayLike = None) -> Values:
     """E[U3(tau)] - E[U3(tau0)] for tau > tau0 (noise off); see
     :func:`crandall.analytic.distance_mean` (``elapsed`` as in
     :func:`coast_velocity_second_moment`)."""
@@ -300,7 +301,7 @@ def stop_time_var(tau0: ArrayLike) -> Union[float, "NDArray[np.float64]"]:
     return scalar_or_array(_data.VAR_STOP_TIME(t0, SWITCH))
 
 
-def stop_time_pdf(t, tau0):
+def stop_time_pdf(t: ArrayLike, tau0: ArrayLike) -> Values:
     """Density of the stop time tau_s = tau0 + |U1(tau0)|/2 (eq14).
 
     .. math:: f_{\\tau_s}(t) = 4 f\\big(2(t - \\tau_0), \\tau_0\\big), \\quad t \\ge \\tau_0,
@@ -340,7 +341,7 @@ def stop_time_pdf(t, tau0):
     return scalar_or_array(out)
 
 
-def distance_at_stop_mean(tau0):
+def distance_at_stop_mean(tau0: ArrayLike) -> Values:
     """Mean distance at the stop, E[U3(tau_s)] = E[U3(tau0)] + E[U1(tau0)^2]/4 (eq13c, eq14).
 
     Computed from eq10r and eq10s, not from eq7, so that it checks eq7: the sum is tau0/2 (the
@@ -360,7 +361,7 @@ def distance_at_stop_mean(tau0):
     return scalar_or_array(_data.M001(t0, SWITCH) + 0.25 * _data.M200(t0, SWITCH))
 
 
-def distance_at_stop_var(tau0):
+def distance_at_stop_var(tau0: ArrayLike) -> Values:
     """Variance of the distance at the stop, Var U3(tau_s).
 
     Martingale identity (Ito on U1^2/4, docs/analytic.md): U3(tau_s) = tau0/2
@@ -389,7 +390,7 @@ def distance_at_stop_var(tau0):
     return scalar_or_array(_data.HALF_INT_M200(t0, SWITCH))
 
 
-def displacement_at_stop_var(tau0):
+def displacement_at_stop_var(tau0: ArrayLike) -> Values:
     """Variance of the displacement at the stop, Var U2(tau_s).
 
     U2(tau_s) = U2(tau0) + U1(tau0) |U1(tau0)| / 4 (eq13b at eq14), E[U2(tau_s)] = 0, so

@@ -16,6 +16,8 @@ I_(n+1) = 2 tau (n I_(n-1) - alpha I_n). This module needs sympy; nothing import
 
 from __future__ import annotations
 
+from typing import Any
+
 from fractions import Fraction
 from functools import lru_cache
 
@@ -26,7 +28,7 @@ __all__ = ["moment_closed_form", "laplace_moment_in_s", "invert_in_s"]
 
 
 @lru_cache(maxsize=128)
-def laplace_moment_in_s(j, k, l, signed=False):
+def laplace_moment_in_s(j: int, k: int, l: int, signed: bool = False) -> Any:
     """Exact transform of m_jkl (or of E[sign(U1) U1^j U2^k U3^l]) as a rational function of
     the positive symbol ``s`` = sqrt(p + 1). Returns (expr, s)."""
     import sympy
@@ -118,7 +120,7 @@ def _sympy_to_form(expr, tau):
 
 
 @lru_cache(maxsize=128)
-def moment_closed_form(j, k, l, signed=False):
+def moment_closed_form(j: int, k: int, l: int, signed: bool = False) -> Any:
     """Exact closed form of m_jkl(tau) = E[U1^j U2^k U3^l] for tau <= tau0 (or of
     E[sign(U1) U1^j U2^k U3^l] with ``signed=True``), as a :class:`Form`; call ``.to_sympy()``
     for a sympy expression or evaluate it at numpy arrays of tau. Requires sympy."""
