@@ -9,12 +9,11 @@ from typing import Optional
 from .. import pieces
 from ..driver import drive
 from ..errors import ParameterError
-from ..model import LEVELS
 from ..results import AccuracyResult
 from ..scene import Scene
 from ..spec import MAX_SEED, check_int, check_positive, check_scene, default_dt
 from .estimator import _Engine
-from .levels import _check_statistics, _targets, MAX_SECONDS
+from .levels import _check_statistics, _targets, levels_model, MAX_SECONDS
 from .schedule import REL_FLOOR
 
 
@@ -31,7 +30,8 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                       max_seconds: float = MAX_SECONDS) -> AccuracyResult:
     """Run ``scene`` until every statistic's estimated total error is within the target
     (see :func:`crandall.simulate`)."""
-    check_scene(scene, LEVELS, "a run to an accuracy (error=, rel_error=)")
+    check_scene(scene, levels_model(scene) if isinstance(scene, Scene) else None,
+                "a run to an accuracy (error=, rel_error=)")
     if progress is not None and not isinstance(progress, bool):
         raise ValueError(f"progress must be True, False or None, got {progress!r}")
     max_seconds = check_positive("max_seconds", max_seconds)

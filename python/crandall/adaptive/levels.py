@@ -12,7 +12,8 @@ import numpy as np
 
 from .. import _core
 from ..quantities import VELOCITY, DISTANCE, names_for, quantity
-from ..model import EXACT_STEP, ITO_DISTANCE, ZERO_FRICTION, holds, isometry_applies
+from ..model import (EXACT_STEP, FILTERED_EXCITATION, FILTERED_LEVELS, ITO_DISTANCE, LEVELS,
+                     ZERO_FRICTION, Identity, holds, isometry_applies)
 from ..scene import Scene
 from ..streams import level_key
 from ..engine import scene_options
@@ -23,6 +24,15 @@ from ..spec import grid_error
 #: at least BASE_MIN_STEPS steps.
 BASE_DT_FACTOR = 25
 BASE_MIN_STEPS = 4
+#: A filtered excitation's base grid (model.FILTERED_LEVELS): steps of at most this many times
+#: its default step (crandall.methods.DEFAULT_DT_TAU_FILTER), so that level 2, the pilot's
+#: finest, is the grid of a fixed-step run at the default step. Its skeleton is exact at any
+#: step and its events are searched for by bisection (docs/filtered.md), so coarse grids are
+#: already close: the level means of the mean distance at the stop were 4e-5, 1.3e-5, 6e-6 of
+#: 3.9 (Kanai-Tajimi, omega t* = 4, levels 1-3).
+FILTER_BASE_DT_FACTOR = 4
+#: The filtered core's bound on a plan's paths (cpp/src/filter.cpp).
+FILTER_MAX_PATHS = 1 << 40
 #: Paths per call of the core (fewer when a path's values and features would take more than
 #: BATCH_BYTES in a batch: scenes with many output times); and the pilot of a new level.
 BATCH_PATHS = 1 << 16
@@ -52,6 +62,13 @@ class _Target:
     #: The variance of the distance at the stop as the mean of int sigma^2 V^2 dt / c^2 (Ito's
     #: isometry): one feature column, formed and summed like a mean's.
     isometry: bool = False
+
+
+def levels_model(scene: Scene) -> Identity:
+    """The multilevel model a run to an accuracy of ``scene`` rests on: the filtered core's
+    (:data:`crandall.model.FILTERED_LEVELS`) for a filtered excitation, else the white-noise
+    skeleton's (:data:`crandall.model.LEVELS`)."""
+    return FILTERED_LEVELS if FILTERED_EXCITATION in scene.effects else LEVELS
 
 
 def _check_statistics(scene: Scene, statistics) -> Optional[set]:
@@ -169,7 +186,9 @@ class _Level:
         o.refinement = level
         o.method = "richardson2" if level > 0 else "exact"
         o.seed = level_key(seed, level)
-        o.paths = 1 << 62
+        #: The paths the level's plan can draw (the filtered core's plans fewer).
+        self.max_paths = FILTER_MAX_PATHS if FILTERED_EXCITATION in scene.effects else 1 << 62
+        o.paths = self.max_paths
         try:
             self.plan = _core.Plan(o)
         except ValueError as exc:  # the user sets no step here: say what can change

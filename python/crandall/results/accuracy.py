@@ -78,6 +78,15 @@ class AccuracyResult(Result):
                          "and scene")
 
     @property
+    def model(self) -> str:
+        """The name of the multilevel model the run rested on (crandall.model):
+        ``"filtered_levels"`` for a filtered excitation (levels on the filtered core's coupled
+        grids, the bias from the measured order), else ``"levels"`` (the white-noise
+        skeleton's levels, control variates and identities)."""
+        from ..adaptive.levels import levels_model  # the results load without the estimator
+        return levels_model(self.scene).name
+
+    @property
     def accumulators(self):
         raise ValueError("accumulators: a run to an accuracy keeps its estimates, not "
                          "per-path accumulators")
@@ -200,6 +209,8 @@ class AccuracyResult(Result):
         wall = self._wall_time
         lines = [f"crandall result: {sc!r}",
                  f"  {self.target_text()}  seed={self.seed}  method=mlmc  "
+                 + ("" if self.model == "levels" else f"model={self.model}  ")
+                 + 
                  f"levels={len(self.levels)}  paths per level={self.cost['paths']}  "
                  f"path-steps={self._path_steps:.3g}"
                  + ("" if wall is None else f"  time={wall:.3g} s")]
