@@ -34,6 +34,9 @@ class AccuracyResult(Result):
     ----------
     error_target, rel_error_target : float or None
         The target the run met (one of them).
+    model : str
+        The multilevel model the run rested on: ``"levels"`` (white noise) or
+        ``"filtered_levels"`` (a filtered excitation; docs/methods/adaptive.md).
     levels : list of dict
         Per level: ``level``, ``paths``, ``steps_per_path``, ``dt`` (its step).
     paths : int
