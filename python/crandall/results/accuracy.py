@@ -8,6 +8,7 @@ from typing import Dict, List, Optional, Tuple
 import numpy as np
 
 from .. import _core
+from ..model import FILTERED_EXCITATION, FILTERED_LEVELS, LEVELS
 from ..quantities import names_for, quantity
 from ..scene import Scene
 from .common import Stat
@@ -86,8 +87,8 @@ class AccuracyResult(Result):
         ``"filtered_levels"`` for a filtered excitation (levels on the filtered core's coupled
         grids, the bias from the measured order), else ``"levels"`` (the white-noise
         skeleton's levels, control variates and identities)."""
-        from ..adaptive.levels import levels_model  # the results load without the estimator
-        return levels_model(self.scene).name
+        # As adaptive.levels.levels_model chooses it (the results load without the estimator).
+        return (FILTERED_LEVELS if FILTERED_EXCITATION in self.scene.effects else LEVELS).name
 
     @property
     def accumulators(self):
