@@ -45,8 +45,8 @@ def test_distance_at_stop_matches_fine_euler(omega):
 # The white-noise limit (omega t* = 64, t* = 2 s: omega = 32). The same explicit Euler model
 # (bench/peers/numba_kt.py, seed 7) on 20,000 paths, coupled at dt = 1.25e-4 and 2.5e-4 s: mean
 # distance at the stop / WHITE 1.02665 and 1.02705 +- 0.0030, extrapolated to dt -> 0 (first order)
-# 1.0263. It is within 3 % of the white-noise energy law but does not close on it: 1.0268 at
-# omega t* = 16 in the same run; an O(1/sqrt(omega t*)) effect of the sticks is small there.
+# 1.0263. It is within 3 % of the white-noise energy law but does not close on it (1.0268 at
+# omega t* = 16 in the same run; docs/filtered.md, "The white-noise limit").
 WHITE_LIMIT = (32.0, 1.0263, 0.0030)
 
 
