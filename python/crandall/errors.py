@@ -24,6 +24,10 @@ class ParameterError(ValueError):
         super().__init__(message)
         self.name = name
 
+    def __reduce__(self):
+        # Pickled with both arguments (a Dask worker's error comes back to the client so).
+        return type(self), (self.name, str(self))
+
 
 class UnresolvableGrid(ParameterError):
     """The integrals a scene observes (``integrals``: their observables) would need more
@@ -32,4 +36,7 @@ class UnresolvableGrid(ParameterError):
     def __init__(self, integrals, message: str) -> None:
         super().__init__("observe", message)
         self.integrals = tuple(integrals)
+
+    def __reduce__(self):
+        return type(self), (self.integrals, str(self))
 
