@@ -189,8 +189,8 @@ class Scene:
                                      "leaves rest at once, so static friction has no effect; "
                                      "it applies with a filtered excitation (excitation=)")
         if not math.isfinite(mu * g):
-            raise ParameterError("mu, g", f"mu, g: the friction deceleration mu g = {mu!r} * {g!r} overflows "
-                             "doubles")
+            raise ParameterError("mu, g", f"mu, g: the friction deceleration mu g = {mu!r} * "
+                                          f"{g!r} overflows doubles")
         self._setup(
             units="SI",
             drift=mu * g,
@@ -326,9 +326,11 @@ class Scene:
         observe = _observe(observe)
         if "stop" in observe and not math.isfinite(t0):
             name = "t0" if units == "SI" else "tau0"
-            raise ParameterError("observe", f"observe: 'stop' needs a finite {name}: the excitation never ends")
+            raise ParameterError("observe", f"observe: 'stop' needs a finite {name}: the "
+                                            "excitation never ends")
         if "stop" in observe and not can_stop:
-            raise ParameterError("observe", "observe: 'stop' needs mu > 0: without friction the body never stops")
+            raise ParameterError("observe", "observe: 'stop' needs mu > 0: without friction the "
+                                            "body never stops")
         #: The state at t = 0: velocity and displacement, in the scene's units.
         self.v0 = float(v0)
         self.u0 = float(u0)
@@ -429,7 +431,8 @@ class Scene:
             or unknown, or a value is bad (the message names the key).
         """
         if not isinstance(data, Mapping):
-            raise ValueError(f"data must be a dict (Scene.to_dict()), got {type(data).__name__}")
+            raise ParameterError("data", "data must be a dict (Scene.to_dict()), got "
+                                         f"{type(data).__name__}")
         data = dict(data)
         units = data.pop("units", None)
         if units == "SI":
@@ -438,14 +441,15 @@ class Scene:
         elif units == "scaled":
             keys, required = _SCALED_KEYS + _COMMON_KEYS, ("tau0", "times")
         else:
-            raise ValueError(f"units must be 'SI' or 'scaled', got {units!r}")
+            raise ParameterError("units", f"units must be 'SI' or 'scaled', got {units!r}")
         for k in data:
             if k not in keys:
-                raise ValueError(f"{k}: unknown key for units = {units!r}; allowed: "
-                                 f"{', '.join(keys)}")
+                raise ParameterError(k, f"{k}: unknown key for units = {units!r}; allowed: "
+                                        f"{', '.join(keys)}")
         for k in required:
             if k not in data:
-                raise ValueError(f"{k}: missing (units = {units!r} needs {', '.join(required)})")
+                raise ParameterError(k, f"{k}: missing (units = {units!r} needs "
+                                        f"{', '.join(required)})")
         return cls(**data) if units == "SI" else cls.scaled(**data)
 
     @classmethod

@@ -56,6 +56,7 @@ from .switch_off import (
     stop_time_pdf,
     stop_time_var,
 )
+from ..errors import ParameterError
 
 #: What a closed form returns: a float for a scalar time, an array (of the times' shape) for
 #: an array of times.
@@ -128,7 +129,7 @@ def _coast_since(name, elapsed, tau0):
     elif name == "distance_var":
         value = _cv.coast_distance_var(t, t0, el)
     else:
-        raise ValueError(f"name: {name!r} has no closed form after the switch-off")
+        raise ParameterError("name", f"name: {name!r} has no closed form after the switch-off")
     return float(np.ravel(value)[0])
 
 

@@ -43,7 +43,8 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
     """``crandall tail``: the table at the given levels, tail.csv, and the curve (tail.png)."""
     scene, settings, _ = _load_scene(scene_path)
     if quantity not in TAIL_QUANTITIES:
-        raise ValueError(f"--quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
+        raise ParameterError("--quantity", "--quantity must be one of "
+                                           f"{', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
     earlier = _check_out(out, overwrite, _TAIL_OUTPUTS) if files else []
     if seed is None:
         seed = draw_seed()
@@ -128,8 +129,8 @@ def fragility_command(args) -> int:
     if args.figure is not None:
         fmt = os.path.splitext(args.figure)[1].lstrip(".").lower()
         if fmt not in plots.FORMATS:
-            raise ValueError(f"--figure: the file must end in one of "
-                             f"{', '.join('.' + f for f in plots.FORMATS)}")
+            raise ParameterError("--figure", f"--figure: the file must end in one of "
+                                             f"{', '.join('.' + f for f in plots.FORMATS)}")
     curve = None
     if args.hazard is not None:
         if args.intensities is None:
@@ -194,7 +195,8 @@ def newmark_command(args) -> int:
                      method=args.method, polarity=args.polarity,
                      threads=args.threads if args.threads else None)
     if args.figure is not None and result.dims:
-        raise ValueError("--figure draws one case: give one yield value and one polarity")
+        raise ParameterError("--figure", "--figure draws one case: give one yield value and one "
+                                         "polarity")
     print(f"{record!r}")
     sense = ("relative to the foundation" if result.mode == "flat" else "positive downslope")
     print(f"{result.mode} block, method {result.method}; displacements in m, {sense}")
@@ -213,8 +215,8 @@ def newmark_command(args) -> int:
     if args.figure:
         fmt = os.path.splitext(args.figure)[1].lstrip(".").lower()
         if fmt not in plots.FORMATS:
-            raise ValueError(f"--figure: the file must end in one of "
-                             f"{', '.join('.' + f for f in plots.FORMATS)}")
+            raise ParameterError("--figure", f"--figure: the file must end in one of "
+                                             f"{', '.join('.' + f for f in plots.FORMATS)}")
         fig = plots.newmark(result)
         write_atomic(args.figure, lambda f: fig.savefig(f, format=fmt))
         print(f"wrote {args.figure}")
@@ -227,7 +229,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         if args.command == "run":
             if not 50 <= args.dpi <= 1200:
-                raise ValueError(f"--dpi must be between 50 and 1200, got {args.dpi}")
+                raise ParameterError("--dpi", f"--dpi must be between 50 and 1200, got {args.dpi}")
             return run(args.scene, paths=args.paths, seed=args.seed, threads=args.threads,
                        dt=args.dt, method=args.method, out=args.out, checkpoint=args.checkpoint,
                        scheduler=args.scheduler, figures=not args.no_figures,
@@ -238,7 +240,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                                        "units": args.figure_units})
         if args.command == "tail":
             if not 50 <= args.dpi <= 1200:
-                raise ValueError(f"--dpi must be between 50 and 1200, got {args.dpi}")
+                raise ParameterError("--dpi", f"--dpi must be between 50 and 1200, got {args.dpi}")
             return tail_command(args.scene, quantity=args.quantity, levels=args.levels,
                                 time=args.time, method=args.method, rel_error=args.rel_error,
                                 seed=args.seed, dt=args.dt, threads=args.threads,

@@ -12,6 +12,7 @@ from typing import List, Optional, Sequence, Tuple
 
 from .. import paper, plots
 from .._files import check_folder_writable, write_atomic
+from ..errors import ParameterError
 
 
 #: Seed of the main job (the paper's scene), so that every run prints the same table.
@@ -90,8 +91,8 @@ def _check_out(out: str, overwrite: bool, kind: _Outputs = _RUN_OUTPUTS) -> List
     earlier = _earlier_files(out, kind)
     if earlier and not overwrite:
         shown = ", ".join(n for n in earlier if n != kind.manifest) or kind.manifest
-        raise ValueError(f"--out: {out} holds the files of an earlier run ({shown}); give "
-                         "--overwrite to replace them, or another --out")
+        raise ParameterError("--out", f"--out: {out} holds the files of an earlier run ({shown}); "
+                                      "give --overwrite to replace them, or another --out")
     return earlier
 
 

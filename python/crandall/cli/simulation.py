@@ -17,6 +17,7 @@ from ..model import ANALYTIC, holds
 from ..scene import Scene
 from ..simulate import simulate
 from .outputs import DEFAULT_FILE_PATHS, DEFAULT_OUT, PAPER_SEED, _check_out, _write_and_tell
+from ..errors import ParameterError
 
 
 #: The probabilities whose quantiles ``crandall run`` prints for the stop quantities.
@@ -66,9 +67,9 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
                              statistics=statistics, figures=figures, is_paper=is_paper,
                              figure_options=figure_options)
     if max_seconds is not None:
-        raise ValueError("--max-seconds: only with --error or --rel-error")
+        raise ParameterError("--max-seconds", "--max-seconds: only with --error or --rel-error")
     if statistics is not None:
-        raise ValueError("--statistics: only with --error or --rel-error")
+        raise ParameterError("--statistics", "--statistics: only with --error or --rel-error")
     for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method)):
         if value is not None:
             settings[key] = value
@@ -120,10 +121,11 @@ def _client(scheduler: Optional[str]):
     try:
         return Client(scheduler, timeout="20s")
     except (OSError, TimeoutError) as exc:
-        raise ValueError(f"--scheduler: cannot reach {scheduler}: {exc}") from None
+        raise ParameterError("--scheduler", f"--scheduler: cannot reach {scheduler}: "
+                                            f"{exc}") from None
     except (ValueError, TypeError) as exc:  # Dask's word on a malformed address
-        raise ValueError(f"--scheduler: {scheduler!r} is not a scheduler address: "
-                         f"{exc}") from None
+        raise ParameterError("--scheduler", f"--scheduler: {scheduler!r} is not a scheduler "
+                                            f"address: {exc}") from None
 
 
 def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, threads, dt, method,
@@ -134,12 +136,12 @@ def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, thre
     """``crandall run --error EPS``: a run to a requested accuracy."""
     for option, value in (("--paths", paths), ("--dt", dt), ("--method", method)):
         if value is not None:
-            raise ValueError(f"{option}: not with --error / --rel-error (the run chooses its "
-                             "grids and paths itself)")
+            raise ParameterError(option, f"{option}: not with --error / --rel-error (the run "
+                                         "chooses its grids and paths itself)")
     seed = seed if seed is not None else settings.get("seed")
     if seed is None and checkpoint is not None:
-        raise ValueError("--checkpoint: give --seed with --error, so that a rerun resumes "
-                         "the same run")
+        raise ParameterError("--checkpoint", "--checkpoint: give --seed with --error, so that a "
+                                             "rerun resumes the same run")
     target = f"error <= {error:g}" if error is not None else f"rel_error <= {rel_error:g}"
     if scene.distributions:
         # A run to an accuracy estimates means and variances; the histograms are a fixed-step
@@ -201,10 +203,10 @@ def quantile_table(result, names=plots.STOP_DISTRIBUTIONS, probabilities=QUANTIL
 def _analytic_table(scene: Scene) -> str:
     sc = scene
     if not holds(sc, ANALYTIC):
-        raise ValueError(f"scene: the analytic layer's closed forms do not hold for a scene "
-                         f"with {', '.join(sorted(sc.effects))}")
+        raise ParameterError("scene", "scene: the analytic layer's closed forms do not hold for "
+                                      f"a scene with {', '.join(sorted(sc.effects))}")
     if sc.units == "SI" and sc.scaling is None:
-        raise ValueError("scene: the analytic layer needs mu > 0 and h > 0 (eq8)")
+        raise ParameterError("scene", "scene: the analytic layer needs mu > 0 and h > 0 (eq8)")
     if sc.units == "scaled":
         tau, tau0 = sc.times, sc.t0
         tname = "tau"
@@ -262,7 +264,8 @@ def _analytic_table(scene: Scene) -> str:
 def analytic_command(scene_path=None, *, tau0=None, times=None) -> int:
     """What ``crandall analytic`` does; returns the exit status."""
     if scene_path is not None and (tau0 is not None or times is not None):
-        raise ValueError("--tau0/--times: give either a scene file or --tau0/--times, not both")
+        raise ParameterError("--tau0, --times", "--tau0/--times: give either a scene file or "
+                                                "--tau0/--times, not both")
     if scene_path is not None:
         scene = _read_scene(scene_path)
     elif tau0 is None and times is None:

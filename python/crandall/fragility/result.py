@@ -81,25 +81,28 @@ class FragilityResult:
             setattr(self, name, np.asarray(getattr(self, name), dtype=float))
         self.reliable = np.asarray(self.reliable, dtype=bool)
         if self.axis not in self._axes:
-            raise ValueError(f"axis must be one of {', '.join(self._axes)}, got {self.axis!r}")
+            raise ParameterError("axis", f"axis must be one of {', '.join(self._axes)}, got "
+                                         f"{self.axis!r}")
         if (self.by is None) != (self.by_values is None):
-            raise ValueError("by, by_values: give both (a grid over two axes) or neither")
+            raise ParameterError("by, by_values", "by, by_values: give both (a grid over two "
+                                                  "axes) or neither")
         grid: Tuple[int, ...] = (len(self.values),)
         if self.by is not None:
             if self.by not in self._axes or self.by == self.axis:
-                raise ValueError(f"by must be one of {', '.join(self._axes)} other than the "
-                                 f"axis, got {self.by!r}")
+                raise ParameterError("by", f"by must be one of {', '.join(self._axes)} other than "
+                                           f"the axis, got {self.by!r}")
             self.by_values = np.asarray(self.by_values, dtype=float)
             grid += (len(self.by_values),)
         if self.run is None:
             self.run = np.arange(int(np.prod(grid))).reshape(grid)
         self.run = np.asarray(self.run, dtype=np.int64)
         if self.run.shape != grid:
-            raise ValueError(f"run: shape {self.run.shape}, expected {grid}")
+            raise ParameterError("run", f"run: shape {self.run.shape}, expected {grid}")
         shape = grid + (len(self.thresholds),)
         for name in ("probability", "stderr", "low", "high", "reliable"):
             if getattr(self, name).shape != shape:
-                raise ValueError(f"{name}: shape {getattr(self, name).shape}, expected {shape}")
+                raise ParameterError(name, f"{name}: shape {getattr(self, name).shape}, expected "
+                                           f"{shape}")
 
     @property
     def axis_label(self) -> str:

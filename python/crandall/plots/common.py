@@ -11,6 +11,7 @@ import numpy as np
 
 from ..model import ANALYTIC, holds
 from ..results import Result
+from ..errors import ParameterError
 
 
 #: Error bars are this many standard errors (a 95 % interval).
@@ -78,7 +79,7 @@ FORMATS = ("png", "pdf", "svg")
 
 def _check_units(units) -> str:
     if units not in UNITS:
-        raise ValueError(f"units must be one of {', '.join(UNITS)}, got {units!r}")
+        raise ParameterError("units", f"units must be one of {', '.join(UNITS)}, got {units!r}")
     return units
 
 
@@ -96,8 +97,8 @@ def _axes_converter(result: Result, units: str):
     s = None if sc.units == "scaled" else sc.scaling
     if units == "scaled" or s is None:
         if units == "scaled" and sc.units == "SI" and s is None:
-            raise ValueError("units: this scene has no scaled units (mu = 0, h = 0, or scales "
-                             "beyond doubles); draw it in units='scene'")
+            raise ParameterError("units", "units: this scene has no scaled units (mu = 0, h = 0, "
+                                          "or scales beyond doubles); draw it in units='scene'")
         return (lambda tau: tau), (lambda v, kind, power: v), r"scaled time $\tau$", ""
     return (s.to_t, lambda v, kind, power: s.to_si(v, kind, power), "time $t$ (s)", "SI")
 

@@ -11,6 +11,7 @@ import numpy as np
 from ..fragility import FragilityResult
 from ..records import NewmarkResult
 from .common import _CURVE, _SIM, _figure
+from ..errors import ParameterError
 
 
 def newmark(result: NewmarkResult):
@@ -28,8 +29,9 @@ def newmark(result: NewmarkResult):
     matplotlib.figure.Figure
     """
     if not isinstance(result, NewmarkResult) or result.dims:
-        raise ValueError("result must be one case of crandall.newmark (one record, one yield "
-                         "and one polarity); a sweep keeps no histories: plots.newmark_sweep")
+        raise ParameterError("result", "result must be one case of crandall.newmark (one record, "
+                                       "one yield and one polarity); a sweep keeps no histories: "
+                                       "plots.newmark_sweep")
     t = result.time
     fig = _figure(width=7.0, height=6.2)
     axes = fig.subplots(3, 1, sharex=True)
@@ -79,7 +81,8 @@ def newmark_sweep(result: NewmarkResult):
     matplotlib.figure.Figure
     """
     if not isinstance(result, NewmarkResult) or "yield" not in result.dims:
-        raise ValueError("result must be a sweep of crandall.newmark over an array of yields")
+        raise ParameterError("result", "result must be a sweep of crandall.newmark over an array "
+                                       "of yields")
     name = {"one-way": "ky", "flat": "mu", "incline": "kd"}[result.mode]
     x = result.yields[name]
     fig = _figure(width=7.0, height=4.8)
@@ -163,10 +166,11 @@ def fragility(result: FragilityResult, hazard=None, use: str = "fit",
     matplotlib.figure.Figure
     """
     if not isinstance(result, FragilityResult):
-        raise ValueError(f"result must be a crandall.FragilityResult, got {type(result).__name__}")
+        raise ParameterError("result", "result must be a crandall.FragilityResult, got "
+                                       f"{type(result).__name__}")
     if records is not None and not isinstance(records, FragilityResult):
-        raise ValueError(f"records must be a crandall.RecordFragilityResult, got "
-                         f"{type(records).__name__}")
+        raise ParameterError("records", f"records must be a crandall.RecordFragilityResult, got "
+                                        f"{type(records).__name__}")
     fig = _figure(width=6.4 if hazard is None else 11.0)
     axes = fig.subplots(1, 1 if hazard is None else 2, squeeze=False)[0]
     ax = axes[0]

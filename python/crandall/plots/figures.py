@@ -16,6 +16,7 @@ from .common import FORMATS, _check_units, _has_closed_forms
 from .histograms import STOP_DISTRIBUTIONS, distribution
 from .moments import _moment_figure
 from .samples import stop_time_density, velocity_density
+from ..errors import ParameterError
 
 
 def figures(result: Result, *, paths: int = 200_000, units: str = "scene") -> Dict[str, object]:
@@ -115,7 +116,8 @@ def write_figures(result: Result, folder, *, paths: int = 200_000, units: str = 
     """
     dpi = check_int("dpi", dpi, 50, 1200)
     if format not in FORMATS:
-        raise ValueError(f"format must be one of {', '.join(FORMATS)}, got {format!r}")
+        raise ParameterError("format", f"format must be one of {', '.join(FORMATS)}, got "
+                                       f"{format!r}")
     os.makedirs(folder, exist_ok=True)
     written = []
     for stem, fig in figures(result, paths=paths, units=units).items():

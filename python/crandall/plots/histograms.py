@@ -14,6 +14,7 @@ from ..quantities import quantity
 from ..model import ANALYTIC, holds
 from ..results import Result
 from .common import _figure
+from ..errors import ParameterError
 
 
 #: The stop quantities whose distributions ``crandall run`` draws (and prints the quantiles
@@ -95,13 +96,14 @@ def distribution(result: Result, name: str, times: Optional[Sequence[float]] = N
     matplotlib.figure.Figure
     """
     if not isinstance(result, Result):
-        raise ValueError(f"result must be a crandall.Result, got {type(result).__name__}")
+        raise ParameterError("result", "result must be a crandall.Result, got "
+                                       f"{type(result).__name__}")
     q = quantity(name) if name in result.names else None
     if q is None or name not in result.distributions:
-        raise ValueError(f"name: the result holds no distribution of {name!r}")
+        raise ParameterError("name", f"name: the result holds no distribution of {name!r}")
     if q.at_stop:
         if times is not None:
-            raise ValueError(f"times: {name} is at the stop; give no times")
+            raise ParameterError("times", f"times: {name} is at the stop; give no times")
         slots = [None]
     else:
         slots = list(result.times if times is None else times)

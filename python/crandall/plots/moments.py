@@ -13,13 +13,15 @@ from ..quantities import quantity
 from ..results import MIN_CARRIERS, Result
 from .common import (Z95, _CURVE, _FEW, _SIM, _axes_converter, _check_units, _curve_grid, _figure,
                      _has_closed_forms, _schedule_strip, _switch_off_line)
+from ..errors import ParameterError
 
 
 def _moment_figure(result: Result, c: Curve, units: str = "scene"):
     if not isinstance(result, Result):
-        raise ValueError(f"result must be a crandall.Result, got {type(result).__name__}")
+        raise ParameterError("result", "result must be a crandall.Result, got "
+                                       f"{type(result).__name__}")
     if c.quantity not in result.names:
-        raise ValueError(f"result: {c.quantity!r} was not observed in this scene")
+        raise ParameterError("result", f"result: {c.quantity!r} was not observed in this scene")
     _check_units(units)
     sc = result.scene
     kind = quantity(c.quantity).kind

@@ -15,6 +15,7 @@ from ..scene import Scene
 from ..spec import MAX_SEED, check_int
 from ..units import Scaling
 from .common import _CURVE, _figure, _schedule_strip
+from ..errors import ParameterError
 
 
 def paths(data):
@@ -34,8 +35,8 @@ def paths(data):
     needed = ("velocity", "displacement", "distance", "stop_time")
     if not all(hasattr(data, "data_vars") and k in data.data_vars for k in needed) \
             or "scene" not in getattr(data, "attrs", {}):
-        raise ValueError("data must be what crandall.paths returns (an xarray.Dataset of "
-                         "velocity, displacement, distance and stop_time)")
+        raise ParameterError("data", "data must be what crandall.paths returns (an xarray.Dataset "
+                                     "of velocity, displacement, distance and stop_time)")
     sc = Scene.from_dict(json.loads(data.attrs["scene"]))
     t = np.asarray(data["time"].values, dtype=float)
     strip = int(sc.pieces is not None or sc.envelope is not None)
@@ -94,9 +95,11 @@ def velocity_density(times: Sequence[float] = (0.25, 1.0, 5.0), *, paths: int = 
     try:
         taus = [float(t) for t in times]
     except (TypeError, ValueError):
-        raise ValueError(f"times must be a sequence of numbers, got {times!r}") from None
+        raise ParameterError("times", "times must be a sequence of numbers, got "
+                                      f"{times!r}") from None
     if not taus or len(taus) > 6 or not all(math.isfinite(t) and t > 0 for t in taus):
-        raise ValueError(f"times must hold 1 to 6 finite scaled times > 0, got {times!r}")
+        raise ParameterError("times", "times must hold 1 to 6 finite scaled times > 0, got "
+                                      f"{times!r}")
     fig = _figure(width=3.2 * len(taus) + 0.6, height=3.8)
     axes = fig.subplots(1, len(taus), squeeze=False)[0]
     v = 1.0 if scaling is None else scaling.scale("velocity")
@@ -145,7 +148,7 @@ def stop_time_density(tau0: float = 5.0, *, paths: int = 200_000, seed: int = 0,
     paths, seed = _check_samples(paths, seed)
     if isinstance(tau0, bool) or not isinstance(tau0, (int, float, np.integer, np.floating)) \
             or not math.isfinite(tau0) or tau0 <= 0:
-        raise ValueError(f"tau0 must be finite and > 0, got {tau0!r}")
+        raise ParameterError("tau0", f"tau0 must be finite and > 0, got {tau0!r}")
     tau0 = float(tau0)
     stops = tau0 + np.abs(velocity_samples(tau0, paths, seed)) / 2
     mean, sd = float(analytic.stop_time_mean(tau0)), math.sqrt(float(analytic.stop_time_var(tau0)))
