@@ -17,6 +17,7 @@ from typing import Union
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..errors import ParameterError
 from . import _data
 from . import coast_var as _cv
 from . import switch_off as _so
@@ -56,7 +57,6 @@ from .switch_off import (
     stop_time_pdf,
     stop_time_var,
 )
-from ..errors import ParameterError
 
 #: What a closed form returns: a float for a scalar time, an array (of the times' shape) for
 #: an array of times.

@@ -22,8 +22,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from ._check import ArrayLike, Values, as_flag, as_order, as_real, as_time
 from ..errors import ParameterError
+from ._check import ArrayLike, Values, as_flag, as_order, as_real, as_time
 
 __all__ = ["laplace_moment", "moment", "signed_moment"]
 

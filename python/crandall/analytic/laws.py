@@ -21,9 +21,9 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.special import erfc, erfcx
 
+from ..errors import ParameterError
 from ._check import ArrayLike, Values, as_real, as_tau0, as_time, scalar_or_array
 from .noise_on import velocity_pdf
-from ..errors import ParameterError
 
 __all__ = [
     "stop_time_cdf",

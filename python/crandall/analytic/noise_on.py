@@ -11,10 +11,10 @@ import math
 import numpy as np
 from scipy.special import erfc, erfcx
 
+from ..errors import ParameterError
 from . import _data
 from ._check import (ArrayLike, Values, as_real, as_tau0, as_time, only_before_switch_off,
                      scalar_or_array)
-from ..errors import ParameterError
 
 __all__ = [
     "distance_second_moment",

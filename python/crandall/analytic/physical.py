@@ -16,10 +16,10 @@ import math
 
 import numpy as np
 
+from ..errors import ParameterError
 from . import _data
 from ._check import ArrayLike, Values, as_real, as_tau0, as_time
 from ._forms import Form
-from ..errors import ParameterError
 
 __all__ = ["physical", "PHYSICAL_NAMES"]
 

@@ -27,8 +27,8 @@ from typing import Sequence, Tuple
 import numpy as np
 from scipy.special import log_ndtr
 
-from ._check import ArrayLike, Values
 from ..errors import ParameterError
+from ._check import ArrayLike, Values
 
 __all__ = ["log_transition_density", "VelocityLaw", "velocity_law", "stop_time_sf",
            "distance_mean", "noise_energy"]

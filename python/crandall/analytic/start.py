@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._check import ArrayLike, Values, as_real, as_tau0, scalar_or_array
 from ..errors import ParameterError
+from ._check import ArrayLike, Values, as_real, as_tau0, scalar_or_array
 
 __all__ = ["distance_at_stop_mean_from", "coast_stop_time", "coast_distance",
            "distance_mean_from_velocity"]

@@ -16,10 +16,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import erfc, erfcx
 
+from ..errors import ParameterError
 from . import _data
 from ._check import ArrayLike, Values, as_real, as_tau0, as_time, scalar_or_array
 from .noise_on import SWITCH, velocity_pdf
-from ..errors import ParameterError
 
 __all__ = [
     "coast_distance_increment",

@@ -16,8 +16,8 @@ from ..quantities import quantity
 from ..model import ANALYTIC, holds
 from ..scene import Scene
 from ..simulate import simulate
-from .outputs import DEFAULT_FILE_PATHS, DEFAULT_OUT, PAPER_SEED, _check_out, _write_and_tell
 from ..errors import ParameterError
+from .outputs import DEFAULT_FILE_PATHS, DEFAULT_OUT, PAPER_SEED, _check_out, _write_and_tell
 
 
 #: The probabilities whose quantiles ``crandall run`` prints for the stop quantities.

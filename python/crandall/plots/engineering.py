@@ -10,8 +10,8 @@ import numpy as np
 
 from ..fragility import FragilityResult
 from ..records import NewmarkResult
-from .common import _CURVE, _SIM, _figure
 from ..errors import ParameterError
+from .common import _CURVE, _SIM, _figure
 
 
 def newmark(result: NewmarkResult):

@@ -12,11 +12,11 @@ from .._files import write_atomic
 from ..paper import CURVES, scaled_factors
 from ..results import Result
 from ..spec import check_int
+from ..errors import ParameterError
 from .common import FORMATS, _check_units, _has_closed_forms
 from .histograms import STOP_DISTRIBUTIONS, distribution
 from .moments import _moment_figure
 from .samples import stop_time_density, velocity_density
-from ..errors import ParameterError
 
 
 def figures(result: Result, *, paths: int = 200_000, units: str = "scene") -> Dict[str, object]:

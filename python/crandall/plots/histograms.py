@@ -13,8 +13,8 @@ from .. import analytic, distributions
 from ..quantities import quantity
 from ..model import ANALYTIC, holds
 from ..results import Result
-from .common import _figure
 from ..errors import ParameterError
+from .common import _figure
 
 
 #: The stop quantities whose distributions ``crandall run`` draws (and prints the quantiles

@@ -11,9 +11,9 @@ from .. import paper
 from ..paper import Curve, curve, scaled_factors
 from ..quantities import quantity
 from ..results import MIN_CARRIERS, Result
+from ..errors import ParameterError
 from .common import (Z95, _CURVE, _FEW, _SIM, _axes_converter, _check_units, _curve_grid, _figure,
                      _has_closed_forms, _schedule_strip, _switch_off_line)
-from ..errors import ParameterError
 
 
 def _moment_figure(result: Result, c: Curve, units: str = "scene"):

@@ -14,8 +14,8 @@ from ..engine import velocity_samples
 from ..scene import Scene
 from ..spec import MAX_SEED, check_int
 from ..units import Scaling
-from .common import _CURVE, _figure, _schedule_strip
 from ..errors import ParameterError
+from .common import _CURVE, _figure, _schedule_strip
 
 
 def paths(data):

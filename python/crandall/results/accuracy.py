@@ -10,9 +10,9 @@ import numpy as np
 from .. import _core
 from ..quantities import names_for, quantity
 from ..scene import Scene
+from ..errors import ParameterError
 from .common import Stat
 from .result import Result
-from ..errors import ParameterError
 
 
 class AccuracyResult(Result):

@@ -10,8 +10,8 @@ import numpy as np
 
 from .. import distributions
 from ..quantities import quantity
-from .common import _fold, _times_text
 from ..errors import ParameterError
+from .common import _fold, _times_text
 
 
 class _Distributions:

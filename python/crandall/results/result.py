@@ -17,11 +17,11 @@ from ..model import exact as model_exact
 from ..quantities import core_flags, find, names_for, quantity
 from ..scene import Scene
 from ..spec import RunSpec
+from ..errors import ParameterError
 from .common import (_e, _EXPONENTS, _INDEX, _shaken_before, Accumulators, MIN_CARRIERS, Stat,
                      StatisticsWarning, z_of)
 from .histograms import _Distributions
 from .tables import _Tables
-from ..errors import ParameterError
 
 
 #: The engine layer's estimate of a fixed-step run's bias (crandall.bias.estimate, set when
