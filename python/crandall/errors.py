@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any, Tuple
+
 __all__ = ["ParameterError", "UnresolvableGrid"]
 
 
@@ -24,7 +26,7 @@ class ParameterError(ValueError):
         super().__init__(message)
         self.name = name
 
-    def __reduce__(self):
+    def __reduce__(self) -> Tuple[Any, Tuple[Any, ...]]:
         # Pickled with both arguments (a Dask worker's error comes back to the client so).
         return type(self), (self.name, str(self))
 
@@ -37,6 +39,6 @@ class UnresolvableGrid(ParameterError):
         super().__init__("observe", message)
         self.integrals = tuple(integrals)
 
-    def __reduce__(self):
+    def __reduce__(self) -> Tuple[Any, Tuple[Any, ...]]:
         return type(self), (self.integrals, str(self))
 
