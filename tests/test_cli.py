@@ -202,7 +202,8 @@ VELOCITY_ONLY = SMALL.replace('tau0 = 1.0', 'tau0 = 1.0\nobserve = ["velocity"]'
 def _no_simulation(monkeypatch):
     def boom(*args, **kwargs):
         raise AssertionError("simulated although the command was refused")
-    monkeypatch.setattr(cli, "simulate", boom)
+    for module in ("simulation", "commands"):  # where the command line calls simulate
+        monkeypatch.setattr(importlib.import_module(f"crandall.cli.{module}"), "simulate", boom)
 
 
 def _one_line_error(capsys, *words):
