@@ -11,20 +11,18 @@ Needs the ``io`` extra: ``pip install crandall[io]`` (xarray, pandas).
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING, Union
+from typing import Union
 
 from ._dataset import STATISTICS, save, sweep, to_pandas, to_xarray
 from ._dataset import read as _read
 from .records import load_newmark
 from .results import AccuracyResult, Result
-
-if TYPE_CHECKING:
-    from .tail import TailResult
+from .tail.result import FILE_ATTR, TailResult
 
 __all__ = ["to_xarray", "to_pandas", "save", "load", "load_newmark", "sweep", "STATISTICS"]
 
 
-def load(path: Union[str, "os.PathLike[str]"]) -> Union[Result, "TailResult"]:
+def load(path: Union[str, "os.PathLike[str]"]) -> Union[Result, TailResult]:
     """Read a result written by :meth:`crandall.Result.save` (or by
     :meth:`crandall.TailResult.save`: a tail result).
 
@@ -63,8 +61,6 @@ def load(path: Union[str, "os.PathLike[str]"]) -> Union[Result, "TailResult"]:
 def _saved_tail(path):
     """The tail result saved in ``path`` (:meth:`crandall.TailResult.save`), or None for any
     other file (whose own reader then says what is wrong with it)."""
-    from .tail.result import FILE_ATTR, TailResult
-
     try:
         import xarray as xr  # the io extra; without it the result reader says so
 

@@ -124,7 +124,7 @@ def fragility_command(args) -> int:
     scene = _read_scene(args.scene if args.scene is not None else "crate")
     seed = args.seed
     if seed is None:
-        seed = int(np.random.SeedSequence().entropy % (1 << 63))
+        seed = draw_seed()
         print(f"seed: {seed}")
     if args.figure is not None:
         fmt = os.path.splitext(args.figure)[1].lstrip(".").lower()

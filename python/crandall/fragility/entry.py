@@ -9,6 +9,7 @@ import numpy as np
 
 from ..errors import ParameterError
 from ..scene import Scene
+from ..spec import MAX_SEED, as_seed, check_int, draw_seed
 from ..tail import TAIL_QUANTITIES
 from .grid import _grid, _run_points, point_scene
 from .result import FragilityResult
@@ -39,8 +40,8 @@ def fragility(scene: Scene, quantity: str, thresholds, *, intensities=None, mu=N
         (``result.by == "mu"``), whose points of one scaled duration share a run.
     rel_error : float, default 0.1
         Each run's target relative error (crandall.tail's).
-    seed : int, optional
-        The fragility's seed; run r gets a seed drawn from (seed, r), so the result is a pure
+    seed : int, numpy SeedSequence or Generator, optional
+        The fragility's seed (as :func:`crandall.simulate` takes it); run r gets a seed drawn from (seed, r), so the result is a pure
         function of it (a seed is drawn and kept in ``result.seed`` when not given).
     threads, progress, time, dt, method, max_seconds
         As for :func:`crandall.tail` (``dt`` in seconds; on scaled runs converted to scaled
@@ -69,12 +70,8 @@ def fragility(scene: Scene, quantity: str, thresholds, *, intensities=None, mu=N
     thr = _grid("thresholds", thresholds)
     if not isinstance(share, bool):
         raise ParameterError("share", f"share must be True or False, got {share!r}")
-    if seed is None:
-        seed = int(np.random.SeedSequence().entropy % (1 << 63))
-    if not (isinstance(seed, (int, np.integer)) and not isinstance(seed, bool)
-            and 0 <= seed < (1 << 64)):
-        raise ParameterError("seed", f"seed must be an integer in [0, 2^64), got {seed!r}")
-    seed = int(seed)
+    seed = as_seed(seed)
+    seed = check_int("seed", draw_seed() if seed is None else seed, 0, MAX_SEED)
     args = dict(rel_error=rel_error, seed=seed, threads=threads, progress=progress, time=time,
                 dt=dt, method=method, max_seconds=max_seconds, share=share)
     if hs is None or ms is None:
