@@ -22,6 +22,7 @@ from ..fragility import fragility, hazard_csv, read_hazard_curve
 from .outputs import DEFAULT_TAIL_OUT, TAIL_MANIFEST, _TAIL_OUTPUTS, _check_out, _write_manifest
 from .parser import _parser
 from .simulation import _load_scene, _read_scene, analytic_command, run
+from .suite import suite_command
 
 
 #: The quantities of ``crandall tail`` whose plain Monte Carlo part a fixed-step run gives
@@ -254,6 +255,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return scenes_command()
         if args.command == "newmark":
             return newmark_command(args)
+        if args.command == "suite":
+            return suite_command(args)
         return analytic_command(args.scene, tau0=args.tau0, times=args.times)
     except (ValueError, StatisticsFailure) as exc:
         # StatisticsFailure: an estimator found no usable answer; its message says what to do.

@@ -223,6 +223,51 @@ def _parser() -> argparse.ArgumentParser:
     an.add_argument("--times", type=_float, nargs="+", metavar="TAU",
                     help="scaled output times (with --tau0; default: the paper's)")
 
+    su = sub.add_parser(
+        "suite", help="a suite of records as a fragility curve (Newmark's block on each)",
+        description="The weighted fraction of records whose Newmark displacement exceeds each "
+                    "threshold, per yield value (and per PGA the records are scaled to), with "
+                    "its 95 %% interval (Clopper-Pearson at Kish's effective number of "
+                    "records) and the lognormal fit per threshold. Records as for crandall "
+                    "newmark; yields in g. With --model (a saved crandall fragility) and "
+                    "--figure, the records' curves are drawn beside the model's.")
+    su.add_argument("records", nargs="+", metavar="RECORD", help="the records' files")
+    su.add_argument("--thresholds", type=_floats, required=True, metavar="D1,D2,...",
+                    help="displacements, m: increasing, > 0")
+    block = su.add_argument_group("the block (one of --ky, --mu, --kd with --ku)")
+    block.add_argument("--ky", type=_float, nargs="+", metavar="KY",
+                       help="one-way yield acceleration(s), g")
+    block.add_argument("--mu", type=_float, nargs="+", metavar="MU",
+                       help="two-way on a flat surface: kinetic friction coefficient(s)")
+    block.add_argument("--mu-static", type=_float, nargs="+", metavar="MU",
+                       help="with --mu: static friction coefficient(s) (default: --mu)")
+    block.add_argument("--kd", type=_float, nargs="+", metavar="KD",
+                       help="incline: downslope yield acceleration(s), g")
+    block.add_argument("--ku", type=_float, nargs="+", metavar="KU",
+                       help="incline: upslope yield acceleration(s), g")
+    su.add_argument("--pga", type=_floats, metavar="G1,G2,...",
+                    help="scale every record to each of these PGAs, g (an axis: a curve over PGA)")
+    su.add_argument("--weights", type=_floats, metavar="W1,W2,...",
+                    help="one weight per record, >= 0 (default: equal)")
+    su.add_argument("--polarity", choices=POLARITIES, default="both",
+                    help="both (default: each record counts in both, half its weight each), "
+                         "normal or inverse")
+    su.add_argument("--measure", choices=("displacement", "peak_displacement"),
+                    default="displacement",
+                    help="|displacement at the record's end| (default) or its largest |value|")
+    su.add_argument("--method", choices=("exact", "slammer"), default="exact",
+                    help="as for crandall newmark (default: exact)")
+    su.add_argument("--dt", type=_float, help="sampling interval, s (one-column files)")
+    su.add_argument("--units", choices=("g", "m/s2", "cm/s2"), default="g",
+                    help="the records' units (default: g)")
+    su.add_argument("--model", metavar="PATH",
+                    help="a saved stochastic fragility (crandall fragility --save) drawn "
+                         "beside the records' on --figure")
+    su.add_argument("--save", metavar="PATH", help="write the result (netCDF; "
+                                                    "crandall.fragility.load reads it)")
+    su.add_argument("--figure", metavar="PATH", help="draw the curves (png, pdf, svg)")
+    su.add_argument("--threads", type=_positive_int, help="threads (default: all cores)")
+
     nm = sub.add_parser(
         "newmark", help="Newmark's sliding block on a recorded ground motion",
         description="Slide a rigid block on a recorded ground motion and print its "
