@@ -41,7 +41,8 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
                  mc_paths: int = 20_000, out: str = DEFAULT_TAIL_OUT, overwrite: bool = False,
                  files: bool = True, progress=None, figure_format: str = "png",
                  dpi: int = 150) -> int:
-    """``crandall tail``: the table at the given levels, tail.csv, and the curve (tail.png)."""
+    """``crandall tail``: the table at the given levels, tail.csv, tail.nc (the result:
+    crandall.load reads it) and the curve (tail.png)."""
     scene, settings, _ = _load_scene(scene_path)
     if quantity not in TAIL_QUANTITIES:
         raise ParameterError("--quantity", "--quantity must be one of "
@@ -96,6 +97,14 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
         path = os.path.join(out, "tail.csv")
         write_atomic(path, lambda f: f.write("".join(rows).encode()))
         written.append(path)
+        try:
+            import xarray  # noqa: F401  (the io extra: TailResult.save's netCDF)
+        except ImportError as exc:
+            print(f"crandall: note: tail.nc not written ({exc})", file=sys.stderr)
+        else:
+            path = os.path.join(out, "tail.nc")
+            result.save(path)
+            written.append(path)
         try:
             import matplotlib
             matplotlib.use("Agg")

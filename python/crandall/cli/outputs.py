@@ -58,7 +58,7 @@ _RUN_OUTPUTS = _Outputs(MANIFEST, ("result.nc", "result.csv", MANIFEST)
                                                 for n in plots.STOP_DISTRIBUTIONS[1:]])))
 
 
-_TAIL_OUTPUTS = _Outputs(TAIL_MANIFEST, ("tail.csv", TAIL_MANIFEST)
+_TAIL_OUTPUTS = _Outputs(TAIL_MANIFEST, ("tail.csv", "tail.nc", TAIL_MANIFEST)
                          + tuple(f"tail.{ext}" for ext in plots.FORMATS))
 
 
