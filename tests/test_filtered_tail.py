@@ -74,6 +74,21 @@ def test_a_continuation_from_the_start_is_the_fixed_step_walks_path():
     two[:, 1:] = 0.0
     _core.extend_filtered_paths(plan, two, np.arange(n), np.zeros(n), np.arange(n), threads=2)
     np.testing.assert_array_equal(two, states)
+    # Clough-Penzien (4 filter numbers) with static friction: the walk's V at the last point.
+    cp = Scene(mu=1.0, mu_static=1.2, g=1.0, t0=1.5, times=[1.5],
+               observe=["velocity", "displacement", "distance"],  # (the walk ends at 1.5)
+               excitation=crandall.CloughPenzien(omega=3.0, zeta=0.6, omega_f=0.5, zeta_f=0.6,
+                                                 h=1.0))
+    plan = _plan(cp, paths=4, seed=2)
+    states = np.zeros((4, len(_core.filtered_grid(plan)[0]) + 1, 8))
+    _core.extend_filtered_paths(plan, states, np.arange(4), np.zeros(4), np.arange(4))
+    for p in range(4):
+        tr = _core.filtered_trajectory(plan, p)
+        assert states[p, -1, 0] == tr["V"][-1] and states[p, -1, 2] == tr["S"][-1]
+    with pytest.raises(ValueError, match="streams"):
+        _core.extend_filtered_paths(plan, states, [0], [0], [1 << 40])
+    with pytest.raises(ValueError, match="states must be"):
+        _core.extend_filtered_paths(plan, states[:, :, :6].copy(), [0], [0], [0])
 
 
 def _plain(scene, level, paths, seed):

@@ -67,8 +67,8 @@ class _Problem:
             if self.q.peak:
                 raise ParameterError(
                     "quantity", f"quantity: {quantity} is not available for a filtered "
-                    "excitation (its peaks are maxima over the grid's points, and the filtered "
-                    "walk's own peaks are over its event substeps as well)")
+                    "excitation (its peaks are not simulated: a fixed-step run refuses them "
+                    "too)")
         c = scene.drift
         pieces = list(scene.pieces) if scene.pieces is not None else [(scene.t0, scene.noise)]
         end = pieces[-1][0]
