@@ -91,6 +91,26 @@ def test_a_continuation_from_the_start_is_the_fixed_step_walks_path():
         _core.extend_filtered_paths(plan, states[:, :, :6].copy(), [0], [0], [0])
 
 
+MODEL_FIELDS = ("drift", "noise", "switch_off", "piece_ends", "piece_noise", "start_velocity",
+                "start_displacement", "excitation", "filter_a", "filter_b", "filter_c",
+                "filter_start", "static_drift", "event_depth", "ring_down")
+
+
+def test_the_tails_plan_has_the_fixed_step_runs_model():
+    # The tail builds its plan's model options itself (it does not reach the engine layer):
+    # field by field those of engine.scene_options, with pieces, a start in motion and static
+    # friction; its grid ends at the horizon.
+    from crandall.tail.problem import _Problem
+    scene = Scene(mu=1.0, mu_static=1.3, g=1.0, h=[0.5, 1.0], t0=[0.4, 1.5], v0=0.2, u0=-0.1,
+                  times=[1.5], excitation=KanaiTajimi(omega=2.0, zeta=0.6))
+    ours = _Problem(scene, "velocity", 1.0, DT)._grid.plan.options
+    theirs = engine.scene_options(scene)
+    for name in MODEL_FIELDS:
+        a, b = getattr(ours, name), getattr(theirs, name)
+        assert a == b or (a != a and b != b), name
+    assert ours.times == [1.0]
+
+
 def _plain(scene, level, paths, seed):
     """Plain Monte Carlo of the fixed-step core (the same grid), binned at the level: its
     exceedance there is a count."""

@@ -361,9 +361,21 @@ class _FilteredGrid:
     grid; paths continued from any grid point by ``_core.extend_filtered_paths``."""
 
     def __init__(self, scene: Scene, horizon: float, dt: float):
-        from ..engine import scene_options  # (engine imports the tail's neighbours)
-
-        o = scene_options(scene)
+        # The model's options as engine.scene_options sets them (the tail does not reach the
+        # engine layer; tests/test_filtered_tail.py checks that the two agree).
+        o = _core.Options()
+        o.drift = scene.drift
+        o.noise = scene.noise
+        o.switch_off = scene.t0
+        if scene.pieces is not None:
+            o.piece_ends = [e for e, _ in scene.pieces]
+            o.piece_noise = [n for _, n in scene.pieces]
+        o.start_velocity = scene.v0
+        o.start_displacement = scene.u0
+        for name, value in scene.excitation.core_options().items():
+            setattr(o, name, value)
+        if scene.static_drift != scene.drift:
+            o.static_drift = scene.static_drift
         o.times = [horizon]
         o.velocity = True
         o.displacement = o.distance = True
