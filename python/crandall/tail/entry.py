@@ -53,7 +53,8 @@ def _rate(problem: _Problem, key: int, threads: int) -> float:
     machine's pause makes one slower, and a lower bound of the cost must not grow by it)."""
     if problem.filtered:
         # The filtered walk's steps (each with its event search) from a start state at the
-        # point m steps before the end; far fewer of them: a step costs about 30 exact steps.
+        # point m steps before the end; far fewer of them: a step costs about 14 exact steps
+        # (docs/methods/tails.md, "Filtered excitations").
         m = max(1, min(problem.steps, _RATE_STEPS // 512))
         k = max(1, _RATE_STEPS // 32 // m)
         states = problem.start_states(k)
