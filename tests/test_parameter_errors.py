@@ -84,3 +84,17 @@ def test_parameter_errors_survive_pickling():
     g = pickle.loads(pickle.dumps(UnresolvableGrid(["distance"], "observe: too fine")))
     assert (type(g), g.name, g.integrals, str(g)) == (UnresolvableGrid, "observe", ("distance",),
                                                       "observe: too fine")
+
+
+def test_the_entry_points_name_their_parameter():
+    scene = crandall.Scene.scaled(tau0=1.0, times=[1.0])
+    assert _names(lambda: crandall.simulate(scene, seed=1)) == "paths"
+    assert _names(lambda: crandall.simulate(scene, paths=10, statistics=["x"])) == "statistics"
+    assert _names(lambda: crandall.simulate(scene, paths=10, max_seconds=1.0)) == "max_seconds"
+    assert _names(lambda: crandall.simulate(scene, paths=10, method="midpoint")) == "method"
+    assert _names(lambda: crandall.simulate_many([], paths=10)) == "scenes"
+    assert _names(lambda: crandall.simulate_many([scene, "crate"], paths=10)) == "scenes"
+    assert _names(lambda: crandall.simulate_many([scene], paths=10, dataset=1)) == "dataset"
+    moving = crandall.simulate(crandall.Scene(mu=0.3, h=1.0, t0=1.0, v0=0.5, times=[1.0]),
+                               paths=10, seed=1)
+    assert _names(lambda: crandall.paper.scaled_factors(moving)) == "result"
