@@ -213,3 +213,20 @@ def test_the_same_bits_for_any_thread_count_and_a_checkpoint_resumes_bitwise(tmp
         np.savez(f, identity=arrays["identity"], state=np.array(json.dumps(data)))
     resumed = tail(scene, "residual_displacement", [1.0], threads=1, checkpoint=str(path), **kw)
     assert resumed.probability.tobytes() == one.probability.tobytes()
+
+
+def test_fragility_of_a_filtered_scene_runs_each_point_as_its_own_tail():
+    # The scaling of eq8 (model.SCALING) does not hold under a filtered excitation: no run is
+    # shared, and each grid point is the tail run of its own scene with its own seed, bit for
+    # bit. P(S > d) grows with the intensity.
+    from crandall.fragility.grid import _run_seed, point_scene
+    sc = Scene(mu=1.0, g=1.0, excitation=KanaiTajimi(omega=2.0, zeta=0.6, h=1.0), t0=1.5,
+               times=[1.5])
+    f = crandall.fragility(sc, "distance_at_stop", [0.5, 1.0], intensities=[0.8, 1.2],
+                           rel_error=0.3, seed=7, threads=1, progress=False)
+    assert not f.shared and list(f.run) == [0, 1]
+    r = tail(point_scene(sc, "intensity", 1.2), "distance_at_stop", [0.5, 1.0], rel_error=0.3,
+             seed=_run_seed(7, 1), threads=1, progress=False)
+    assert np.array_equal(f.probability[1], r.probability)
+    assert np.array_equal(f.stderr[1], r.stderr)
+    assert (f.probability[1] > f.probability[0]).all()
