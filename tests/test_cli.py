@@ -2,6 +2,7 @@
 
 import errno
 import importlib.metadata
+import importlib.util
 import json
 import os
 import pathlib
@@ -202,7 +203,8 @@ VELOCITY_ONLY = SMALL.replace('tau0 = 1.0', 'tau0 = 1.0\nobserve = ["velocity"]'
 def _no_simulation(monkeypatch):
     def boom(*args, **kwargs):
         raise AssertionError("simulated although the command was refused")
-    monkeypatch.setattr(cli, "simulate", boom)
+    for module in ("simulation", "commands"):  # where the command line calls simulate
+        monkeypatch.setattr(importlib.import_module(f"crandall.cli.{module}"), "simulate", boom)
 
 
 def _one_line_error(capsys, *words):
@@ -458,6 +460,10 @@ def test_tail_command_prints_writes_and_draws_the_curve(tmp_path, capsys):
     levels = [float(r.split(",")[0]) for r in rows[1:]]
     assert 0.3 in levels and 0.6 in levels and len(levels) > 10
     assert (out / "tail.png").stat().st_size > 0
+    if importlib.util.find_spec("xarray") is not None:
+        saved = crandall.load(out / "tail.nc")   # the result itself, every number as printed
+        assert isinstance(saved, crandall.TailResult) and 0.3 in saved.levels
+        assert [float(r.split(",")[2]) for r in rows[1:]] == saved.probability.tolist()
     # A second run into the same folder: refused, then replaced with --overwrite.
     assert cli.main(args) == 2
     assert "--overwrite" in capsys.readouterr().err

@@ -36,7 +36,8 @@ def stub_simulated(monkeypatch):
     """The core declared to simulate the stub, and the estimators that rest on a model of
     their own (runs to an accuracy, tails and sample paths) declared to hold under it."""
     monkeypatch.setattr(model, "SIMULATED", frozenset({"stub"}))
-    kept = {ident: ident.supports for ident in (model.LEVELS, model.TAIL_MODEL)}
+    kept = {ident: ident.supports for ident in (model.LEVELS, model.TAIL_MODEL,
+                                                model.TAIL_SPLITTING)}
     for ident, supports in kept.items():
         object.__setattr__(ident, "supports", supports | {"stub"})
     yield
@@ -113,15 +114,15 @@ def test_every_entry_point_runs_the_stub_once_it_is_declared_simulated(
 
 #: The entry points of the estimators with a model of their own, and the identity each rests on.
 _ESTIMATOR_MODELS = {"simulate(error=)": model.LEVELS, "simulate(rel_error=)": model.LEVELS,
-                     "accuracy Dask task": model.LEVELS, "tail": model.TAIL_MODEL,
-                     "tail Dask task": model.TAIL_MODEL, "paths": model.TAIL_MODEL}
+                     "accuracy Dask task": model.LEVELS, "tail": model.TAIL_SPLITTING,
+                     "tail Dask task": model.TAIL_SPLITTING, "paths": model.TAIL_MODEL}
 
 
 @pytest.mark.parametrize("entry", sorted(_ESTIMATOR_MODELS))
 def test_an_estimator_refuses_a_simulated_effect_its_own_model_does_not_hold_under(
         entry, every_scene_holds_a_stub, monkeypatch):
     # The core simulates the stub, but runs to an accuracy, tails and sample paths rest on
-    # the white-noise model (model.LEVELS, model.TAIL_MODEL): each refuses, naming the scene,
+    # models of their own (model.LEVELS, model.TAIL_SPLITTING, model.TAIL_MODEL): each refuses, naming the scene,
     # until its identity lists the effect.
     monkeypatch.setattr(model, "SIMULATED", frozenset({"stub"}))
     identity = _ESTIMATOR_MODELS[entry]

@@ -519,3 +519,46 @@ def test_record_fragility_fit_files_figure_and_refusals(tmp_path, shipped):
         with pytest.raises(ParameterError) as info:
             crandall.record_fragility(**args)
         assert info.value.name == name, (call, info.value)
+
+
+def test_crandall_suite_prints_the_fractions_by_hand_and_writes_its_files(tmp_path, capsys):
+    # The constant records above as one-column files (dt given): ky 0.1 and 0.25, weights
+    # 1..4, both polarities: the fractions by hand of test_record_fragility_is_the_weighted_
+    # fraction_by_hand, printed, saved and drawn.
+    from crandall.cli import main
+    from crandall.fragility import load as load_fragility
+    files = []
+    for rec in _constant_suite():
+        path = tmp_path / f"{rec.name.replace(' ', '_')}.txt"
+        path.write_text("\n".join(repr(float(x)) for x in rec.acceleration) + "\n")
+        files.append(str(path))
+    out = tmp_path / "suite.nc"
+    argv = ["suite", *files, "--dt", "0.01", "--thresholds", "0.25,0.75,1.5", "--ky", "0.1",
+            "0.25", "--weights", "1,2,3,4", "--save", str(out)]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "Clopper-Pearson" in text and "lognormal fit per threshold" in text
+    back = load_fragility(out)
+    assert type(back) is crandall.RecordFragilityResult
+    assert np.allclose(back.probability, [[0.45, 0.35, 0.2], [0.2, 0.2, 0.0]], rtol=1e-14,
+                       atol=1e-15)
+    # Refusals name the option, with the exit status 2 and no traceback.
+    assert main(argv[:-2] + ["--weights", "1,2"]) == 2
+    assert "--weights: 2 weights for 4 records" in capsys.readouterr().err
+    assert main(argv[:-4] + ["--model", str(out)]) == 2
+    assert "--model draws a stochastic fragility" in capsys.readouterr().err
+    pytest.importorskip("matplotlib")
+    figure = tmp_path / "suite.png"
+    assert main(argv[:-2] + ["--figure", str(figure)]) == 0
+    assert figure.stat().st_size > 1000
+    # Beside a saved stochastic fragility over mu (mu and ky in g are one number).
+    mu = np.geomspace(0.05, 0.3, 4)
+    p = np.linspace(0.6, 0.1, 4)[:, None] * np.ones((1, 3))
+    model = crandall.FragilityResult(quantity="distance_at_stop", axis="mu", values=mu,
+                                     thresholds=[0.25, 0.75, 1.5], probability=p,
+                                     stderr=0.05 * p, low=0.9 * p, high=1.1 * p,
+                                     reliable=np.ones(p.shape, bool), units="m")
+    model.save(tmp_path / "model.nc")
+    both = tmp_path / "both.png"
+    assert main(argv[:-2] + ["--model", str(tmp_path / "model.nc"), "--figure", str(both)]) == 0
+    assert both.stat().st_size > 1000

@@ -1,8 +1,12 @@
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "common.hpp"
 #include "crandall/branch.hpp"
+#include "crandall/filter.hpp"
+#include "crandall/filtered.hpp"
+#include "crandall/plan.hpp"
 
 void register_branch(py::module_& m) {
   m.def(
@@ -74,4 +78,64 @@ void register_branch(py::module_& m) {
       "receives whether each step a row takes touched 0 (1) or not (0; a coast step: 0). "
       "slow, slow_drifts (optional, one per step): a step that starts with |x| < slow[k] "
       "takes the drift slow_drifts[k] instead of drifts[k].");
+
+  m.def(
+      "extend_filtered_paths",
+      [](const crandall::Plan& plan, py::array states,
+         py::array_t<std::int64_t, py::array::c_style | py::array::forcecast> rows,
+         py::array_t<std::int64_t, py::array::c_style | py::array::forcecast> starts,
+         py::array_t<std::uint64_t, py::array::c_style | py::array::forcecast> streams,
+         py::object key, int threads) {
+        if (!plan.options().filtered())
+          throw std::invalid_argument("plan: extend_filtered_paths needs excitation 'filtered'");
+        const std::size_t points = crandall::filtered_grid_points(plan);
+        const std::size_t cols = crandall::filtered_state_columns(plan);
+        if (!states.dtype().is(py::dtype::of<double>()) || states.ndim() != 3 ||
+            states.shape(1) != static_cast<py::ssize_t>(points) ||
+            states.shape(2) != static_cast<py::ssize_t>(cols) ||
+            !(states.flags() & py::array::c_style) || !states.writeable())
+          throw std::invalid_argument("states must be a writable C-contiguous float64 array of "
+                                      "shape (rows, " + std::to_string(points) + ", " +
+                                      std::to_string(cols) + ")");
+        if (starts.size() != rows.size() || streams.size() != rows.size())
+          throw std::invalid_argument("rows, starts and streams must have the same length");
+        const std::uint64_t k = key.is_none() ? plan.options().seed : key.cast<std::uint64_t>();
+        double* data = static_cast<double*>(states.mutable_data());
+        const auto rows_total = static_cast<std::size_t>(states.shape(0));
+        const auto count = static_cast<std::size_t>(rows.size());
+        bindings::without_gil([&] {
+          crandall::extend_filtered_paths(plan, data, rows_total, rows.data(), starts.data(),
+                                          streams.data(), count, k, threads);
+          return 0;
+        });
+      },
+      py::arg("plan"), py::arg("states"), py::arg("rows"), py::arg("starts"), py::arg("streams"),
+      py::arg("key") = py::none(), py::arg("threads") = 0,
+      "Continues rows `rows` of `states` (rows x points x (4 + n): V, U, S, the time of the last "
+      "arrival at rest, the filter state z, at every point of a filtered plan's walked grid) "
+      "from grid point starts[i] to the plan's last point with the random numbers of path "
+      "streams[i] (< 2^40) under `key` (default: the plan's seed, whose path p from point 0 is "
+      "the fixed-step block's path p). In place; the GIL is released; the same bits for any "
+      "thread count.");
+
+  m.def(
+      "filtered_grid",
+      [](const crandall::Plan& plan) {
+        if (!plan.options().filtered())
+          throw std::invalid_argument("plan: filtered_grid needs excitation 'filtered'");
+        std::vector<double> lengths, noises;
+        for (const crandall::Segment& seg : plan.segments())
+          for (std::uint64_t j = 0; j < seg.steps; ++j) {
+            lengths.push_back(seg.step);
+            noises.push_back(seg.noise);
+          }
+        std::vector<double> start(static_cast<std::size_t>(plan.filter()->filter.n));
+        for (std::size_t i = 0; i < start.size(); ++i) start[i] = plan.filter()->start[i];
+        return py::make_tuple(py::array_t<double>(static_cast<py::ssize_t>(lengths.size()), lengths.data()),
+                              py::array_t<double>(static_cast<py::ssize_t>(noises.size()), noises.data()),
+                              py::array_t<double>(static_cast<py::ssize_t>(start.size()), start.data()));
+      },
+      py::arg("plan"),
+      "(lengths, noises, z0) of a filtered plan's walked grid: every fine step's length and "
+      "intensity in time order, and the filter's start state.");
 }

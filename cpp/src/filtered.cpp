@@ -47,12 +47,14 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 #include <type_traits>
 
 #include "crandall/filter.hpp"
 #include "crandall/kernel.hpp"
 #include "crandall/newmark.hpp"
 #include "crandall/rng.hpp"
+#include "crandall/run.hpp"
 
 namespace crandall {
 namespace {
@@ -182,8 +184,7 @@ class Walker {
   bool walk(std::uint64_t path, std::vector<std::vector<std::array<double, 3>>>& outputs,
             std::vector<std::array<double, 3>>& stops, const std::function<bool()>& cancelled,
             std::uint64_t& poll) {
-    path_ = path;
-    batch_first_ = ~std::uint64_t{0} - kBatch;  // (no step's)
+    begin(path, o_.seed);
     for (int g = 0; g < grids_; ++g) {
       bodies_[g] = Body{};
       bodies_[g].v = o_.start_velocity;
@@ -193,26 +194,14 @@ class Walker {
     if (trace_) point(0.0, ground(z_), bodies_[0]);
     std::uint64_t k = 0;
     double start = 0.0;
-    const auto& segs = plan_.segments();
     bool all_done = false;
-    for (std::size_t i = 0; i < segs.size(); ++i) {
-      const Segment& seg = segs[i];
-      const bool after = start >= o_.switch_off;
-      if (after) end_shaking();
-      if (seg.steps > 0 && !all_done) {
-        const StepTable& table = fm_.tables[static_cast<std::size_t>(fm_.segment_table[i])];
-        for (std::uint64_t j = 0; j < seg.steps && !all_done; ++j, ++k) {
-          if ((++poll & (kPollSteps - 1)) == 0 && cancelled && cancelled()) return false;
-          step(table, seg.noise, k, start + static_cast<double>(j) * seg.step);
-          if (after && o_.stop) all_done = check_done(k + 1);
-        }
-      }
-      start += static_cast<double>(seg.steps) * seg.step;
-      if (seg.slot >= 0)
-        for (int g = 0; g < grids_; ++g)
-          outputs[static_cast<std::size_t>(g)][static_cast<std::size_t>(seg.slot)] = {
-              bodies_[g].v, bodies_[g].u, bodies_[g].s};
-    }
+    const auto at_slot = [&](long slot) {
+      for (int g = 0; g < grids_; ++g)
+        outputs[static_cast<std::size_t>(g)][static_cast<std::size_t>(slot)] = {
+            bodies_[g].v, bodies_[g].u, bodies_[g].s};
+    };
+    if (!segments(0, true, cancelled, poll, at_slot, [](std::uint64_t) {}, k, start, all_done))
+      return false;
     if (!o_.stop) return true;
     if (start < o_.switch_off) start = o_.switch_off;  // (the grid always reaches it)
     end_shaking();
@@ -229,7 +218,84 @@ class Walker {
     return true;
   }
 
+  // Continues a path of the walked grid (grids() == 1) from its state at grid point `from`,
+  // row[from * cols ..] = (V, U, S, the time of its last arrival at rest, z), with the random
+  // numbers of path `path` under `key`, to the plan's last grid point (the ring-down to the
+  // stop is not walked), storing the state at every point after `from` (extend_filtered_paths).
+  void extend(double* row, std::size_t cols, std::uint64_t from, std::uint64_t path,
+              std::uint64_t key) {
+    begin(path, key);
+    Body& b = bodies_[0];
+    const double* p = row + from * cols;
+    b = Body{};
+    b.v = p[0];
+    b.u = p[1];
+    b.s = p[2];
+    b.rest_since = p[3];
+    for (int i = 0; i < N; ++i) z_[i] = p[kStateColumns + i];
+    std::uint64_t k = 0, poll = 0;
+    double start = 0.0;
+    bool all_done = false;
+    segments(
+        from, false, {}, poll, [](long) {},
+        [&](std::uint64_t at) {
+          double* q = row + at * cols;
+          q[0] = b.v;
+          q[1] = b.u;
+          q[2] = b.s;
+          q[3] = b.rest_since;
+          for (int i = 0; i < N; ++i) q[kStateColumns + i] = z_[i];
+        },
+        k, start, all_done);
+  }
+
  private:
+  void begin(std::uint64_t path, std::uint64_t key) {
+    path_ = path;
+    seed_ = key;
+    batch_first_ = ~std::uint64_t{0} - kBatch;  // (no step's)
+  }
+
+  // Steps the plan's segments from the walked grid's point `from` (z_ and bodies_ hold the
+  // state there) to their end; k and start receive the fine step index and the time after
+  // them, all_done whether every grid's body came to rest for good (only with `done_checks`,
+  // after the switch-off, for a plan with the stop). at_slot(slot) after every segment that
+  // ends at or after `from` with an output slot, at_point(k) after fine step k - 1 (at grid
+  // point k). A segment's step times are its start plus j steps, whatever `from` (the same
+  // bits from any point). Returns false when cancelled.
+  template <class AtSlot, class AtPoint>
+  bool segments(std::uint64_t from, bool done_checks, const std::function<bool()>& cancelled,
+                std::uint64_t& poll, AtSlot&& at_slot, AtPoint&& at_point, std::uint64_t& k,
+                double& start, bool& all_done) {
+    k = 0;
+    start = 0.0;
+    all_done = false;
+    const auto& segs = plan_.segments();
+    for (std::size_t i = 0; i < segs.size(); ++i) {
+      const Segment& seg = segs[i];
+      if (k + seg.steps < from) {  // (wholly before the start point)
+        k += seg.steps;
+        start += static_cast<double>(seg.steps) * seg.step;
+        continue;
+      }
+      const bool after = start >= o_.switch_off;
+      if (after) end_shaking();
+      if (seg.steps > 0 && !all_done) {
+        const StepTable& table = fm_.tables[static_cast<std::size_t>(fm_.segment_table[i])];
+        std::uint64_t j = from > k ? from - k : 0;
+        for (k += j; j < seg.steps && !all_done; ++j, ++k) {
+          if ((++poll & (kPollSteps - 1)) == 0 && cancelled && cancelled()) return false;
+          step(table, seg.noise, k, start + static_cast<double>(j) * seg.step);
+          if (after && o_.stop && done_checks) all_done = check_done(k + 1);
+          at_point(k + 1);
+        }
+      }
+      start += static_cast<double>(seg.steps) * seg.step;
+      if (seg.slot >= 0) at_slot(seg.slot);
+    }
+    return true;
+  }
+
   // At the switch-off, unless the filter rings down (Options::ring_down): the shaking ends,
   // a_g = 0 from here on. z = 0 is the filter's rest, where no noise leaves it at 0, so the
   // steps after it move the body by friction alone (exactly: a_g = 0 is a straight line).
@@ -283,7 +349,7 @@ class Walker {
       // (drawn kBatch steps ahead: the path's stop may leave some unused)
       if (k < batch_first_ || k >= batch_first_ + kBatch) {
         batch_first_ = k;
-        skeleton_normals<M>(o_.seed, path_, k, kBatch, batch_);
+        skeleton_normals<M>(seed_, path_, k, kBatch, batch_);
       }
       for (int i = 0; i < M; ++i) xi[i] = batch_[(k - batch_first_) * M + static_cast<std::uint64_t>(i)];
     } else {
@@ -442,7 +508,7 @@ class Walker {
       const double* split = table_->levels[level].split.data();
       double u[2 * M];
       for (int i = 0; i < M; ++i) u[i] = iv.xi[i];
-      normals<M>(o_.seed, path_, iv.k, iv.node, u + M);
+      normals<M>(seed_, path_, iv.k, iv.node, u + M);
       constexpr int w = 2 * M;
       for (int r = 0; r < w; ++r) {
         double sum = 0.0;
@@ -532,6 +598,7 @@ class Walker {
   newmark::Yield yield_{};
   double c_[N] = {}, ca2_[N] = {};
   std::uint64_t path_ = 0;
+  std::uint64_t seed_ = 0;  // the Philox key (the plan's seed, or a continuation's key)
   std::uint64_t batch_first_ = 0;  // the skeleton's normals of steps batch_first_ + [0, kBatch)
   double batch_[kBatch * M] = {};
   double z_[N] = {};
@@ -636,6 +703,21 @@ void trace(const Plan& plan, std::uint64_t path, Trajectory& out) {
   walker.walk(path, outputs, stops, {}, poll);
 }
 
+template <int N>
+void extend_rows(const Plan& plan, double* states, std::size_t points, std::size_t cols,
+                 const std::int64_t* rows, const std::int64_t* starts,
+                 const std::uint64_t* streams, std::size_t count, std::uint64_t key, int team) {
+  const long n = static_cast<long>(count);
+#pragma omp parallel num_threads(team)
+  {
+    Walker<N> walker(plan, 1, nullptr);
+#pragma omp for schedule(dynamic, 16)
+    for (long i = 0; i < n; ++i)
+      walker.extend(states + static_cast<std::size_t>(rows[i]) * points * cols, cols,
+                    static_cast<std::uint64_t>(starts[i]), streams[i], key);
+  }
+}
+
 }  // namespace
 
 void simulate_filtered_block(const Plan& plan, std::uint64_t first, std::uint64_t count,
@@ -650,6 +732,54 @@ Trajectory filtered_trajectory(const Plan& plan, std::uint64_t path) {
   Trajectory out;
   with_dimension(plan, [&](auto n) { trace<decltype(n)::value>(plan, path, out); });
   return out;
+}
+
+std::size_t filtered_state_columns(const Plan& plan) {
+  if (plan.filter() == nullptr)
+    throw std::invalid_argument("a filtered state needs a plan with excitation 'filtered'");
+  return kStateColumns + static_cast<std::size_t>(plan.filter()->filter.n);
+}
+
+std::size_t filtered_grid_points(const Plan& plan) {
+  std::size_t steps = 0;
+  for (const Segment& seg : plan.segments()) steps += static_cast<std::size_t>(seg.steps);
+  return steps + 1;
+}
+
+void extend_filtered_paths(const Plan& plan, double* states, std::size_t rows_total,
+                           const std::int64_t* rows, const std::int64_t* starts,
+                           const std::uint64_t* streams, std::size_t count, std::uint64_t key,
+                           int threads) {
+  if (!plan.options().filtered())
+    throw std::invalid_argument("extend_filtered_paths needs a plan with excitation 'filtered'");
+  const std::size_t points = filtered_grid_points(plan);
+  const std::size_t cols = filtered_state_columns(plan);
+  std::vector<char> seen(rows_total, 0);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (rows[i] < 0 || static_cast<std::size_t>(rows[i]) >= rows_total)
+      throw std::invalid_argument("rows: " + std::to_string(rows[i]) + " is not a row of states");
+    if (seen[static_cast<std::size_t>(rows[i])]++)
+      throw std::invalid_argument("rows: row " + std::to_string(rows[i]) + " is listed twice");
+    if (starts[i] < 0 || static_cast<std::size_t>(starts[i]) >= points)
+      throw std::invalid_argument("starts: " + std::to_string(starts[i]) + " is not a grid point");
+    if (streams[i] >= (std::uint64_t{1} << kPathBits))
+      throw std::invalid_argument("streams: " + std::to_string(streams[i]) +
+                                  " is not below 2^40 (a filtered path's number)");
+    const double* p = states + (static_cast<std::size_t>(rows[i]) * points +
+                                static_cast<std::size_t>(starts[i])) * cols;
+    for (std::size_t c = 0; c < cols; ++c)
+      if (!std::isfinite(p[c]))
+        throw std::invalid_argument("states: the start state of row " + std::to_string(rows[i]) +
+                                    " is not finite");
+  }
+  double work = 0.0;  // the steps to take (each with its event search)
+  for (std::size_t i = 0; i < count; ++i)
+    work += double(points - 1 - static_cast<std::size_t>(starts[i]));
+  const int team = thread_count(threads, work);
+  with_dimension(plan, [&](auto n) {
+    extend_rows<decltype(n)::value>(plan, states, points, cols, rows, starts, streams, count,
+                                    key, team);
+  });
 }
 
 }  // namespace crandall

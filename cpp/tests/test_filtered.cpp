@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 #include <cmath>
+#include <cstdint>
 #include <iterator>
 #include <numeric>
 #include <unsupported/Eigen/MatrixFunctions>
@@ -168,6 +169,60 @@ TEST(FilteredRun, BitwiseForThreadsAndChunking) {
   // And the stop is where the body last came to rest: at or after its last output time's
   // state is frozen, and the stop time comes out finite.
   for (std::size_t p = 0; p < 300; ++p) EXPECT_TRUE(std::isfinite(whole[p * size + 4 * 3]));
+}
+
+// (b') Paths continued from stored states (extend_filtered_paths, crandall.tail's splitting):
+// from point 0 with the plan's seed, the walked grid's path of run_samples at every output time
+// (before and after the switch-off, static friction), bit for bit; from a middle point of a
+// stored path, the rest of that path; the same bits for any thread count.
+TEST(FilteredRun, ContinuedPathsAreTheBlocksPaths) {
+  const crandall::Plan plan(stop_scene());
+  const std::size_t points = crandall::filtered_grid_points(plan);
+  const std::size_t cols = crandall::filtered_state_columns(plan);
+  ASSERT_EQ(cols, 6u);
+  std::vector<std::size_t> at;  // the grid point of every output slot
+  std::size_t k = 0;
+  for (const auto& seg : plan.segments()) {
+    k += static_cast<std::size_t>(seg.steps);
+    if (seg.slot >= 0) at.push_back(k);
+  }
+  ASSERT_EQ(at.size(), 4u);
+  ASSERT_EQ(at.back() + 1, points);
+  const std::size_t n = 64, size = crandall::sample_size(plan);
+  std::vector<double> samples(n * size);
+  crandall::run_samples(plan, 0, n, 2, samples.data());
+  std::vector<double> states(n * points * cols, 0.0);
+  std::vector<std::int64_t> rows(n), starts(n, 0);
+  std::vector<std::uint64_t> streams(n);
+  std::iota(rows.begin(), rows.end(), 0);
+  std::iota(streams.begin(), streams.end(), 0);
+  crandall::extend_filtered_paths(plan, states.data(), n, rows.data(), starts.data(),
+                                  streams.data(), n, plan.options().seed, 1);
+  int moved = 0, rested = 0;
+  for (std::size_t p = 0; p < n; ++p)
+    for (std::size_t slot = 0; slot < at.size(); ++slot) {
+      const double* s = &states[(p * points + at[slot]) * cols];
+      for (int v = 0; v < 3; ++v) EXPECT_EQ(s[v], samples[p * size + slot * 3 + v]) << p << " " << slot;
+      moved += s[2] > 0.0;
+      rested += s[0] == 0.0;
+    }
+  EXPECT_GT(moved, 0);
+  EXPECT_GT(rested, 0);
+  // From a point before the switch-off (1.0 s) and one after it.
+  for (const std::size_t from : {at[0] - 7, at[1] + 3}) {
+    std::vector<double> again = states;
+    for (std::size_t p = 0; p < n; ++p)
+      for (std::size_t q = from + 1; q < points; ++q)
+        for (std::size_t c = 0; c < cols; ++c) again[(p * points + q) * cols + c] = -1.0;
+    std::vector<std::int64_t> mid(n, static_cast<std::int64_t>(from));
+    crandall::extend_filtered_paths(plan, again.data(), n, rows.data(), mid.data(),
+                                    streams.data(), n, plan.options().seed, 2);
+    EXPECT_EQ(again, states) << from;
+  }
+  std::vector<std::uint64_t> far(n, std::uint64_t{1} << 40);
+  EXPECT_THROW(crandall::extend_filtered_paths(plan, states.data(), n, rows.data(),
+                                               starts.data(), far.data(), n, 0, 1),
+               std::invalid_argument);
 }
 
 // (c) No noise, a filter started away from 0: a deterministic ring-down. The body against

@@ -180,6 +180,26 @@ def extend_paths(
     (rows x steps) receives whether each step taken reached 0; a step that starts with
     |x| < slow[k] takes the drift slow_drifts[k] instead of drifts[k]."""
 
+def extend_filtered_paths(
+    plan: Plan,
+    states: npt.NDArray[np.float64],
+    rows: Union[Sequence[int], npt.NDArray[np.int64]],
+    starts: Union[Sequence[int], npt.NDArray[np.int64]],
+    streams: Union[Sequence[int], npt.NDArray[np.uint64]],
+    key: Optional[int] = None,
+    threads: int = 0,
+) -> None:
+    """Continue rows of states (rows x points x (4 + n): V, U, S, the last arrival at rest, z)
+    of a filtered plan's walked grid from grid point starts[i] with the numbers of path
+    streams[i] (< 2^40) under key (default: the plan's seed); in place, the same bits for any
+    thread count (crandall.tail's splitting)."""
+
+def filtered_grid(
+    plan: Plan,
+) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(lengths, noises, z0) of a filtered plan's walked grid: every step's length and
+    intensity, and the filter's start state."""
+
 def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
     """Generate the kernel's noise for paths x steps with no physics (a throughput floor)."""
 

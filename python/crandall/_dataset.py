@@ -23,6 +23,7 @@ from .methods import METHODS
 from .quantities import VARIABLES, names_for as scene_names_for, quantity
 from .scene import Scene
 from .spec import RunSpec
+from .errors import ParameterError
 
 __all__ = ["to_xarray", "to_pandas", "save", "read", "sweep", "STATISTICS"]
 
@@ -420,12 +421,12 @@ def sweep(results):
     xr = _require("xarray")
     results = list(results)
     if not results:
-        raise ValueError("results must not be empty")
+        raise ParameterError("results", "results must not be empty")
     first = results[0]
     for i, r in enumerate(results[1:], 1):
         if r.names != first.names or not np.array_equal(r.times, first.times):
-            raise ValueError(f"results[{i}]: a sweep's results must hold the same quantities at "
-                             "the same output times")
+            raise ParameterError(f"results[{i}]", f"results[{i}]: a sweep's results must hold the "
+                                                  "same quantities at the same output times")
     stats = [f"{n}_{s}" for n in first.names for s in STATISTICS + ACCURACY]
     parts = [to_xarray(r)[stats] for r in results]
     ds = xr.concat(parts, dim="scene", combine_attrs="override")

@@ -124,7 +124,8 @@ def _probe(folder: str, name: str, shown: str) -> None:
     try:
         fd, tmp = tempfile.mkstemp(dir=folder, prefix=".crandall-probe-", suffix=".tmp")
     except OSError as exc:
-        raise ValueError(f"{name}: cannot write in {shown} ({exc.strerror or exc})") from None
+        raise ParameterError(name, f"{name}: cannot write in {shown} "
+                                   f"({exc.strerror or exc})") from None
     os.close(fd)
     os.unlink(tmp)
 
@@ -162,16 +163,16 @@ def check_file_writable(path, name: str) -> str:
     """
     text = _path_text(path, name, "file")
     if os.path.isdir(text):
-        raise ValueError(f"{name}: {text} is a folder; give a file path")
+        raise ParameterError(name, f"{name}: {text} is a folder; give a file path")
     if text.endswith(os.sep):
-        raise ValueError(f"{name}: {text} names a folder (it ends with {os.sep}); give a file "
-                         "path")
+        raise ParameterError(name, f"{name}: {text} names a folder (it ends with {os.sep}); give "
+                                   "a file path")
     if os.path.exists(text) and not os.path.isfile(text):
-        raise ValueError(f"{name}: {text} is not a regular file")
+        raise ParameterError(name, f"{name}: {text} is not a regular file")
     folder = os.path.dirname(os.path.abspath(text))
     if not os.path.isdir(folder):
         what = "is not a folder" if os.path.exists(folder) else "does not exist"
-        raise ValueError(f"{name}: the folder {folder} of {text} {what}")
+        raise ParameterError(name, f"{name}: the folder {folder} of {text} {what}")
     _probe(folder, name, f"the folder {folder} of {text}")
     return text
 
@@ -195,7 +196,7 @@ def check_folder_writable(path, name: str, *, create: bool = False) -> str:
     """
     text = _path_text(path, name, "folder")
     if os.path.exists(text) and not os.path.isdir(text):
-        raise ValueError(f"{name} must be a directory: {text} is a file")
+        raise ParameterError(name, f"{name} must be a directory: {text} is a file")
     if os.path.isdir(text):
         _probe(text, name, text)
         return text
@@ -204,13 +205,14 @@ def check_folder_writable(path, name: str, *, create: bool = False) -> str:
     while not os.path.exists(parent):
         parent = os.path.dirname(parent)
     if not os.path.isdir(parent):
-        raise ValueError(f"{name}: cannot create {text}: {parent} is a file")
+        raise ParameterError(name, f"{name}: cannot create {text}: {parent} is a file")
     _probe(parent, name, parent)
     if create:
         try:
             os.makedirs(text, exist_ok=True)
         except OSError as exc:
-            raise ValueError(f"{name}: cannot create {text} ({exc.strerror or exc})") from None
+            raise ParameterError(name, f"{name}: cannot create {text} "
+                                       f"({exc.strerror or exc})") from None
     return text
 
 

@@ -8,6 +8,8 @@ import os
 import sys
 from typing import Optional
 
+from .errors import ParameterError
+
 
 def _read_int(path: str) -> Optional[int]:
     try:
@@ -110,7 +112,7 @@ def progress_bar(progress, *, total: Optional[int], initial: int = 0):
         progress, delay = _interactive(), 2.0  # only runs longer than a couple of seconds
     else:
         if not isinstance(progress, bool):
-            raise ValueError(f"progress must be True, False or None, got {progress!r}")
+            raise ParameterError("progress", f"progress must be True, False or None, got {progress!r}")
         delay = 0.0
     if not progress:
         return None

@@ -57,6 +57,7 @@ from . import _core
 from . import engine, results
 from ._resources import available_memory
 from .driver import Estimator, Progress, Task, drive
+from .errors import ParameterError
 from .model import ENVELOPE, GRID_ORDERS, exact_in_law, holds, isometry_applies
 from .quantities import VELOCITY, core_flags, quantity
 from .spec import RunSpec
@@ -122,7 +123,7 @@ class _CoupledRun(Estimator):
         need = 8 * math.prod(self.shape) + self.threads * (16 << 20)
         have = available_memory()
         if need > have:
-            raise ValueError(f"times: the bias estimate's {self.n} coupled paths need about "
+            raise ParameterError("times", f"times: the bias estimate's {self.n} coupled paths need about "
                              f"{need / 2**20:.0f} MiB, more than the {have / 2**20:.0f} MiB "
                              "this process may still allocate; give fewer times or threads")
 

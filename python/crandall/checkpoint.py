@@ -35,6 +35,7 @@ from .engine import Chunk
 from .spec import RunSpec
 from ._files import (check_file_writable, check_folder_writable, check_moments,
                      refuse_other_run, refuse_other_version, write_atomic)
+from .errors import ParameterError
 
 __all__ = ["identity", "run_identity", "read", "write", "json_state", "read_json_state",
            "restore", "state", "stored_seed",
@@ -82,8 +83,8 @@ def identity(spec, **fields) -> Dict[str, Any]:
     if not isinstance(spec, RunSpec):
         spec = RunSpec(spec, **fields)
     elif fields:
-        raise ValueError(f"{sorted(fields)[0]}: give a RunSpec or a scene with its fields, "
-                         "not both")
+        raise ParameterError(sorted(fields)[0], f"{sorted(fields)[0]}: give a RunSpec or a scene "
+                                                "with its fields, not both")
     return run_identity(PATHS, spec.to_dict())
 
 
@@ -91,7 +92,8 @@ def run_identity(estimator: str, spec: Dict[str, Any]) -> Dict[str, Any]:
     """The identity of any estimator's run: the checkpoint format, crandall version, random
     stream and estimator, then the run's spec (plain data, compared field by field)."""
     if estimator not in ESTIMATORS:
-        raise ValueError(f"estimator: one of {', '.join(ESTIMATORS)}, got {estimator!r}")
+        raise ParameterError("estimator", f"estimator: one of {', '.join(ESTIMATORS)}, got "
+                                          f"{estimator!r}")
     return {"format": FORMAT, "format_version": FORMAT_VERSION, "crandall": __version__,
             "random_stream": int(_core.RANDOM_STREAM), "estimator": estimator, **spec}
 
@@ -239,7 +241,7 @@ def read(path, ident: Dict[str, Any]) -> Optional[Dict[str, np.ndarray]]:
 def write(path, ident: Dict[str, Any], arrays: Dict[str, np.ndarray]) -> None:
     """Atomically replace the checkpoint at ``path`` with the run ``ident`` and its state."""
     if "identity" in arrays:
-        raise ValueError("arrays: 'identity' is the checkpoint's own field")
+        raise ParameterError("arrays", "arrays: 'identity' is the checkpoint's own field")
     out = {"identity": np.array(json.dumps(ident)), **arrays}
     write_atomic(path, lambda f: np.savez(f, **out))
 

@@ -19,6 +19,7 @@ import numbers
 from typing import NamedTuple
 
 import numpy as np
+from .errors import ParameterError
 
 __all__ = ["Estimate", "quantile", "exceedance", "to_boost_histogram", "point_cells", "ATOM"]
 
@@ -60,9 +61,11 @@ def _count(value, name: str) -> int:
         if isinstance(value, numbers.Real) and float(value).is_integer():
             value = int(value)
         else:
-            raise ValueError(f"{name} must be a non-negative integer count, got {value!r}")
+            raise ParameterError(name, f"{name} must be a non-negative integer count, got "
+                                       f"{value!r}")
     if not 0 <= value <= np.iinfo(np.int64).max:
-        raise ValueError(f"{name} must be a non-negative integer count below 2^63, got {value!r}")
+        raise ParameterError(name, f"{name} must be a non-negative integer count below 2^63, got "
+                                   f"{value!r}")
     return int(value)
 
 
@@ -71,51 +74,55 @@ def _histogram(edges, counts, under, over):
     try:
         e = np.asarray(edges, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError("edges must be a 1-D sequence of numbers") from None
+        raise ParameterError("edges", "edges must be a 1-D sequence of numbers") from None
     if e.ndim != 1 or e.size < 2:
-        raise ValueError(f"edges must be 1-D with at least two entries, got shape {e.shape}")
+        raise ParameterError("edges", "edges must be 1-D with at least two entries, got shape "
+                                      f"{e.shape}")
     if not np.all(np.isfinite(e)):
-        raise ValueError("edges must be finite")
+        raise ParameterError("edges", "edges must be finite")
     if not np.all(np.diff(e) > 0):
-        raise ValueError("edges must be strictly increasing")
+        raise ParameterError("edges", "edges must be strictly increasing")
     c = np.asarray(counts)
     if c.ndim != 1 or c.size != e.size - 1:
-        raise ValueError(f"counts must be 1-D with len(edges) - 1 = {e.size - 1} entries, "
-                         f"got shape {c.shape}")
+        raise ParameterError("counts", f"counts must be 1-D with len(edges) - 1 = {e.size - 1} "
+                                       f"entries, got shape {c.shape}")
     if c.dtype.kind == "u":
         if c.size and c.max() > np.iinfo(np.int64).max:
-            raise ValueError("counts: a count exceeds 2^63 - 1")
+            raise ParameterError("counts", "counts: a count exceeds 2^63 - 1")
         c = c.astype(np.int64)
     elif c.dtype.kind == "i":
         c = c.astype(np.int64)
     elif c.dtype.kind == "f":
         if not (np.all(np.isfinite(c)) and np.all(c == np.floor(c))) or (c.size and c.max() >= 2.0**63):
-            raise ValueError("counts must be non-negative integers")
+            raise ParameterError("counts", "counts must be non-negative integers")
         c = c.astype(np.int64)
     else:
-        raise ValueError(f"counts must be non-negative integers, got dtype {c.dtype}")
+        raise ParameterError("counts", "counts must be non-negative integers, got dtype "
+                                       f"{c.dtype}")
     if np.any(c < 0):
-        raise ValueError("counts must be non-negative integers")
+        raise ParameterError("counts", "counts must be non-negative integers")
     cells = np.concatenate(([_count(under, "under")], c, [_count(over, "over")])).astype(np.int64)
     if float(cells.sum(dtype=np.float64)) < 2.0**62:
         total = int(cells.sum())  # far from int64's limit: exact
     else:
         total = sum(int(x) for x in cells)  # Python ints: no overflow in the check below
     if total > np.iinfo(np.int64).max:
-        raise ValueError("counts: the total exceeds 2^63 - 1")
+        raise ParameterError("counts", "counts: the total exceeds 2^63 - 1")
     return e, cells, total
 
 
 def _nonempty(edges, counts, under, over):
     e, cells, total = _histogram(edges, counts, under, over)
     if total == 0:
-        raise ValueError("counts: the histogram is empty (no value in counts, under or over)")
+        raise ParameterError("counts", "counts: the histogram is empty (no value in counts, under "
+                                       "or over)")
     return e, cells, total
 
 
 def _confidence(confidence) -> float:
     if not isinstance(confidence, numbers.Real) or not 0.0 < float(confidence) < 1.0:
-        raise ValueError(f"confidence must be a number strictly between 0 and 1, got {confidence!r}")
+        raise ParameterError("confidence", "confidence must be a number strictly between 0 and "
+                                           f"1, got {confidence!r}")
     return float(confidence)
 
 
@@ -227,7 +234,7 @@ def quantile(edges, counts, under, over, q, confidence=0.95) -> Estimate:
     """
     e, cells, n = _nonempty(edges, counts, under, over)
     if not isinstance(q, numbers.Real) or not 0.0 <= float(q) <= 1.0:
-        raise ValueError(f"q must be a number in [0, 1], got {q!r}")
+        raise ParameterError("q", f"q must be a number in [0, 1], got {q!r}")
     q = float(q)
     alpha = 1.0 - _confidence(confidence)
     lower, upper = _cell_bounds(e)
@@ -326,7 +333,7 @@ def exceedance(edges, counts, under, over, level, confidence=0.95) -> Estimate:
     """
     e, cells, n = _nonempty(edges, counts, under, over)
     if not isinstance(level, numbers.Real) or math.isnan(float(level)):
-        raise ValueError(f"level must be a number (not NaN), got {level!r}")
+        raise ParameterError("level", f"level must be a number (not NaN), got {level!r}")
     level = float(level)
     alpha = 1.0 - _confidence(confidence)
     if level == math.inf:

@@ -40,6 +40,7 @@ import numpy as np
 
 from . import checkpoint as _ckpt
 from ._resources import progress_bar
+from .errors import ParameterError
 from .spec import check_int
 
 __all__ = ["Task", "Tasks", "Progress", "Estimator", "drive", "check_client", "threads"]
@@ -158,7 +159,7 @@ def check_client(client) -> None:
         return
     for attr in ("submit", "nthreads", "cancel"):
         if not callable(getattr(client, attr, None)):
-            raise ValueError(f"client must be a distributed.Client (or None), got {client!r}: "
+            raise ParameterError("client", f"client must be a distributed.Client (or None), got {client!r}: "
                              f"it has no {attr}()")
 
 

@@ -68,9 +68,9 @@ MAX_PIECES = 100_000
 def _ends(end: float, pieces: int, breaks: Sequence[float] = (),
           limit: int = MAX_PIECES) -> List[float]:
     if isinstance(pieces, bool) or not isinstance(pieces, (int, np.integer)) or pieces < 1:
-        raise ValueError(f"pieces must be an integer >= 1, got {pieces!r}")
+        raise ParameterError("pieces", f"pieces must be an integer >= 1, got {pieces!r}")
     if pieces > limit:
-        raise ValueError(f"pieces must be <= {limit}, got {pieces!r}")
+        raise ParameterError("pieces", f"pieces must be <= {limit}, got {pieces!r}")
     return _merge(end, np.linspace(0.0, end, int(pieces) + 1)[1:].tolist(), breaks)
 
 
@@ -179,10 +179,11 @@ def _three_phase(name: str, h, t1, t2, c, end, pieces, amplitude: bool) -> "Enve
     t1, t2 = _positive("t1", t1), _positive("t2", t2)
     c = _positive("c", c)
     if t2 < t1:
-        raise ValueError(f"t2 must be >= t1 (the strong phase [t1, t2)), got t1={t1!r}, t2={t2!r}")
+        raise ParameterError("t2", f"t2 must be >= t1 (the strong phase [t1, t2)), got t1={t1!r}, "
+                                   f"t2={t2!r}")
     end = _positive("end", end) if end is not None else t2 + math.log(1e4) / c
     if end <= t1:
-        raise ValueError(f"end must be after t1 = {t1!r}, got {end!r}")
+        raise ParameterError("end", f"end must be after t1 = {t1!r}, got {end!r}")
 
     def shape(t: float) -> float:
         if t < t1:
@@ -221,7 +222,7 @@ def shinozuka_sato(h: float, a: float, b: float, end: Optional[float] = None,
     h = _positive("h", h, zero=True)
     a, b = _positive("a", a), _positive("b", b)
     if not b > a:
-        raise ValueError(f"b must be > a, got a={a!r}, b={b!r}")
+        raise ParameterError("b", f"b must be > a, got a={a!r}, b={b!r}")
     peak_t = math.log(b / a) / (b - a)
     peak = math.exp(-a * peak_t) - math.exp(-b * peak_t)
     end = _positive("end", end) if end is not None else peak_t + math.log(1e4) / a
@@ -304,12 +305,13 @@ class Envelope:
     def refined(self, factor: int = 2) -> "Envelope":
         """The same envelope with ``factor`` times the pieces."""
         if isinstance(factor, bool) or not isinstance(factor, (int, np.integer)) or factor < 1:
-            raise ValueError(f"factor must be an integer >= 1, got {factor!r}")
+            raise ParameterError("factor", f"factor must be an integer >= 1, got {factor!r}")
         if self.function is None:
-            raise ValueError("envelope: this function envelope came back from plain data (a "
-                             "saved result, a checkpoint), which keep its pieces, not its "
-                             "function: it cannot be refined, so its piece error is unknown; "
-                             "give envelopes.from_function(...) again")
+            raise ParameterError("envelope", "envelope: this function envelope came back from "
+                                             "plain data (a saved result, a checkpoint), which "
+                                             "keep its pieces, not its function: it cannot be "
+                                             "refined, so its piece error is unknown; give "
+                                             "envelopes.from_function(...) again")
         # Beyond MAX_PIECES only by refining (the piece error of an envelope given the most).
         pieces = self.pieces * int(factor)
         # Every piece cut into ``factor`` equal ones, whatever made its ends (an equal
@@ -364,29 +366,33 @@ class Envelope:
     def from_dict(cls, data: Mapping[str, Any]) -> "Envelope":
         """Rebuild a named envelope from :meth:`to_dict`'s output (errors name the key)."""
         if not isinstance(data, Mapping):
-            raise ValueError(f"envelope must be a table (kind, its parameters, pieces), got "
-                             f"{data!r}")
+            raise ParameterError("envelope", "envelope must be a table (kind, its parameters, "
+                                             f"pieces), got {data!r}")
         data = dict(data)
         kind = data.pop("kind", None)
         refine = data.pop("refine", True)
         if not isinstance(refine, bool):
-            raise ValueError(f"envelope.refine must be true or false, got {refine!r}")
+            raise ParameterError("envelope.refine", "envelope.refine must be true or false, got "
+                                                    f"{refine!r}")
         out = cls._from_pieces(data) if kind == "function" else cls._named(kind, data)
         return out if refine else out.fixed()
 
     @classmethod
     def _named(cls, kind, data: Dict[str, Any]) -> "Envelope":
         if kind not in KINDS:
-            raise ValueError(f"envelope.kind must be one of {', '.join(KINDS)}, got {kind!r}")
+            raise ParameterError("envelope.kind", "envelope.kind must be one of "
+                                                  f"{', '.join(KINDS)}, got {kind!r}")
         build, keys = KINDS[kind]
         unknown = sorted(set(data) - set(keys) - {"pieces"})
         if unknown:
-            raise ValueError(f"envelope.{unknown[0]}: unknown key for kind {kind!r}; allowed: "
-                             f"{', '.join(keys + ('pieces', 'refine'))}")
+            raise ParameterError(
+                f"envelope.{unknown[0]}", f"envelope.{unknown[0]}: unknown key for kind {kind!r}; "
+                f"allowed: {', '.join(keys + ('pieces', 'refine'))}")
         missing = [k for k in keys if k not in data and k != "end"]
         if missing:
-            raise ValueError(f"envelope.{missing[0]}: missing (kind {kind!r} needs "
-                             f"{', '.join(k for k in keys if k != 'end')})")
+            raise ParameterError(
+                f"envelope.{missing[0]}", f"envelope.{missing[0]}: missing (kind {kind!r} needs "
+                f"{', '.join(k for k in keys if k != 'end')})")
         return build(**data)
 
     @classmethod
@@ -394,29 +400,34 @@ class Envelope:
         """A function envelope's plain data read back: its pieces, no function."""
         unknown = sorted(set(data) - {"end", "pieces", "h", "t0"})
         if unknown:
-            raise ValueError(f"envelope.{unknown[0]}: unknown key for kind 'function'; allowed: "
-                             "end, pieces, h, t0, refine")
+            raise ParameterError(f"envelope.{unknown[0]}", f"envelope.{unknown[0]}: unknown key "
+                                                           "for kind 'function'; allowed: end, "
+                                                           "pieces, h, t0, refine")
         for key in ("pieces", "h", "t0"):
             if key not in data:
-                raise ValueError(f"envelope.{key}: missing (kind 'function' needs pieces, h, t0)")
+                raise ParameterError(f"envelope.{key}", f"envelope.{key}: missing (kind "
+                                                        "'function' needs pieces, h, t0)")
         h, t0 = data["h"], data["t0"]
         if not (isinstance(h, (list, tuple)) and isinstance(t0, (list, tuple)) and h
                 and len(h) == len(t0)):
-            raise ValueError("envelope.h, envelope.t0: a function envelope's pieces must be two "
-                             "lists of one length")
+            raise ParameterError("envelope.h, envelope.t0", "envelope.h, envelope.t0: a function "
+                                                            "envelope's pieces must be two lists "
+                                                            "of one length")
         values = []
         for key, seq in (("h", h), ("t0", t0)):
             for i, v in enumerate(seq):
                 if isinstance(v, bool) or not isinstance(v, (int, float)) \
                         or not math.isfinite(v) or v < 0:
-                    raise ValueError(f"envelope.{key}[{i}] must be a finite number >= 0, "
-                                     f"got {v!r}")
+                    raise ParameterError(f"envelope.{key}", f"envelope.{key}[{i}] must be a "
+                                                            f"finite number >= 0, got {v!r}")
             values.append(tuple(float(v) for v in seq))
         if not all(b > a for a, b in zip((0.0,) + values[1][:-1], values[1])):
-            raise ValueError("envelope.t0: the pieces' ends must be > 0 and strictly increasing")
+            raise ParameterError("envelope.t0", "envelope.t0: the pieces' ends must be > 0 and "
+                                                "strictly increasing")
         pieces = data["pieces"]
         if isinstance(pieces, bool) or not isinstance(pieces, int) or pieces < 1:
-            raise ValueError(f"envelope.pieces must be an integer >= 1, got {pieces!r}")
+            raise ParameterError("envelope.pieces", "envelope.pieces must be an integer >= 1, "
+                                                    f"got {pieces!r}")
         return cls("function", {"end": values[1][-1]}, pieces, None,
                    _schedule=(list(values[0]), list(values[1])))
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any, Tuple
+
 __all__ = ["ParameterError", "UnresolvableGrid"]
 
 
@@ -24,6 +26,10 @@ class ParameterError(ValueError):
         super().__init__(message)
         self.name = name
 
+    def __reduce__(self) -> Tuple[Any, Tuple[Any, ...]]:
+        # Pickled with both arguments (a Dask worker's error comes back to the client so).
+        return type(self), (self.name, str(self))
+
 
 class UnresolvableGrid(ParameterError):
     """The integrals a scene observes (``integrals``: their observables) would need more
@@ -32,4 +38,7 @@ class UnresolvableGrid(ParameterError):
     def __init__(self, integrals, message: str) -> None:
         super().__init__("observe", message)
         self.integrals = tuple(integrals)
+
+    def __reduce__(self) -> Tuple[Any, Tuple[Any, ...]]:
+        return type(self), (self.integrals, str(self))
 

@@ -17,12 +17,14 @@ from ._dataset import STATISTICS, save, sweep, to_pandas, to_xarray
 from ._dataset import read as _read
 from .records import load_newmark
 from .results import AccuracyResult, Result
+from .tail.result import FILE_ATTR, TailResult
 
 __all__ = ["to_xarray", "to_pandas", "save", "load", "load_newmark", "sweep", "STATISTICS"]
 
 
-def load(path: Union[str, "os.PathLike[str]"]) -> Result:
-    """Read a result written by :meth:`crandall.Result.save`.
+def load(path: Union[str, "os.PathLike[str]"]) -> Union[Result, TailResult]:
+    """Read a result written by :meth:`crandall.Result.save` (or by
+    :meth:`crandall.TailResult.save`: a tail result).
 
     Parameters
     ----------
@@ -41,6 +43,9 @@ def load(path: Union[str, "os.PathLike[str]"]) -> Result:
         missing, of the wrong type, inconsistent with the others (shapes, the scene's output
         times, counts against paths) or not finite: the message names the file and the field.
     """
+    tail = _saved_tail(path)
+    if tail is not None:
+        return tail
     try:
         fields = _read(path)
     except ValueError as exc:
@@ -51,6 +56,25 @@ def load(path: Union[str, "os.PathLike[str]"]) -> Result:
     if fields.pop("kind", None) == "accuracy":
         return AccuracyResult(**fields)
     return Result(**fields)
+
+
+def _saved_tail(path):
+    """The tail result saved in ``path`` (:meth:`crandall.TailResult.save`), or None for any
+    other file (whose own reader then says what is wrong with it)."""
+    try:
+        import xarray as xr  # the io extra; without it the result reader says so
+
+        with xr.open_dataset(os.fspath(path), engine="scipy") as ds:
+            if FILE_ATTR not in ds.attrs:
+                return None
+            ds.load()
+    except Exception:  # noqa: BLE001 - not a netCDF file: the result reader names the fault
+        return None
+    try:
+        return TailResult._from_dataset(ds)
+    except (KeyError, ValueError, TypeError) as exc:
+        raise ValueError(f"path: {os.fspath(path)} is a damaged crandall tail result "
+                         f"({type(exc).__name__}: {exc})") from exc
 
 
 def _is_newmark(path) -> bool:

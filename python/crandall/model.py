@@ -26,7 +26,7 @@ from .errors import ParameterError
 from .quantities import DISTANCE, VELOCITY, quantity
 
 __all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ISOMETRY", "ZERO_FRICTION", "ANALYTIC", "SCALING", "SIMULATED",
-           "FILTERED_EXCITATION", "STATIC_FRICTION", "LEVELS", "FILTERED_LEVELS", "TAIL_MODEL", "MOVING_AT_SWITCH_OFF", "GRID_ORDERS", "require", "holds", "isometry_applies", "check_simulated", "exact_in_law"]
+           "FILTERED_EXCITATION", "STATIC_FRICTION", "LEVELS", "FILTERED_LEVELS", "TAIL_MODEL", "TAIL_SPLITTING", "MOVING_AT_SWITCH_OFF", "GRID_ORDERS", "require", "holds", "isometry_applies", "check_simulated", "exact_in_law"]
 
 
 #: The body starts with a velocity v0 or a displacement u0 (Scene(v0=, u0=)).
@@ -135,12 +135,22 @@ FILTERED_LEVELS = Identity(
     "filtered_levels", "runs to an accuracy: the multilevel estimator on the filtered core's "
     "coupled grids, its bias from the measured order of the finest levels",
     frozenset({FILTERED_EXCITATION, STATIC_FRICTION, INITIAL_STATE, PIECEWISE_INTENSITY}))
-#: Tail probabilities (crandall.tail): the sign-drift model of the velocity (a diffusion
-#: whose drift is -c sign(V)), its coast, its transition density and its scores.
+#: Tail probabilities (crandall.tail), the sign-drift parts: the velocity is a diffusion whose
+#: drift is -c sign(V), with its transition density (importance sampling's weights), the
+#: normalised splitting score and its formulas, and crandall.paths' white-noise steps.
 TAIL_MODEL = Identity(
     "tail_model", "tail probabilities: the velocity is a diffusion with drift -c sign(V) "
     "(its scores, coast and transition density)",
     frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
+#: Tail probabilities by splitting (crandall.tail): the body's state on the grid, with the
+#: filter's under a filtered excitation, is Markov, so a path can be continued from any grid
+#: point with fresh noise; the shaking ends at t0 (a_g = 0 after it), so the coast after the
+#: grid is the deceleration c as under white noise.
+TAIL_SPLITTING = Identity(
+    "tail_splitting", "tail probabilities by splitting: the state on the grid is Markov and "
+    "the coast after t0 is the deceleration mu g",
+    frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE, FILTERED_EXCITATION,
+               STATIC_FRICTION}))
 
 #: The effects the core simulates: a start from any state, a piecewise intensity (no step
 #: straddles a piece's end), also as an envelope's pieces, and a filtered excitation with

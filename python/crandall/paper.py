@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import analytic
+from .errors import ParameterError
 from .quantities import quantity
 from .model import ANALYTIC, holds
 from .results import Result
@@ -41,7 +42,7 @@ def _scaling(result: Result):
     if sc.units == "scaled":
         return None
     if sc.scaling is None:
-        raise ValueError("scene: the analytic layer needs mu > 0 and h > 0 (eq8)")
+        raise ParameterError("scene", "scene: the analytic layer needs mu > 0 and h > 0 (eq8)")
     return sc.scaling
 
 
@@ -65,7 +66,7 @@ def scaled_factors(result: Result):
     """
     sc = result.scene
     if not holds(sc, ANALYTIC):
-        raise ValueError(f"result: the paper's closed forms do not hold for a scene with "
+        raise ParameterError("result", f"result: the paper's closed forms do not hold for a scene with "
                          f"{', '.join(sorted(sc.effects))}")
     s = _scaling(result)
     if s is None:

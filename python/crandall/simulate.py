@@ -70,8 +70,8 @@ def _check_memory(scene: Scene, threads: int, method: str = DEFAULT_METHOD) -> N
     need = _memory_need(scene, threads, method)
     have = available_memory()
     if need > have:
-        raise ValueError(
-            f"times: {scene.times.size} output times ({len(scene.observe)} observables, "
+        raise ParameterError(
+            "times", f"times: {scene.times.size} output times ({len(scene.observe)} observables, "
             f"{threads} threads) need about {need / 2**20:.0f} MiB of accumulators, more than "
             f"the {have / 2**20:.0f} MiB this process may still allocate (free memory, "
             "rlimits, cgroup); give fewer times or threads"
@@ -268,7 +268,7 @@ class FixedStep(Estimator):
                 names = ("mu, h, g, t0, times" if self.scene.units == "SI" else "tau0, times")
                 if what == "at the stop":
                     names = "observe, " + names
-                raise ValueError(f"{names}: this scene's means or variances {what} are not "
+                raise ParameterError(names, f"{names}: this scene's means or variances {what} are not "
                                  "finite numbers (its values exceed the range of doubles, or "
                                  "the computation failed); choose units or times in which "
                                  "they are nearer 1" + (", or leave 'stop' out of observe"
@@ -470,7 +470,7 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
     if error is not None or rel_error is not None:
         for name, value in (("paths", paths), ("dt", dt), ("method", method)):
             if value is not None:
-                raise ValueError(f"{name}: not with error= or rel_error= (the run chooses its "
+                raise ParameterError(name, f"{name}: not with error= or rel_error= (the run chooses its "
                                  "grids and paths itself)")
         check_client(client)
         if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
@@ -485,12 +485,12 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
                                  max_seconds=MAX_SECONDS if max_seconds is None
                                  else max_seconds)
     if statistics is not None:
-        raise ValueError("statistics: only with error= or rel_error=")
+        raise ParameterError("statistics", "statistics: only with error= or rel_error=")
     if max_seconds is not None:
-        raise ValueError("max_seconds: only with error= or rel_error= (a run of paths= has "
+        raise ParameterError("max_seconds", "max_seconds: only with error= or rel_error= (a run of paths= has "
                          "a known size)")
     if paths is None:
-        raise ValueError("paths: give the number of paths, or error= / rel_error= for an "
+        raise ParameterError("paths", "paths: give the number of paths, or error= / rel_error= for an "
                          "accuracy")
     if checkpoint is not None:
         if not isinstance(checkpoint, (str, os.PathLike)):
@@ -553,11 +553,11 @@ def simulate_many(
     list of Result, or xarray.Dataset with ``dataset=True``
     """
     if not isinstance(dataset, bool):
-        raise ValueError(f"dataset must be True or False, got {dataset!r}")
+        raise ParameterError("dataset", f"dataset must be True or False, got {dataset!r}")
     if isinstance(scenes, Scene) or not isinstance(scenes, (list, tuple)):
-        raise ValueError(f"scenes must be a list of crandall.Scene, got {type(scenes).__name__}")
+        raise ParameterError("scenes", f"scenes must be a list of crandall.Scene, got {type(scenes).__name__}")
     if not scenes:
-        raise ValueError("scenes must not be empty")
+        raise ParameterError("scenes", "scenes must not be empty")
     seed = as_seed(seed)
     files: List[Optional[str]] = [None] * len(scenes)
     if checkpoint_dir is not None:
@@ -565,7 +565,7 @@ def simulate_many(
             raise ParameterError("checkpoint_dir", f"checkpoint_dir must be a path, got "
                                                   f"{checkpoint_dir!r}")
         if os.path.exists(checkpoint_dir) and not os.path.isdir(checkpoint_dir):
-            raise ValueError(f"checkpoint_dir must be a directory: {os.fspath(checkpoint_dir)!r}")
+            raise ParameterError("checkpoint_dir", f"checkpoint_dir must be a directory: {os.fspath(checkpoint_dir)!r}")
         _ckpt.make_folder(checkpoint_dir)  # a ValueError if it cannot be created
         files = [os.path.join(checkpoint_dir, f"scene-{i:04d}.ckpt") for i in range(len(scenes))]
         if seed is None:
@@ -575,7 +575,7 @@ def simulate_many(
     runs = []
     for i, scene in enumerate(scenes):
         if not isinstance(scene, Scene):
-            raise ValueError(f"scenes[{i}] must be a crandall.Scene, got {type(scene).__name__}")
+            raise ParameterError("scenes", f"scenes[{i}] must be a crandall.Scene, got {type(scene).__name__}")
         spec, t = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
                            threads=threads)
         seed = spec.seed  # a drawn seed is shared by the following scenes

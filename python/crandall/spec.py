@@ -140,7 +140,7 @@ def check_method(method, scene: Optional[Scene] = None) -> str:
     """``method`` if it is one of ``METHODS`` (and, given the scene, one it runs with); else
     a ValueError naming ``method``."""
     if method not in METHODS:
-        raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+        raise ParameterError("method", f"method must be one of {', '.join(METHODS)}, got {method!r}")
     if scene is not None and method != "exact" and not holds(scene, GRID_ORDERS):
         raise ParameterError("method", f"method: {method!r} rests on the white-noise skeleton "
                              "(its grid orders, its sign-drift step); a scene with "
@@ -220,7 +220,7 @@ class RunSpec:
             dt = default_dt(scene)
             min_steps = DEFAULT_MIN_STEPS
             if not (math.isfinite(dt) and dt > 0):
-                raise ValueError(f"dt: the scene's default step {dt!r} is not a usable number "
+                raise ParameterError("dt", f"dt: the scene's default step {dt!r} is not a usable number "
                                  "(times or t0 out of range); give dt")
         if method is None:
             method = default_method(scene)

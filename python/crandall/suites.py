@@ -218,7 +218,7 @@ class RecordFragilityResult(FragilityResult):
             self.displacement = np.asarray(self.displacement, dtype=float)
             want = (n,) + self.run.shape + (len(self.polarities),)
             if self.displacement.shape != want:
-                raise ValueError(f"displacement: shape {self.displacement.shape}, expected {want}")
+                raise ParameterError("displacement", f"displacement: shape {self.displacement.shape}, expected {want}")
 
     @property
     def n_eff(self) -> float:

@@ -72,7 +72,7 @@ class Scaling:
                                  "energy_scale")
                if not sys.float_info.min <= getattr(self, name) <= sys.float_info.max]
         if bad:
-            raise ValueError(
+            raise ParameterError("mu, h, g", 
                 f"mu, h, g: the scaled units of eq8 do not fit in doubles for mu={self.mu!r}, "
                 f"h={self.h!r}, g={self.g!r} ({', '.join(bad)} outside the range of "
                 "normal doubles); "
@@ -119,7 +119,7 @@ class Scaling:
     def scale(self, kind: str) -> float:
         """The physical size of one scaled unit of ``kind`` (one of ``KINDS``)."""
         if kind not in KINDS:
-            raise ValueError(f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
+            raise ParameterError("kind", f"kind must be one of {', '.join(KINDS)}, got {kind!r}")
         return getattr(self, kind + "_scale")
 
     def to_scaled(self, value, kind: str, power: int = 1):

@@ -4,6 +4,7 @@
 // same bits on every CPU, for any thread count and chunking.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -27,6 +28,30 @@ struct Trajectory {
   std::vector<double> time, ground, velocity, displacement, distance;
 };
 Trajectory filtered_trajectory(const Plan& plan, std::uint64_t path);
+
+// Paths continued from stored states (crandall.tail's splitting; docs/filtered.md, "Continued
+// paths"). The walked grid (grids() == 1) has filtered_grid_points(plan) points: 0, and the end
+// of every fine step of the plan's segments, in time order. A state at a point is Markov:
+// (V, U, S, the time the body last came to rest (0 if it never did), z (the filter's n
+// numbers)), filtered_state_columns(plan) = kStateColumns + n doubles. states: rows_total x
+// points x columns. For each i < count, row rows[i] is continued from its state at point
+// starts[i] to the plan's last point (the ring-down to the stop is not walked), overwriting the
+// points after it; its random numbers are those of path streams[i] (< 2^40) under the Philox
+// key `key` at steps starts[i], starts[i] + 1, ... (filtered.cpp's counter layout), so a row's
+// continuation is a pure function of (key, stream, start state, start point) whatever the
+// threads, and with key = the plan's seed a continuation of path p from point 0 (its state
+// (start_velocity, start_displacement, 0, 0, z(0))) is the walked grid's path p of
+// simulate_filtered_block and filtered_trajectory, bit for bit. The switch-off drops z to 0 at
+// the start of the first segment after it (ring_down false), as the block does. Throws
+// std::invalid_argument for rows out of range or listed twice, a start that is no grid point, a
+// stream >= 2^40 or a start state that is not finite.
+constexpr std::size_t kStateColumns = 4;
+std::size_t filtered_grid_points(const Plan& plan);
+std::size_t filtered_state_columns(const Plan& plan);  // throws unless filtered
+void extend_filtered_paths(const Plan& plan, double* states, std::size_t rows_total,
+                           const std::int64_t* rows, const std::int64_t* starts,
+                           const std::uint64_t* streams, std::size_t count, std::uint64_t key,
+                           int threads);
 
 // The multiple of an interval's a_g spread (its bridge's standard deviation at the midpoint,
 // and the curvature of its mean) within which an event is taken as possible (the interval is

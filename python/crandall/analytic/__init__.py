@@ -17,6 +17,7 @@ from typing import Union
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..errors import ParameterError
 from . import _data
 from . import coast_var as _cv
 from . import switch_off as _so
@@ -128,7 +129,7 @@ def _coast_since(name, elapsed, tau0):
     elif name == "distance_var":
         value = _cv.coast_distance_var(t, t0, el)
     else:
-        raise ValueError(f"name: {name!r} has no closed form after the switch-off")
+        raise ParameterError("name", f"name: {name!r} has no closed form after the switch-off")
     return float(np.ravel(value)[0])
 
 

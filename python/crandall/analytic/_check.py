@@ -14,6 +14,7 @@ from typing import Union
 
 import numpy as np
 import numpy.typing as npt
+from ..errors import ParameterError
 
 #: What the closed forms take: a number or an array of numbers (evaluated elementwise).
 ArrayLike = npt.ArrayLike
@@ -38,7 +39,7 @@ def _what(value):
 
 
 def _refuse(name, value, kind):
-    return ValueError(f"{name} must be {kind}, got {_what(value)} {value!r:.80}")
+    return ParameterError(name, f"{name} must be {kind}, got {_what(value)} {value!r:.80}")
 
 
 def _scan(value, name, kind, complex_ok):
@@ -75,7 +76,7 @@ def as_real(value, name, *, complex_ok=False):
     try:
         a = np.asarray(value)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise ValueError(f"{name} must be {kind}") from exc
+        raise ParameterError(name, f"{name} must be {kind}") from exc
     allowed = "iuf" + ("c" if complex_ok else "")
     if a.dtype.kind == "O":
         # Python ints beyond 64 bits, fractions, decimals: real numbers numpy keeps as objects.
@@ -87,11 +88,11 @@ def as_real(value, name, *, complex_ok=False):
         try:
             a = a.astype(complex if complex_ok else float)
         except OverflowError as exc:
-            raise ValueError(f"{name} is beyond the range of a double") from exc
+            raise ParameterError(name, f"{name} is beyond the range of a double") from exc
         except (TypeError, ValueError) as exc:
-            raise ValueError(f"{name} must be {kind}") from exc
+            raise ParameterError(name, f"{name} must be {kind}") from exc
     elif a.dtype.kind not in allowed:
-        raise ValueError(f"{name} must be {kind}, got an array of dtype {a.dtype}")
+        raise ParameterError(name, f"{name} must be {kind}, got an array of dtype {a.dtype}")
     return a.astype(complex if a.dtype.kind == "c" else float)
 
 
@@ -99,14 +100,14 @@ def as_time(value, name="tau", *, allow_zero=True):
     """A float array of finite scaled times >= 0 (> 0 if not allow_zero)."""
     t = as_real(value, name)
     if np.any(np.isnan(t)):
-        raise ValueError(f"{name} must not be NaN")
+        raise ParameterError(name, f"{name} must not be NaN")
     if np.any(np.isinf(t)):
-        raise ValueError(f"{name} must be finite")
+        raise ParameterError(name, f"{name} must be finite")
     if allow_zero:
         if np.any(t < 0):
-            raise ValueError(f"{name} must be >= 0, got {float(t.min())!r}")
+            raise ParameterError(name, f"{name} must be >= 0, got {float(t.min())!r}")
     elif np.any(t <= 0):
-        raise ValueError(f"{name} must be > 0, got {float(t.min())!r}")
+        raise ParameterError(name, f"{name} must be > 0, got {float(t.min())!r}")
     return t
 
 
@@ -114,34 +115,37 @@ def as_tau0(value, name="tau0"):
     """Switch-off time: one real number >= 0, or +inf (noise never switched off)."""
     t0 = as_real(value, name)
     if t0.size != 1:
-        raise ValueError(f"{name} must be a single number (or numpy.inf), got shape {t0.shape}")
+        raise ParameterError(name, f"{name} must be a single number (or numpy.inf), got shape "
+                                   f"{t0.shape}")
     t0 = float(t0.reshape(()))
     if np.isnan(t0) or t0 < 0:
-        raise ValueError(f"{name} must be >= 0 (or numpy.inf), got {t0!r}")
+        raise ParameterError(name, f"{name} must be >= 0 (or numpy.inf), got {t0!r}")
     return t0
 
 
 def as_flag(value, name):
     """A Python or numpy bool (no truthiness of other objects)."""
     if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be True or False, got {_what(value)} {value!r:.80}")
+        raise ParameterError(name, f"{name} must be True or False, got {_what(value)} "
+                                   f"{value!r:.80}")
     return bool(value)
 
 
 def as_order(value, name, maximum):
     """A non-negative integer <= maximum (bools refused)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise ValueError(f"{name} must be a non-negative integer, got {_what(value)} {value!r:.80}")
+        raise ParameterError(name, f"{name} must be a non-negative integer, got {_what(value)} "
+                                   f"{value!r:.80}")
     if value < 0:
-        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+        raise ParameterError(name, f"{name} must be a non-negative integer, got {value!r}")
     if value > maximum:
-        raise ValueError(f"{name} must be <= {maximum}, got {value!r}")
+        raise ParameterError(name, f"{name} must be <= {maximum}, got {value!r}")
     return int(value)
 
 
 def only_before_switch_off(tau, tau0, func, tau_name="tau"):
     if np.any(tau > tau0):
-        raise ValueError(
+        raise ParameterError(tau_name, 
             f"{tau_name} > tau0: {func} is only known in closed form for {tau_name} <= tau0 "
             f"(noise on); got max {tau_name} {float(np.max(tau))!r} > tau0 = {tau0!r}"
         )

@@ -22,6 +22,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ..errors import ParameterError
 from ._check import ArrayLike, Values, as_flag, as_order, as_real, as_time
 
 __all__ = ["laplace_moment", "moment", "signed_moment"]
@@ -161,10 +162,11 @@ MAX_KL_EXACT = 4
 def _check_indices(j, k, l, exact=False):
     out = [as_order(v, name, MAX_ORDER) for name, v in (("j", j), ("k", k), ("l", l))]
     if sum(out) > MAX_ORDER:
-        raise ValueError(f"j + k + l must be <= {MAX_ORDER}, got j={out[0]}, k={out[1]}, l={out[2]}")
+        raise ParameterError("j, k, l", f"j + k + l must be <= {MAX_ORDER}, got j={out[0]}, "
+                                        f"k={out[1]}, l={out[2]}")
     kl_max = MAX_KL_EXACT if exact else MAX_KL
     if out[1] + out[2] > kl_max:
-        raise ValueError(
+        raise ParameterError("k, l", 
             f"k + l must be <= {kl_max}{' with exact=True' if exact else ''}, got k={out[1]}, "
             f"l={out[2]}"
         )
@@ -237,9 +239,9 @@ def laplace_moment(j: int, k: int, l: int, p: ArrayLike,
         return _exact(j, k, l, signed)[0]
     p = as_real(p, "p", complex_ok=True)
     if np.any(~np.isfinite(p)):
-        raise ValueError("p must be finite")
+        raise ParameterError("p", "p must be finite")
     if np.any(p.real <= 0):
-        raise ValueError("p must have a positive real part")
+        raise ParameterError("p", "p must have a positive real part")
     s = np.sqrt(p + 1)
     ctx = _Ctx(1j, 0.5)
     with np.errstate(all="ignore"):
@@ -249,7 +251,7 @@ def laplace_moment(j: int, k: int, l: int, p: ArrayLike,
     if not np.all(np.isfinite(out)):
         # near p = 0 the transform grows like p^-(j/2 + k + l + 1) and leaves the double range
         bad = p[~np.isfinite(out)]
-        raise ValueError(
+        raise ParameterError("p", 
             f"p too close to 0: the transform of order ({j}, {k}, {l}) overflows a double at "
             f"p = {complex(bad.flat[0])}; use exact=True or moment()"
         )
@@ -311,7 +313,7 @@ def _invert(j, k, l, tau, signed):
             total += ctx.re(gamma * val)
         value = 2 * total / (5 * t)  # r / M = 2 / 5
         if abs(value) > ctx.mpf("1.7976931348623157e308"):
-            raise ValueError(
+            raise ParameterError("tau", 
                 f"tau too large: m_({j},{k},{l}) = {ctx.nstr(value, 5)} at tau = {float(t)!r} "
                 f"is beyond the range of a double"
             )

@@ -21,6 +21,7 @@ import numpy as np
 from scipy.optimize import brentq
 from scipy.special import erfc, erfcx
 
+from ..errors import ParameterError
 from ._check import ArrayLike, Values, as_real, as_tau0, as_time, scalar_or_array
 from .noise_on import velocity_pdf
 
@@ -105,14 +106,14 @@ def _twice_gap(t, t0):
 def _setup(x, name, tau, tau0):
     x = as_real(x, name)
     if np.any(np.isnan(x)):
-        raise ValueError(f"{name} must not be NaN")
+        raise ParameterError(name, f"{name} must not be NaN")
     t = as_time(tau)
     t0 = as_tau0(tau0)
     try:
         x, t = np.broadcast_arrays(x, t)
     except ValueError as exc:
-        raise ValueError(f"{name} and tau must broadcast together, got shapes {x.shape} and "
-                         f"{t.shape}") from exc
+        raise ParameterError(f"{name}, tau", f"{name} and tau must broadcast together, got shapes "
+                                             f"{x.shape} and {t.shape}") from exc
     return x.astype(float), t.astype(float), t0
 
 
@@ -231,7 +232,7 @@ def velocity_atom(tau: ArrayLike, tau0: ArrayLike) -> Values:
 def _check_q(q):
     q = as_real(q, "q")
     if np.any(np.isnan(q)) or np.any((q <= 0) | (q >= 1)):
-        raise ValueError(
+        raise ParameterError("q", 
             "q must lie strictly between 0 and 1 (the laws have unbounded support: the 0 and 1 "
             "quantiles are infinite)"
         )
@@ -284,13 +285,13 @@ def velocity_quantile(q: ArrayLike, tau: ArrayLike, tau0: ArrayLike = np.inf) ->
 def _stop_setup(x, name, tau0):
     x = as_real(x, name)
     if np.any(np.isnan(x)):
-        raise ValueError(f"{name} must not be NaN")
+        raise ParameterError(name, f"{name} must not be NaN")
     t0 = as_time(tau0, "tau0")
     try:
         x, t0 = np.broadcast_arrays(x, t0)
     except ValueError as exc:
-        raise ValueError(f"{name} and tau0 must broadcast together, got shapes {x.shape} and "
-                         f"{t0.shape}") from exc
+        raise ParameterError(f"{name}, tau0", f"{name} and tau0 must broadcast together, got "
+                                              f"shapes {x.shape} and {t0.shape}") from exc
     return x.astype(float), t0.astype(float)
 
 

@@ -11,6 +11,7 @@ import math
 import numpy as np
 from scipy.special import erfc, erfcx
 
+from ..errors import ParameterError
 from . import _data
 from ._check import (ArrayLike, Values, as_real, as_tau0, as_time, only_before_switch_off,
                      scalar_or_array)
@@ -68,7 +69,7 @@ def distance_second_moment(tau: ArrayLike, tau0: ArrayLike = np.inf) -> Values:
     t = as_time(tau)
     only_before_switch_off(t, as_tau0(tau0), "distance_second_moment")
     if np.any(t > _M002_TAU_MAX):
-        raise ValueError(
+        raise ParameterError("tau", 
             f"tau must be <= {_M002_TAU_MAX:.4g} for distance_second_moment: E[U3^2] ~ tau^2/4 "
             f"is beyond the range of a double, got {float(t.max())!r} (distance_var stays finite)"
         )
@@ -114,20 +115,22 @@ _LOG_4PI = math.log(4 * math.pi)
 def _pdf_parts(y, tau, tau0=np.inf):
     y = as_real(y, "y")
     if np.any(np.isnan(y)):
-        raise ValueError("y must not be NaN")
+        raise ParameterError("y", "y must not be NaN")
     if np.any(np.isinf(y)):
-        raise ValueError("y must be finite")
+        raise ParameterError("y", "y must be finite")
     t = as_time(tau, allow_zero=False)
     try:
         ay, t = np.broadcast_arrays(np.abs(y), t)
     except ValueError as exc:
-        raise ValueError(f"y and tau must broadcast together, got shapes {y.shape} and {t.shape}") from exc
+        raise ParameterError("y, tau", f"y and tau must broadcast together, got shapes {y.shape} "
+                                       f"and {t.shape}") from exc
     ay = ay.astype(float)
     t0 = as_tau0(tau0)
     off = t > t0
     if np.any(off):
         if t0 == 0:
-            raise ValueError("tau0 = 0: no noise, U1 = 0 (an atom, no density) at every tau")
+            raise ParameterError("tau0", "tau0 = 0: no noise, U1 = 0 (an atom, no density) at "
+                                         "every tau")
         # coast: U1(tau) = sign(X) (|X| - 2 delta)_+, so |U1(tau)| = y > 0 iff |X| = y + 2 delta
         with np.errstate(over="ignore"):
             ay = np.where(off, ay + 2 * (t - t0), ay)
@@ -164,7 +167,7 @@ def velocity_logpdf(y: ArrayLike, tau: ArrayLike, tau0: ArrayLike = np.inf) -> V
             xn = x[neg]
             out[neg] = -2 * ay[neg] + np.log(0.5 * erfc(xn) + np.exp(g0[neg] - xn * xn))
     if not np.all(np.isfinite(out)):
-        raise ValueError(
+        raise ParameterError("y, tau", 
             "y, tau: the log-density is below -1.8e308 (beyond a double) where |y| / sqrt(tau) "
             "or |y| exceed ~1e308"
         )

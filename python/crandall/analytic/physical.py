@@ -16,6 +16,7 @@ import math
 
 import numpy as np
 
+from ..errors import ParameterError
 from . import _data
 from ._check import ArrayLike, Values, as_real, as_tau0, as_time
 from ._forms import Form
@@ -45,10 +46,10 @@ _TAU_MIN, _TAU_MAX = 1e-300, 1e300
 def _positive(value, name):
     a = as_real(value, name)
     if a.size != 1:
-        raise ValueError(f"{name} must be a single number, got shape {a.shape}")
+        raise ParameterError(name, f"{name} must be a single number, got shape {a.shape}")
     x = float(a.reshape(()))
     if not math.isfinite(x) or x <= 0:
-        raise ValueError(f"{name} must be positive and finite, got {x!r}")
+        raise ParameterError(name, f"{name} must be positive and finite, got {x!r}")
     return x
 
 
@@ -101,7 +102,7 @@ def physical(name: str, t: Optional[ArrayLike] = None, *, mu: float, h: float, g
         [1e-300, 1e300] (there the coast has no single leading term to fall back on).
     """
     if not isinstance(name, str) or name not in _TABLE:
-        raise ValueError(f"name must be one of {PHYSICAL_NAMES}, got {name!r:.80}")
+        raise ParameterError("name", f"name must be one of {PHYSICAL_NAMES}, got {name!r:.80}")
     mu = _positive(mu, "mu")
     h = _positive(h, "h")
     g = _positive(g, "g")
@@ -123,7 +124,7 @@ def physical(name: str, t: Optional[ArrayLike] = None, *, mu: float, h: float, g
 
     def to_double(x):
         if abs(x) > ctx.mpf("1.7976931348623157e308"):
-            raise ValueError(
+            raise ParameterError(name, 
                 f"{name} = {ctx.nstr(x, 5)} is beyond the range of a double for mu={mu!r}, "
                 f"h={h!r}, g={g!r}"
             )
@@ -131,15 +132,15 @@ def physical(name: str, t: Optional[ArrayLike] = None, *, mu: float, h: float, g
 
     if at_stop:
         if not math.isfinite(t0):
-            raise ValueError(f"t0 must be finite for {name!r}")
+            raise ParameterError("t0", f"t0 must be finite for {name!r}")
         if tau0 == 0 or _TAU_MIN <= tau0 <= _TAU_MAX:
             return to_double(ctx.mpf(float(func(float(tau0)))) * factor)
         return to_double(_leading(form, tau0, ctx) * factor)
     if t is None:
-        raise ValueError(f"t is required for {name!r}")
+        raise ParameterError("t", f"t is required for {name!r}")
     tt = as_time(t, "t")
     if name in _NOISE_ON_ONLY and np.any(tt > t0):
-        raise ValueError(
+        raise ParameterError("t", 
             f"t must be <= t0 for {name!r} (known in closed form only while the noise is on), "
             f"got t = {float(tt.max())!r} > t0 = {t0!r}"
         )
@@ -147,7 +148,7 @@ def physical(name: str, t: Optional[ArrayLike] = None, *, mu: float, h: float, g
     for idx, ti in np.ndenumerate(tt):
         if ti > t0:
             if not (_TAU_MIN <= tau0 <= _TAU_MAX and ti / time_scale <= _TAU_MAX):
-                raise ValueError(
+                raise ParameterError("t, t0", 
                     f"t, t0: after the switch-off the scaled times t/time_scale and "
                     f"t0/time_scale must lie in [1e-300, 1e300]; mu={mu!r}, h={h!r}, g={g!r} "
                     f"give time_scale = {ctx.nstr(time_scale, 5)} s"

@@ -27,6 +27,7 @@ from typing import Sequence, Tuple
 import numpy as np
 from scipy.special import log_ndtr
 
+from ..errors import ParameterError
 from ._check import ArrayLike, Values
 
 __all__ = ["log_transition_density", "VelocityLaw", "velocity_law", "stop_time_sf",
@@ -67,20 +68,21 @@ def _check(pieces, drift, v0) -> Tuple[list, float, float]:
     try:
         ps = [(float(e), float(s)) for e, s in pieces]
     except (TypeError, ValueError):
-        raise ValueError("pieces must be a sequence of (end, sigma) pairs") from None
+        raise ParameterError("pieces", "pieces must be a sequence of (end, sigma) pairs") from None
     if not ps:
-        raise ValueError("pieces must hold at least one (end, sigma) pair")
+        raise ParameterError("pieces", "pieces must hold at least one (end, sigma) pair")
     ends = [e for e, _ in ps]
     if any(not (math.isfinite(e) and e >= 0) for e in ends) or any(b <= a for a, b in zip(ends, ends[1:])):
-        raise ValueError(f"pieces: the ends must be finite, >= 0 and increasing, got {ends}")
+        raise ParameterError("pieces", "pieces: the ends must be finite, >= 0 and increasing, "
+                                       f"got {ends}")
     if any(not (math.isfinite(s) and s >= 0) for _, s in ps):
-        raise ValueError("pieces: every sigma must be finite and >= 0")
+        raise ParameterError("pieces", "pieces: every sigma must be finite and >= 0")
     drift = float(drift)
     if not (math.isfinite(drift) and drift > 0):
-        raise ValueError(f"drift must be finite and > 0, got {drift}")
+        raise ParameterError("drift", f"drift must be finite and > 0, got {drift}")
     v0 = float(v0)
     if not math.isfinite(v0):
-        raise ValueError(f"v0 must be finite, got {v0}")
+        raise ParameterError("v0", f"v0 must be finite, got {v0}")
     return ps, drift, v0
 
 
@@ -190,8 +192,9 @@ def _grid(ps, drift, v0, steps):
     h = min(reach / 1500.0, width / 8.0)
     n = int(math.ceil(reach / h))
     if 2 * n + 1 > MAX_POINTS:
-        raise ValueError(f"pieces: a noisy piece of {width:.3g} spread against a range of "
-                         f"{reach:.3g} needs more than {MAX_POINTS} quadrature points")
+        raise ParameterError("pieces", f"pieces: a noisy piece of {width:.3g} spread against a "
+                                       f"range of {reach:.3g} needs more than {MAX_POINTS} "
+                                       "quadrature points")
     return np.linspace(-n * h, n * h, 2 * n + 1)
 
 
@@ -202,7 +205,7 @@ def velocity_law(pieces: Sequence[Tuple[float, float]], drift: float, time: floa
     ps, drift, v0 = _check(pieces, drift, v0)
     time = float(time)
     if not (math.isfinite(time) and time >= 0):
-        raise ValueError(f"time must be finite and >= 0, got {time}")
+        raise ParameterError("time", f"time must be finite and >= 0, got {time}")
     steps = _steps(ps, time)
     if not any(s > 0 for _, s in steps):
         v = v0

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import ParameterError
 from ._check import ArrayLike, Values, as_real, as_tau0, scalar_or_array
 
 __all__ = ["distance_at_stop_mean_from", "coast_stop_time", "coast_distance",
@@ -22,7 +23,7 @@ __all__ = ["distance_at_stop_mean_from", "coast_stop_time", "coast_distance",
 def _v0(v0):
     v = as_real(v0, "v0")
     if np.any(~np.isfinite(v)):
-        raise ValueError("v0 must be finite")
+        raise ParameterError("v0", "v0 must be finite")
     return v
 
 
@@ -32,7 +33,8 @@ def distance_at_stop_mean_from(v0: ArrayLike, tau0: ArrayLike) -> Values:
     v = _v0(v0)
     t0 = as_tau0(tau0)
     if not np.isfinite(t0):
-        raise ValueError("tau0 must be finite: without a switch-off the body never stops")
+        raise ParameterError("tau0", "tau0 must be finite: without a switch-off the body never "
+                                     "stops")
     return scalar_or_array((v * v + 2.0 * t0) / 4.0)
 
 

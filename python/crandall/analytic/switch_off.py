@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import erfc, erfcx
 
+from ..errors import ParameterError
 from . import _data
 from ._check import ArrayLike, Values, as_real, as_tau0, as_time, scalar_or_array
 from .noise_on import SWITCH, velocity_pdf
@@ -324,12 +325,13 @@ def stop_time_pdf(t: ArrayLike, tau0: ArrayLike) -> Values:
     """
     t = as_real(t, "t")
     if np.any(np.isnan(t)) or np.any(np.isinf(t)):
-        raise ValueError("t must be finite and not NaN")
+        raise ParameterError("t", "t must be finite and not NaN")
     t0 = as_time(tau0, "tau0", allow_zero=False)
     try:
         t, t0 = np.broadcast_arrays(t, t0)
     except ValueError as exc:
-        raise ValueError(f"t and tau0 must broadcast together, got shapes {t.shape} and {t0.shape}") from exc
+        raise ParameterError("t, tau0", "t and tau0 must broadcast together, got shapes "
+                                        f"{t.shape} and {t0.shape}") from exc
     with np.errstate(over="ignore"):
         y = np.where(t >= t0, 2 * (t - t0), 0.0)
     # |U1(tau0)| = y beyond the largest double: the density is 0 to double precision there

@@ -11,6 +11,7 @@ from .. import _core
 from ..model import FILTERED_EXCITATION, FILTERED_LEVELS, LEVELS
 from ..quantities import names_for, quantity
 from ..scene import Scene
+from ..errors import ParameterError
 from .common import Stat
 from .result import Result
 
@@ -114,17 +115,18 @@ class AccuracyResult(Result):
 
     def _get(self, name: str, stat: str, field: int, missing_nan: bool = False):
         if stat not in ("mean", "var"):
-            raise ValueError(f"stat must be 'mean' or 'var', got {stat!r}")
+            raise ParameterError("stat", f"stat must be 'mean' or 'var', got {stat!r}")
         if name not in self.names:
-            raise ValueError(f"name: {name!r} is not in this result; it holds "
-                             f"{', '.join(self.names)}")
+            raise ParameterError("name", f"name: {name!r} is not in this result; it holds "
+                                         f"{', '.join(self.names)}")
         q = quantity(name)
         if (name, stat) not in self._estimates:
             if missing_nan:
                 out = np.full(1 if q.at_stop else self.times.size, math.nan)
                 return float(out[0]) if q.at_stop else out
-            raise ValueError(f"stat: the {stat} of {name} was not asked for (the run's "
-                             f"statistics= named {', '.join(self.stats_of(name))} of it)")
+            raise ParameterError("stat", f"stat: the {stat} of {name} was not asked for (the "
+                                         "run's statistics= named "
+                                         f"{', '.join(self.stats_of(name))} of it)")
         f = q.factor(self.scene)
         scale = f if stat == "mean" else f * f
         vals = self._estimates[(name, stat)][:, field] * scale

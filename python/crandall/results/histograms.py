@@ -10,6 +10,7 @@ import numpy as np
 
 from .. import distributions
 from ..quantities import quantity
+from ..errors import ParameterError
 from .common import _fold, _times_text
 
 
@@ -27,25 +28,25 @@ class _Distributions:
     def _slot(self, name: str, q, time) -> int:
         if q.at_stop:
             if time is not None:
-                raise ValueError(f"time: {name} is a value at the stop, with one distribution; "
-                                 f"give no time (got time={time!r})")
+                raise ParameterError("time", f"time: {name} is a value at the stop, with one "
+                                             f"distribution; give no time (got time={time!r})")
             return self.times.size
         if time is None:
-            raise ValueError(f"time: {name} has a distribution at every output time; give "
-                             f"time, one of {_times_text(self.times)}")
+            raise ParameterError("time", f"time: {name} has a distribution at every output time; "
+                                         f"give time, one of {_times_text(self.times)}")
         if isinstance(time, (bool, np.bool_)) or not isinstance(time, numbers.Real) \
                 or not math.isfinite(float(time)):
             # Not finite: inf would pass the rounding test below (inf - t <= 1e-12 inf).
-            raise ValueError(f"time: {time!r} is not an output time of this result; give one "
-                             f"of {_times_text(self.times)}")
+            raise ParameterError("time", f"time: {time!r} is not an output time of this result; "
+                                         f"give one of {_times_text(self.times)}")
         t = float(time)
         hit = np.flatnonzero(self.times == t)
         if not hit.size:
             # A time typed again differs from the stored one by a rounding at most.
             hit = np.flatnonzero(np.abs(self.times - t) <= 1e-12 * np.maximum(np.abs(self.times), abs(t)))
         if not hit.size:
-            raise ValueError(f"time: {time!r} is not an output time of this result; give one "
-                             f"of {_times_text(self.times)}")
+            raise ParameterError("time", f"time: {time!r} is not an output time of this result; "
+                                         f"give one of {_times_text(self.times)}")
         return int(hit[0])
 
     def _binned(self, name: str, time):
@@ -53,18 +54,18 @@ class _Distributions:
         [under, bins..., over, NaN] in the quantity's units less ``offset`` (the stop time's
         t0), and the edges to show (the user's, when given)."""
         if not isinstance(name, str) or name not in self.names:
-            raise ValueError(f"name: {name!r} is not in this result; it holds "
-                             f"{', '.join(self.names)}")
+            raise ParameterError("name", f"name: {name!r} is not in this result; it holds "
+                                         f"{', '.join(self.names)}")
         if name not in self.distributions:
             asked = ", ".join(self.distributions) or "none"
-            raise ValueError(f"name: the scene did not ask for the distribution of {name!r} "
-                             f"(its distributions: {asked}); give Scene(..., "
-                             "distributions=[...]) and run it again")
+            raise ParameterError("name", "name: the scene did not ask for the distribution of "
+                                         f"{name!r} (its distributions: {asked}); give Scene(..., "
+                                         "distributions=[...]) and run it again")
         q = quantity(name)
         slot = self._slot(name, q, time)
         found = self._histograms.find(slot, q.histogram_variable)
         if found is None:  # pragma: no cover - the scene's axes are all recorded
-            raise ValueError(f"name: no histogram of {name!r} at this slot")
+            raise ParameterError("name", f"name: no histogram of {name!r} at this slot")
         edges, cells = np.asarray(found[0], dtype=np.float64), np.asarray(found[1])
         atom = edges == distributions.ATOM
         if q.power == 2:
@@ -76,16 +77,18 @@ class _Distributions:
             atom = edges == distributions.ATOM
         f = self._factor(name)
         if f == 0.0:
-            raise ValueError(f"name: {name} is 0 on every path of this scene (its factor is "
-                             "0: no friction, mu = 0), so it has no distribution to bin")
+            raise ParameterError("name", f"name: {name} is 0 on every path of this scene (its "
+                                         "factor is 0: no friction, mu = 0), so it has no "
+                                         "distribution to bin")
         if f != 1.0:
             edges = edges * f
         # The atom bin [0, ATOM) holds exact zeros, whatever the units: its upper edge stays
         # the least positive double (squared or scaled, it would underflow onto 0).
         edges[atom] = distributions.ATOM
         if not (np.diff(edges) > 0).all():
-            raise ValueError(f"name: {name}'s bin edges are not distinct in doubles once "
-                             f"converted to its units (factor {f!r}); choose units nearer 1")
+            raise ParameterError("name", f"name: {name}'s bin edges are not distinct in doubles "
+                                         f"once converted to its units (factor {f!r}); choose "
+                                         "units nearer 1")
         offset = q.offset(self.scene) if q.offset is not None else 0.0
         shown = edges + offset if offset else edges
         user = self.scene.bin_settings[1].get(name)
@@ -165,9 +168,9 @@ class _Distributions:
             # The core bins the stop time from the switch-off; edges far finer than t0's
             # rounding collide once t0 is added back. Quantiles and exceedances are computed
             # from the switch-off and are not affected.
-            raise ValueError(f"name: {name}'s bin edges plus t0 = {self.scene.t0!r} are not "
-                             "distinct in doubles; use quantile or exceedance, or give "
-                             "coarser bins")
+            raise ParameterError("name", f"name: {name}'s bin edges plus t0 = {self.scene.t0!r} "
+                                         "are not distinct in doubles; use quantile or "
+                                         "exceedance, or give coarser bins")
         unit = self.scene.units_of(name)
         label = name + (f" [{unit}]" if unit else "") + (
             "" if time is None else f" at {self.scene.time_name} = {float(time):g}")
@@ -212,7 +215,7 @@ class _Distributions:
         """
         if isinstance(q, (bool, np.bool_)) or not isinstance(q, numbers.Real) \
                 or not 0.0 < float(q) < 1.0:
-            raise ValueError(f"q must be a number strictly between 0 and 1, got {q!r}")
+            raise ParameterError("q", f"q must be a number strictly between 0 and 1, got {q!r}")
         edges, cells, offset, _ = self._binned(name, time)
         est = distributions.quantile(edges, cells[1:-2], int(cells[0]), int(cells[-2]),
                                      float(q), confidence)
@@ -254,7 +257,7 @@ class _Distributions:
         """
         if isinstance(level, (bool, np.bool_)) or not isinstance(level, numbers.Real) \
                 or math.isnan(float(level)):
-            raise ValueError(f"level must be a number (not NaN), got {level!r}")
+            raise ParameterError("level", f"level must be a number (not NaN), got {level!r}")
         edges, cells, offset, _ = self._binned(name, time)
         return distributions.exceedance(edges, cells[1:-2], int(cells[0]), int(cells[-2]),
                                         float(level) - offset, confidence)

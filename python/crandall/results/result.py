@@ -17,6 +17,7 @@ from ..model import exact as model_exact
 from ..quantities import core_flags, find, names_for, quantity
 from ..scene import Scene
 from ..spec import RunSpec
+from ..errors import ParameterError
 from .common import (_e, _EXPONENTS, _INDEX, _shaken_before, Accumulators, MIN_CARRIERS, Stat,
                      StatisticsWarning, z_of)
 from .histograms import _Distributions
@@ -97,7 +98,7 @@ class Result(_Distributions, _Tables):
         elif any(v is not None and v != getattr(spec, k) for k, v in (
                 ("scene", scene), ("paths", paths), ("seed", seed), ("dt", dt),
                 ("method", method))) or min_steps not in (0, spec.min_steps):
-            raise ValueError("spec: the result's fields differ from its spec")
+            raise ParameterError("spec", "spec: the result's fields differ from its spec")
         self._spec = spec
         self.scene = spec.scene
         self.paths = spec.paths
@@ -149,7 +150,7 @@ class Result(_Distributions, _Tables):
 
     def _source(self, name: str):
         if name not in self.names:
-            raise ValueError(
+            raise ParameterError("name", 
                 f"name: {name!r} is not in this result; it holds {', '.join(self.names)}"
             )
         q = quantity(name)
@@ -356,8 +357,8 @@ class Result(_Distributions, _Tables):
         decide. 0 only where the quantity is constant and the noise has not acted on it.
         """
         if not self._has_var_stderr(name):
-            raise ValueError(f"name: the variance of {name} has no standard error "
-                             "here (needs moments of order 8)")
+            raise ParameterError("name", f"name: the variance of {name} has no standard error "
+                                         "here (needs moments of order 8)")
         acc, _, v, slot = self._source(name)
         if quantity(name).power == 2:
             # The kinetic energy f V^2: the variance of W = V^2 from W's own moments.
@@ -413,14 +414,15 @@ class Result(_Distributions, _Tables):
         """
         for name, value in (("j", j), ("k", k), ("l", l)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 0:
-                raise ValueError(f"{name} must be an integer >= 0, got {value!r}")
+                raise ParameterError(name, f"{name} must be an integer >= 0, got {value!r}")
         if j + k + l > 4:
-            raise ValueError(f"j + k + l must be <= 4 (moments are kept to order 4), got {j + k + l}")
+            raise ParameterError("j, k, l", "j + k + l must be <= 4 (moments are kept to order "
+                                            f"4), got {j + k + l}")
         recorded = core_flags(self.scene.observe)
         if k and not recorded["displacement"]:
-            raise ValueError("k: the displacement (U2) was not observed in this scene")
+            raise ParameterError("k", "k: the displacement (U2) was not observed in this scene")
         if l and not recorded["distance"]:
-            raise ValueError("l: the distance (U3) was not observed in this scene")
+            raise ParameterError("l", "l: the distance (U3) was not observed in this scene")
         value = self._raw[:, _INDEX[(j, k, l)]].copy()
         if self.scene.units == "SI":
             s = self.scene.scaling
@@ -449,7 +451,7 @@ class Result(_Distributions, _Tables):
 
     def _check_stat(self, name: str, stat: str) -> None:
         if stat not in ("mean", "var"):
-            raise ValueError(f"stat must be 'mean' or 'var', got {stat!r}")
+            raise ParameterError("stat", f"stat must be 'mean' or 'var', got {stat!r}")
         self._source(name)
 
     def _bias(self, name: str, stat: str, warn: bool):
@@ -536,10 +538,11 @@ class Result(_Distributions, _Tables):
         bound; bench/calibration.py measures the coverage)."""
         if isinstance(level, (bool, np.bool_)) or not isinstance(level, numbers.Real) \
                 or not 0.0 < float(level) < 1.0:
-            raise ValueError(f"level must be a number strictly between 0 and 1, got {level!r}")
+            raise ParameterError("level", "level must be a number strictly between 0 and 1, got "
+                                          f"{level!r}")
         value = self.mean(name) if stat == "mean" else self.var(name) if stat == "var" else None
         if value is None:
-            raise ValueError(f"stat must be 'mean' or 'var', got {stat!r}")
+            raise ParameterError("stat", f"stat must be 'mean' or 'var', got {stat!r}")
         half = z_of(level) * self.error(name, stat)
         return value - half, value + half
 

@@ -16,6 +16,7 @@ from .. import streams as _streams
 from ..driver import check_client, drive
 from ..driver import threads as resolve_threads
 from ..errors import ParameterError
+from ..model import TAIL_MODEL, holds
 from ..results import StatisticsWarning
 from ..scene import Scene
 from ..spec import MAX_SEED, as_seed, check_int, draw_seed, is_real
@@ -50,6 +51,21 @@ def _rate(problem: _Problem, key: int, threads: int) -> float:
     few paths over the grid's last steps (their numbers are discarded): what a run's least
     cost is estimated from before it starts. The faster of two measurements (a loaded
     machine's pause makes one slower, and a lower bound of the cost must not grow by it)."""
+    if problem.filtered:
+        # The filtered walk's steps (each with its event search) from a start state at the
+        # point m steps before the end; far fewer of them: a step costs about 14 exact steps
+        # (docs/methods/tails.md, "Filtered excitations").
+        m = max(1, min(problem.steps, _RATE_STEPS // 512))
+        k = max(1, _RATE_STEPS // 32 // m)
+        states = problem.start_states(k)
+        states[:, problem.steps - m] = states[:, 0]
+        best = math.inf
+        for _ in range(2):
+            t = _time.perf_counter()
+            _extend(problem, states, np.arange(k), np.full(k, problem.steps - m),
+                    np.arange(k), key ^ 0x5A5A, threads)
+            best = min(best, _time.perf_counter() - t)
+        return k * m / max(best, 1e-9)
     m = max(1, min(problem.steps, _RATE_STEPS // 16))
     k = max(1, _RATE_STEPS // m)
     part = slice(problem.steps - m, problem.steps)
@@ -200,8 +216,9 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
         # against 1.0 at 50 steps), and their mean's interval stops covering. The velocity
         # quantities are exact on any grid, so theirs is refined; so is the default step of
         # the others (a short excitation); a coarser dt the user gave defines their trapezoid
-        # rule, and is refused.
-        if TAIL_QUANTITIES[quantity].velocity_only or dt is None:
+        # rule, and is refused. Under a filtered excitation no quantity is exact on any grid
+        # (its events are located on substeps of the grid's steps): a dt given is refused.
+        if (TAIL_QUANTITIES[quantity].velocity_only and not problem.filtered) or dt is None:
             problem = _Problem(scene, quantity, time, problem.noisy_time / MIN_SPLITTING_STEPS)
         else:
             raise ParameterError("dt", f"dt: splitting needs at least {MIN_SPLITTING_STEPS} "
@@ -209,6 +226,12 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
                                  f"{problem.noisy_steps}")
     if method not in TAIL_METHODS:
         raise ParameterError("method", f"method must be one of {', '.join(TAIL_METHODS)}; got {method!r}")
+    if method == "importance" and not holds(scene, TAIL_MODEL):
+        # Its weights are the sign-drift velocity's transition density.
+        missing = ", ".join(sorted(frozenset(scene.effects) - TAIL_MODEL.supports))
+        raise ParameterError("method", f"method: importance sampling is not available for a "
+                             f"scene with {missing} ({TAIL_MODEL.what} does not hold there); "
+                             f"use method='splitting'")
     if not (is_real(rel_error) and MIN_REL_ERROR <= rel_error < 1):
         raise ParameterError("rel_error", f"rel_error must be in [{MIN_REL_ERROR:g}, 1), got "
                                           f"{rel_error!r}")
@@ -315,7 +338,7 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
 
     run = _TailRun(job, spec, threads=threads, task_threads=task_threads,
                    per_sample=1 if splitting else particles,
-                   path_bytes=8 * 3 * (problem.steps + 1),
+                   path_bytes=problem.path_bytes,
                    min_samples=min_samples, max_samples=max_samples, rel_error=rel_error,
                    max_seconds=max_seconds, started=start, rate=rate, advice=advice,
                    steps=(problem if splitting else _grid_for(problem, window)).steps)

@@ -12,7 +12,7 @@ import numpy as np
 from .. import _core
 from .._lazy import lazy_module
 from ..errors import ParameterError
-from ..model import TAIL_MODEL
+from ..model import FILTERED_EXCITATION, TAIL_SPLITTING
 from ..scene import Scene
 from ..spec import check_positive, check_scene, default_dt, is_real
 
@@ -52,10 +52,23 @@ class _Problem:
     def __init__(self, scene: Scene, quantity: str, time: Optional[float], dt: Optional[float],
                  breaks: Sequence[float] = (), coarse: bool = False):
         # tail() and its Dask task (sample) both start here
-        check_scene(scene, TAIL_MODEL, "crandall.tail")
+        check_scene(scene, TAIL_SPLITTING, "crandall.tail")
         if not isinstance(quantity, str) or quantity not in TAIL_QUANTITIES:
             raise ParameterError("quantity", f"quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
         self.scene, self.q = scene, TAIL_QUANTITIES[quantity]
+        #: A filtered excitation: its paths are the core's filtered walk (_FilteredGrid).
+        self.filtered = FILTERED_EXCITATION in scene.effects
+        if self.filtered:
+            if getattr(scene.excitation, "ring_down", False):
+                raise ParameterError(
+                    "scene", "scene: crandall.tail needs the shaking to end at t0 (ring_down="
+                    "False): with ring_down=True the filter rings on after it, and the coast "
+                    "after the grid is no longer the deceleration mu g")
+            if self.q.peak:
+                raise ParameterError(
+                    "quantity", f"quantity: {quantity} is not available for a filtered "
+                    "excitation (its peaks are not simulated: a fixed-step run refuses them "
+                    "too)")
         c = scene.drift
         pieces = list(scene.pieces) if scene.pieces is not None else [(scene.t0, scene.noise)]
         end = pieces[-1][0]
@@ -89,6 +102,14 @@ class _Problem:
             sigma = next(n for e, n in pieces if e >= b)
             intervals.append((a, b, sigma))
         lengths, noises, starts = [], [], []
+        self._grid = None
+        if self.filtered:
+            # The filtered walk's grid is its plan's (as a fixed-step run builds it), ending at
+            # the horizon; a piece's end is a segment's end there too.
+            self._grid = _FilteredGrid(scene, horizon, dt)
+            lengths, noises = self._grid.lengths, self._grid.noises
+            starts = np.concatenate([[0.0], np.cumsum(lengths)[:-1]]) if len(lengths) else []
+            intervals = []
         for a, b, sigma in intervals:
             if b > a:
                 n = 1 if (sigma == 0 or coarse) else max(1, math.ceil((b - a) / dt - 1e-9))
@@ -104,8 +125,10 @@ class _Problem:
         self.step_starts = np.asarray(starts, dtype=np.float64)
         # The expected drift of the distance still to come: S + V^2/(2c) grows at the constant
         # rate sigma^2/(2c) while the noise acts (docs/methods/tails.md), so adding what is still
-        # to come makes the distance's score its conditional mean.
-        if c > 0:
+        # to come makes the distance's score its conditional mean. Not under a filtered
+        # excitation (d(S + V^2/(2c)) = -V a_g / c dt there): its score is where the body would
+        # stop if the shaking ended now.
+        if c > 0 and not self.filtered:
             per_step = self.noises ** 2 * self.lengths / (2 * c)
             self.remaining = np.concatenate([np.cumsum(per_step[::-1])[::-1], [0.0]])
         else:
@@ -180,8 +203,9 @@ class _Problem:
         (unless ``schedule`` is False: bench/tails_score.py measures the others), its
         sums finite and its floor eps^2 positive (an intensity far outside a physical range can
         overflow sigma^6 or underflow it to 0; such a run keeps the plain score)."""
-        if self.q.name not in self.NORMALISED or (schedule and not self.one_intensity()):
-            return False
+        if (self.filtered or self.q.name not in self.NORMALISED
+                or (schedule and not self.one_intensity())):
+            return False  # (a filtered body's speed is no sign-drift diffusion)
         points, cum, stationary, step = self._normaliser()
         f = self.floor2()
         return (math.isfinite(f) and f > 0 and all(np.all(np.isfinite(x)) for x in cum)
@@ -221,9 +245,22 @@ class _Problem:
     def steps(self) -> int:
         return len(self.lengths)
 
+    @property
+    def columns(self) -> int:
+        """The numbers of a path's state at a grid point: (V, U, S), and under a filtered
+        excitation the time of the last arrival at rest and the filter's state z."""
+        return self._grid.columns if self.filtered else 3
+
+    @property
+    def path_bytes(self) -> int:
+        return 8 * self.columns * (self.steps + 1)
+
     def start_states(self, n: int) -> np.ndarray:
-        states = np.empty((n, self.steps + 1, 3))
-        states[:, 0] = (self.scene.v0, self.scene.u0, 0.0)
+        states = np.empty((n, self.steps + 1, self.columns))
+        states[:, 0, :3] = (self.scene.v0, self.scene.u0, 0.0)
+        if self.filtered:
+            states[:, 0, 3] = 0.0
+            states[:, 0, 4:] = self._grid.z0
         return states
 
     def coasts_to_rest(self, levels: np.ndarray) -> bool:
@@ -257,6 +294,10 @@ class _Problem:
         c = self.scene.drift
         name = self.q.name
         if name == "stop_time":
+            if self.filtered:
+                # A filtered body may come to rest for good before the horizon: at rest, its
+                # stop is the last time it came to rest (states[..., 3]).
+                return np.where(v == 0.0, states[..., 3], self.horizon + np.abs(v) / c)
             return self.horizon + np.abs(v) / c
         if name == "velocity":
             return self._coasted(v)
@@ -290,11 +331,81 @@ class _Problem:
 
 def _extend(problem: _Problem, states, rows, starts, streams, key, threads, law=None,
             touched=None):
+    if problem.filtered:
+        if law is not None or touched is not None:
+            raise RuntimeError("a filtered excitation's paths have no proposal law")
+        problem._grid.extend(states, rows, starts, streams, key, threads)
+        return
     law = law or _Law(problem.drifts)
     _core.extend_paths(states, np.asarray(rows, dtype=np.int64), np.asarray(starts, dtype=np.int64),
                        np.asarray(streams, dtype=np.uint64), problem.lengths, problem.noises,
                        law.drifts, key, threads, touched, law.slow,
                        None if law.slow is None else problem.drifts)
+
+
+#: A filtered path's number is below 2^40 (the core's counter layout, cpp/src/filtered.cpp).
+_FILTERED_PATHS = 1 << 40
+
+
+def filtered_key(key: int, block: int) -> int:
+    """The Philox key of the filtered paths numbered block * 2^40 + j (a splitting replica's
+    streams): the core numbers a filtered path with 40 bits, so each block of 2^40 streams
+    gets a key of its own, drawn from (key, block) by NumPy's SeedSequence."""
+    state = np.random.SeedSequence([int(key), int(block), 7]).generate_state(1, np.uint64)
+    return int(state[0])
+
+
+class _FilteredGrid:
+    """A filtered excitation's paths for a tail run: the core's plan of a fixed-step run of the
+    scene with one output time, the horizon (dt as given; no graded steps), and its walked
+    grid; paths continued from any grid point by ``_core.extend_filtered_paths``."""
+
+    def __init__(self, scene: Scene, horizon: float, dt: float):
+        # The model's options as engine.scene_options sets them (the tail does not reach the
+        # engine layer; tests/test_filtered_tail.py checks that the two agree).
+        o = _core.Options()
+        o.drift = scene.drift
+        o.noise = scene.noise
+        o.switch_off = scene.t0
+        if scene.pieces is not None:
+            o.piece_ends = [e for e, _ in scene.pieces]
+            o.piece_noise = [n for _, n in scene.pieces]
+        o.start_velocity = scene.v0
+        o.start_displacement = scene.u0
+        for name, value in scene.excitation.core_options().items():
+            setattr(o, name, value)
+        if scene.static_drift != scene.drift:
+            o.static_drift = scene.static_drift
+        o.times = [horizon]
+        o.velocity = True
+        o.displacement = o.distance = True
+        o.stop = o.peaks = o.energy = o.residual = False
+        o.dt = dt
+        o.min_steps = 0
+        o.method = "exact"
+        o.seed = 0
+        o.paths = 1
+        try:
+            self.plan = _core.Plan(o)
+        except ValueError as exc:
+            raise ParameterError("dt", f"dt: the filtered grid to {horizon:g} is refused by "
+                                 f"the core ({exc})") from None
+        lengths, noises, z0 = _core.filtered_grid(self.plan)
+        self.lengths = np.asarray(lengths, dtype=np.float64)
+        self.noises = np.asarray(noises, dtype=np.float64)
+        self.z0 = np.asarray(z0, dtype=np.float64)
+        self.columns = 4 + len(self.z0)
+
+    def extend(self, states, rows, starts, streams, key, threads) -> None:
+        rows = np.asarray(rows, dtype=np.int64)
+        starts = np.asarray(starts, dtype=np.int64)
+        streams = np.asarray(streams, dtype=np.uint64)
+        blocks = streams >> np.uint64(40)
+        for block in np.unique(blocks):
+            pick = blocks == block
+            _core.extend_filtered_paths(self.plan, states, rows[pick], starts[pick],
+                                        streams[pick] & np.uint64(_FILTERED_PATHS - 1),
+                                        filtered_key(key, int(block)), threads)
 
 
 # -- the transition density (importance sampling's weights) --------------------------------

@@ -3,13 +3,19 @@ raises when no estimate can be made (``StatisticsFailure``)."""
 
 from __future__ import annotations
 
+import json
+import os
 from dataclasses import dataclass, field
-from typing import Any, Dict
+from typing import Any, Dict, Union
 
 import numpy as np
 
 from .. import _render
+from .._files import write_atomic
 from ..errors import ParameterError
+
+#: The netCDF attribute that marks a saved tail result (crandall.load reads it back).
+FILE_ATTR = "crandall_tail"
 
 
 @dataclass
@@ -94,9 +100,51 @@ class TailResult:
                          f"{self.rel_error[i]:8.3f} [{lo[i]:.3g}, {hi[i]:.3g}]{flag}")
         return "\n".join(lines)
 
+    def summary(self) -> str:
+        """The table of :meth:`__str__` (as every crandall result has)."""
+        return str(self)
+
     def _repr_html_(self) -> str:
         """The table of :meth:`__str__` as HTML (Jupyter shows it for a tail result)."""
         return _render.tail_html(self)
+
+    def to_xarray(self):
+        """An xarray Dataset over ``level``: probability, stderr, rel_error, reliable; the
+        quantity, units, method, samples, cost, diagnostics and spec (JSON) as attributes."""
+        import xarray as xr
+
+        ds = xr.Dataset({name: ("level", np.asarray(getattr(self, name), dtype=np.float64))
+                         for name in ("probability", "stderr", "rel_error")},
+                        coords={"level": np.asarray(self.levels, dtype=np.float64)})
+        ds["reliable"] = ("level", np.asarray(self.reliable).astype(np.int8))
+        ds["level"].attrs["units"] = self.units or "1"
+        ds.attrs.update({FILE_ATTR: 1}, quantity=self.quantity, units=self.units,
+                        method=self.method, samples=int(self.samples),
+                        seconds=float(self.seconds), steps=int(self.steps),
+                        diagnostics=json.dumps(self.diagnostics, default=_plain),
+                        spec=json.dumps(self.spec, default=_plain))
+        return ds
+
+    def save(self, path: Union[str, "os.PathLike[str]"]) -> None:
+        """Write a netCDF file (netCDF-3 by SciPy, as crandall's other results), replaced
+        atomically; :func:`crandall.load` reads it back with every number bitwise the same."""
+        ds = self.to_xarray()
+        encoding = {name: {"_FillValue": None} for name in list(ds.coords) + list(ds.data_vars)}
+        data = bytes(ds.to_netcdf(engine="scipy", format="NETCDF3_64BIT", encoding=encoding))
+        write_atomic(path, lambda f: f.write(data))
+
+    @classmethod
+    def _from_dataset(cls, ds) -> "TailResult":
+        """The result a Dataset of :meth:`to_xarray` holds."""
+        a = ds.attrs
+        return cls(quantity=str(a["quantity"]), levels=ds["level"].values.copy(),
+                   units=str(a["units"]), probability=ds["probability"].values.copy(),
+                   stderr=ds["stderr"].values.copy(), rel_error=ds["rel_error"].values.copy(),
+                   method=str(a["method"]), samples=int(a["samples"]),
+                   seconds=float(a["seconds"]), steps=int(a["steps"]),
+                   diagnostics=json.loads(str(a["diagnostics"])),
+                   reliable=ds["reliable"].values.astype(bool),
+                   spec=json.loads(str(a["spec"])))
 
     def plot(self, ax=None, reference=None, label=None):
         """The exceedance curve with its 95 % band (log probability). ``reference``: a
@@ -124,6 +172,15 @@ class TailResult:
         ax.set_ylabel(f"P({self.quantity} > level)")
         ax.legend()
         return ax
+
+
+def _plain(x):
+    """JSON for the NumPy numbers and arrays a tail's diagnostics hold."""
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    raise TypeError(f"{type(x).__name__} is not JSON serialisable")
 
 
 # -- the statistics of a run's samples ------------------------------------------------------
