@@ -96,6 +96,18 @@ def test_run_to_an_accuracy_on_the_cluster_is_bitwise_local(client):
     assert remote.cost["paths"] == local.cost["paths"]
 
 
+def test_a_filtered_run_to_an_accuracy_on_the_cluster_is_bitwise_local(client):
+    # Its levels (model.FILTERED_LEVELS) are rebuilt on the workers from the scene's data.
+    sc = crandall.Scene(mu=0.0, g=1.0, t0=10.0, times=[0.5], observe=["velocity", "distance"],
+                        excitation=crandall.KanaiTajimi(omega=2.0, zeta=0.6, h=1.0))
+    args = dict(rel_error=0.02, seed=8, statistics=["velocity:var", "distance:mean"])
+    local = crandall.simulate(sc, threads=2, **args)
+    remote = crandall.simulate(sc, client=client, **args)
+    assert remote.model == "filtered_levels"
+    assert remote.to_pandas().equals(local.to_pandas())
+    assert remote.cost["paths"] == local.cost["paths"]
+
+
 def test_cluster_histograms_and_peaks_are_bitwise_the_local_ones(client):
     s = crandall.Scene.scaled(tau0=1.0, times=[0.5, 1.5], observe=["velocity", "stop", "peaks"],
                               distributions=True)

@@ -26,7 +26,7 @@ from .errors import ParameterError
 from .quantities import DISTANCE, VELOCITY, quantity
 
 __all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ISOMETRY", "ZERO_FRICTION", "ANALYTIC", "SCALING", "SIMULATED",
-           "FILTERED_EXCITATION", "STATIC_FRICTION", "LEVELS", "TAIL_MODEL", "TAIL_SPLITTING", "MOVING_AT_SWITCH_OFF", "GRID_ORDERS", "require", "holds", "isometry_applies", "check_simulated", "exact_in_law"]
+           "FILTERED_EXCITATION", "STATIC_FRICTION", "LEVELS", "FILTERED_LEVELS", "TAIL_MODEL", "TAIL_SPLITTING", "MOVING_AT_SWITCH_OFF", "GRID_ORDERS", "require", "holds", "isometry_applies", "check_simulated", "exact_in_law"]
 
 
 #: The body starts with a velocity v0 or a displacement u0 (Scene(v0=, u0=)).
@@ -126,6 +126,15 @@ GRID_ORDERS = Identity(
 LEVELS = Identity(
     "levels", "runs to an accuracy: the multilevel estimator built on the white-noise "
     "skeleton", frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
+#: Runs to an accuracy of a filtered excitation (crandall.adaptive): levels on the filtered
+#: core's exactly coupled grids (the same noise tree on every grid), no control variates and
+#: no exact or Ito targets (none holds there), the bias from the measured ratio of the finest
+#: levels' means, first order where it is not resolved (docs/methods/adaptive.md). Not for an
+#: envelope: its pieces' error is estimated on the white-noise levels only.
+FILTERED_LEVELS = Identity(
+    "filtered_levels", "runs to an accuracy: the multilevel estimator on the filtered core's "
+    "coupled grids, its bias from the measured order of the finest levels",
+    frozenset({FILTERED_EXCITATION, STATIC_FRICTION, INITIAL_STATE, PIECEWISE_INTENSITY}))
 #: Tail probabilities (crandall.tail), the sign-drift parts: the velocity is a diffusion whose
 #: drift is -c sign(V), with its transition density (importance sampling's weights), the
 #: normalised splitting score and its formulas, and crandall.paths' white-noise steps.

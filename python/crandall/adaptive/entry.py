@@ -9,12 +9,11 @@ from typing import Optional
 from .. import pieces
 from ..driver import drive
 from ..errors import ParameterError
-from ..model import LEVELS
 from ..results import AccuracyResult
 from ..scene import Scene
 from ..spec import MAX_SEED, check_int, check_positive, check_scene, default_dt
 from .estimator import _Engine
-from .levels import _check_statistics, _targets, MAX_SECONDS
+from .levels import _check_statistics, _targets, levels_model, MAX_SECONDS
 from .schedule import REL_FLOOR
 
 
@@ -31,7 +30,8 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                       max_seconds: float = MAX_SECONDS) -> AccuracyResult:
     """Run ``scene`` until every statistic's estimated total error is within the target
     (see :func:`crandall.simulate`)."""
-    check_scene(scene, LEVELS, "a run to an accuracy (error=, rel_error=)")
+    check_scene(scene, levels_model(scene) if isinstance(scene, Scene) else None,
+                "a run to an accuracy (error=, rel_error=)")
     if progress is not None and not isinstance(progress, bool):
         raise ValueError(f"progress must be True, False or None, got {progress!r}")
     max_seconds = check_positive("max_seconds", max_seconds)
@@ -56,6 +56,11 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                              "function, so the piece error a target must include is unknown; "
                              "give envelopes.from_function(...) again")
     chosen = _check_statistics(scene, statistics)
+    if not _targets(scene, chosen):
+        # A filtered excitation's stop time is left out (levels.FILTER_LEFT_OUT).
+        raise ParameterError("observe", "observe: a run to an accuracy of a filtered "
+                             "excitation estimates no stop time, and the scene observes "
+                             "nothing else; observe another quantity, or run with paths=")
     piece_bias = None
     began = time.perf_counter()
     if scene.envelope is not None:

@@ -16,15 +16,16 @@ from .. import _core, bias, pieces
 from .._resources import available_memory
 from ..driver import Estimator, Task
 from ..quantities import core_flags
-from ..model import LEVELS
+from ..model import FILTERED_EXCITATION
 from ..results import AccuracyResult, StatisticsWarning
 from ..scene import Scene
 from ..streams import RANDOM_STREAM, check_random_stream
 from ..spec import check_scene, default_dt
 from .features import _control_slots, _Features
 from .levels import (_check_statistics, _Level, _sample_slots, _Sums, _targets, BASE_DT_FACTOR,
-                     BATCH_PATHS, MAX_SECONDS)
-from .schedule import _Schedule
+                     BATCH_PATHS, FILTER_BASE_DT_FACTOR, FILTER_MAX_PATHS, MAX_SECONDS,
+                     levels_model)
+from .schedule import MAX_LEVEL_PATHS, _Schedule
 BATCH_BYTES = 64 << 20
 #: Path-steps of the measurement of a level's time per path before its first batch
 #: (_Engine.measure): a few paths, discarded (at most one path, however long).
@@ -43,7 +44,15 @@ class _Engine(_Features, _Schedule, Estimator):
     def __init__(self, scene: Scene, *, eps: Optional[float], rel: Optional[float], seed: int,
                  threads: int, statistics: Optional[set] = None) -> None:
         # here too: the Dask task builds its own engine
-        self.scene = check_scene(scene, LEVELS, "a run to an accuracy (error=, rel_error=)")
+        self.scene = check_scene(scene, levels_model(scene),
+                                 "a run to an accuracy (error=, rel_error=)")
+        #: A filtered excitation (model.FILTERED_LEVELS): its own base grid and bias
+        #: estimate, no control variates.
+        self.filtered = FILTERED_EXCITATION in scene.effects
+        #: The paths a level may be given (the filtered core's plans draw fewer; the last
+        #: few are measure()'s).
+        self.max_level_paths = (float(FILTER_MAX_PATHS - 64) if self.filtered
+                                else MAX_LEVEL_PATHS)
         self.eps, self.rel = eps, rel
         self.seed = seed
         self.threads = threads
@@ -52,7 +61,8 @@ class _Engine(_Features, _Schedule, Estimator):
         self.quadratic = any(t.isometry for t in self.targets)
         flags = core_flags(scene.observe)
         self.integrals = flags["displacement"] or flags["distance"]
-        self.base_dt = BASE_DT_FACTOR * default_dt(scene)
+        self.base_dt = ((FILTER_BASE_DT_FACTOR if self.filtered else BASE_DT_FACTOR)
+                        * default_dt(scene))
         self.levels: List[_Level] = []
         self.centre = None
         self.path_steps = 0
@@ -83,7 +93,9 @@ class _Engine(_Features, _Schedule, Estimator):
         #: frictionless scene (mu = 0, h = 1, t = 0.5) the mean distance with the controls came
         #: out 0.66 reported errors low on average over 20 seeds (without them: 0.14 +- 0.18),
         #: a shift not understood yet (docs/methods/adaptive.md, "Limits").
-        self.use_controls = USE_CONTROLS and self.integrals and scene.drift > 0
+        #: Nor for a filtered excitation: they are the white-noise skeleton's.
+        self.use_controls = (USE_CONTROLS and self.integrals and scene.drift > 0
+                             and not self.filtered)
         self.beta = None
         self.sums_width = sum(w + w * (w + 1) // 2 for w in self.widths)
         #: What is left of the current round: [level, paths] to grow to, in order.
@@ -205,14 +217,15 @@ class _Engine(_Features, _Schedule, Estimator):
         control sums; RATE_STEPS path-steps, at least one path): their values are discarded
         (paths far beyond any the run draws), so the run is unchanged."""
         n = max(1, min(64, RATE_STEPS // lev.cost))
+        first = FILTER_MAX_PATHS - n if self.filtered else 1 << 61
         values = np.empty((n,) + tuple(lev.shape))
         t = time.perf_counter()
         if lev.controls:
             ctl = np.empty((n, len(lev.control_slots), _core.CONTROLS))
-            _core.run_samples(lev.plan, 1 << 61, n, self.threads, True, values, ctl,
+            _core.run_samples(lev.plan, first, n, self.threads, True, values, ctl,
                               lev.control_slots)
         else:
-            _core.run_samples(lev.plan, 1 << 61, n, self.threads, False, values)
+            _core.run_samples(lev.plan, first, n, self.threads, False, values)
         return time.perf_counter() - t, n
 
     def path_seconds(self, level: int) -> float:

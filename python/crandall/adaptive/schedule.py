@@ -135,7 +135,8 @@ class _Schedule:
                 level_mean = [m[1] - 2 * d * m[0] for m, _ in groups]
             level_se = [math.sqrt(v / lev.sums.n) for v, lev in zip(level_var, used)]
             se = math.sqrt(sum(x * x for x in level_se))
-            bias = 0.0 if t.exact else self._bias(level_mean, level_se)
+            bias = (0.0 if t.exact else self._measured_bias(level_mean, level_se)
+                    if self.filtered else self._bias(level_mean, level_se))
             out.append((value, se, bias, level_var))
         return out
 
@@ -154,6 +155,24 @@ class _Schedule:
         if last > 2 * level_se[-1] and prev > 2 * level_se[-2]:
             alpha = min(max(math.log2(prev / last), ALPHA_MIN), ALPHA_MAX)
         return max(last, prev * 2.0 ** -alpha) / (2.0 ** alpha - 1.0)
+
+    @staticmethod
+    def _measured_bias(level_mean: Sequence[float], level_se: Sequence[float]) -> float:
+        """A filtered excitation's estimate of the levels left out (model.FILTERED_LEVELS),
+        with no expansion of its grid bias known: the ratio r = |Y_(L-1)| / |Y_L| of the two
+        finest level means is measured where both are resolved (beyond 2 standard errors) and
+        kept in [FILTER_RATIO_MIN, 2]; else r = 2 (first order, as crandall.bias assumes for
+        a filtered scene's fixed-step bias). The levels left out, falling by r per level, sum
+        to max(|Y_L|, |Y_(L-1)| / r) / (r - 1): never a faster decay than first order is
+        assumed, and where no decay is seen the factor is 1 / (FILTER_RATIO_MIN - 1) = 10
+        (crandall.bias.MAX_ORDER_FACTOR's limit), which sends the run deeper."""
+        if len(level_mean) < 3:
+            return math.inf
+        last, prev = abs(level_mean[-1]), abs(level_mean[-2])
+        ratio = 2.0
+        if last > 2 * level_se[-1] and prev > 2 * level_se[-2]:
+            ratio = min(max(prev / last, FILTER_RATIO_MIN), 2.0)
+        return max(last, prev / ratio) / (ratio - 1.0)
 
     def tolerance(self, i: int, value: float, level_var) -> float:
         """The target of statistic i in the core's variable (the scene asks in the
@@ -203,7 +222,8 @@ class _Schedule:
         """The schedule to its end (or on from a checkpoint's state), as the driver's
         batches."""
         if self.pending is None:
-            deepest = 2 if self.level_targets and self.integrals else 0
+            # A filtered excitation's velocity has a grid bias too (model.FILTERED_LEVELS).
+            deepest = (2 if self.level_targets and (self.integrals or self.filtered) else 0)
             self.pending = [[level, PILOT_PATHS] for level in range(deepest + 1)]
             # The first estimate comes after the pilot: a scene whose pilot alone would
             # outlast max_seconds at a rate no machine reaches is refused before it starts.
@@ -282,10 +302,10 @@ class _Schedule:
                     if v <= 0:
                         continue
                     x = math.sqrt(v / c) * total / budget if budget > 0 else math.inf
-                    if not x < MAX_LEVEL_PATHS:
+                    if not x < self.max_level_paths:
                         raise self._unreachable(
                             i, f"level {level} would need {x:.3g} paths, beyond the "
-                            f"{MAX_LEVEL_PATHS:.3g} a level can draw")
+                            f"{self.max_level_paths:.3g} a level can draw")
                     want[level] = max(want[level], math.ceil(x))
                     asks[i] = asks.get(i, 0.0) + max(x - self.levels[level].sums.n, 0.0) * c
             if done:
@@ -376,7 +396,7 @@ class _Schedule:
             if start not in ((0, min(self.batch, PILOT_PATHS)) if k == 0 else (0,)):
                 raise ValueError(f"levels[{k}].start")
             n = _nonneg_int(lv["n"], f"levels[{k}].n")
-            if n > MAX_LEVEL_PATHS:
+            if n > self.max_level_paths:
                 raise ValueError(f"levels[{k}].n")
             lev.start = start
             if lv["flat"] is not None:
@@ -413,7 +433,7 @@ class _Schedule:
         if pending is not None:
             pending = [[_nonneg_int(a, "pending"), _nonneg_int(b, "pending")]
                        for a, b in pending]
-            if any(a > MAX_LEVELS or b > MAX_LEVEL_PATHS for a, b in pending):
+            if any(a > MAX_LEVELS or b > self.max_level_paths for a, b in pending):
                 raise ValueError("pending")
         self.pending = pending
 
@@ -440,3 +460,6 @@ REL_FLOOR = 0.01
 #: resolved, and the range a measured one is kept in (docs/methods/adaptive.md).
 ALPHA = 1.5
 ALPHA_MIN, ALPHA_MAX = 1.0, 3.0
+#: The smallest ratio of successive level means a filtered excitation's bias estimate takes
+#: (_Schedule._measured_bias).
+FILTER_RATIO_MIN = 1.1

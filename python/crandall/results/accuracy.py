@@ -8,6 +8,7 @@ from typing import Dict, List, Optional, Tuple
 import numpy as np
 
 from .. import _core
+from ..model import FILTERED_EXCITATION, FILTERED_LEVELS, LEVELS
 from ..quantities import names_for, quantity
 from ..scene import Scene
 from ..errors import ParameterError
@@ -35,6 +36,9 @@ class AccuracyResult(Result):
     ----------
     error_target, rel_error_target : float or None
         The target the run met (one of them).
+    model : str
+        The multilevel model the run rested on: ``"levels"`` (white noise) or
+        ``"filtered_levels"`` (a filtered excitation; docs/methods/adaptive.md).
     levels : list of dict
         Per level: ``level``, ``paths``, ``steps_per_path``, ``dt`` (its step).
     paths : int
@@ -77,6 +81,15 @@ class AccuracyResult(Result):
         raise ValueError("spec: a run to an accuracy has no fixed-step specification; its "
                          "target, seed and scene are error_target, rel_error_target, seed "
                          "and scene")
+
+    @property
+    def model(self) -> str:
+        """The name of the multilevel model the run rested on (crandall.model):
+        ``"filtered_levels"`` for a filtered excitation (levels on the filtered core's coupled
+        grids, the bias from the measured order), else ``"levels"`` (the white-noise
+        skeleton's levels, control variates and identities)."""
+        # As adaptive.levels.levels_model chooses it (the results load without the estimator).
+        return (FILTERED_LEVELS if FILTERED_EXCITATION in self.scene.effects else LEVELS).name
 
     @property
     def accumulators(self):
@@ -202,6 +215,8 @@ class AccuracyResult(Result):
         wall = self._wall_time
         lines = [f"crandall result: {sc!r}",
                  f"  {self.target_text()}  seed={self.seed}  method=mlmc  "
+                 + ("" if self.model == "levels" else f"model={self.model}  ")
+                 + 
                  f"levels={len(self.levels)}  paths per level={self.cost['paths']}  "
                  f"path-steps={self._path_steps:.3g}"
                  + ("" if wall is None else f"  time={wall:.3g} s")]

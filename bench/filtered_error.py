@@ -1,0 +1,221 @@
+"""Calibration of runs to an accuracy of a filtered excitation (``simulate(scene, error=EPS)``
+on a Kanai-Tajimi scene: crandall.model.FILTERED_LEVELS, docs/methods/adaptive.md).
+
+Over many independent seeds, per case and target: how often the reported 95 % interval
+(estimate +- 1.96 x ``Result.error``) holds the reference, and how often the estimate is within
+the target itself (the target bounds the root-mean-square error, so this is a one-standard-
+error claim: about 68 % or more, not 95 %), each with its Clopper-Pearson 95 % interval.
+
+References, none from the code under test:
+
+- ``frictionless``: mu = 0, so the body's velocity is minus the ground velocity, V = -G with
+  G the integral of a_g, and its displacement -D with D the integral of G: their variances
+  are the filter's augmented covariance, Van Loan's integral computed here with SciPy's
+  expm; the mean distance int_0^t E|V| ds = sqrt(2 / pi) int_0^t sd V(s) ds (V Gaussian) by
+  SciPy's quad.
+- ``euler_omega_tstar_4`` and ``_1``: the mean distance at the stop against the Euler anchors
+  measured outside the project (32,000 paths at dt = 2.5e-4 s, zeta = 0.6, mu g = 1, h = 1,
+  t0 = 10 s, static = kinetic friction): 0.776 +- 0.003 and 0.168 +- 0.002 of the white-noise
+  value h^2 t0 / (2 mu g) = 5 at omega t* = 4 and 1 (tests/test_filtered.py). Their standard
+  errors (0.015 and 0.01) are of the order of the runs' errors, so the interval is also
+  counted with them added in quadrature ("coverage_with_reference_se").
+
+Writes bench/out/filtered_error.{json,png} (bench/results/ with --publish).
+
+    .venv/bin/python bench/filtered_error.py [--seeds 200] [--threads 2] [--cases a,b]
+        [--stem filtered_error] [--publish]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+import numpy as np
+import scipy.integrate
+import scipy.linalg
+import scipy.stats
+
+import crandall
+from crandall import KanaiTajimi, Scene
+from _publish import write
+
+Z95 = 1.959963984540054
+ZETA = 0.6
+T0 = 10.0
+WHITE = T0 / 2.0  # h^2 t0 / (2 mu g) with h = mu g = 1
+TIMES = (1.0, 5.0)
+
+
+def augmented_cov(omega: float, zeta: float, h: float, t: float) -> np.ndarray:
+    """Cov of (x, x', G, D) at t from rest: Kanai-Tajimi's state, G = int a_g, D = int G,
+    a_g = -omega^2 x - 2 zeta omega x', driven by -h dW (Van Loan's block exponential)."""
+    w = omega
+    a = np.array([[0.0, 1.0, 0.0, 0.0], [-w * w, -2 * zeta * w, 0.0, 0.0],
+                  [-w * w, -2 * zeta * w, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
+    b = np.array([0.0, -1.0, 0.0, 0.0])
+    n = 4
+    m = np.zeros((2 * n, 2 * n))
+    m[:n, :n] = -a
+    m[:n, n:] = np.outer(b, b) * h * h
+    m[n:, n:] = a.T
+    e = scipy.linalg.expm(m * t)
+    return e[n:, n:].T @ e[:n, n:]
+
+
+def frictionless_references(omega: float = 2.0):
+    out = {}
+    for i, t in enumerate(TIMES):
+        c = augmented_cov(omega, ZETA, 1.0, t)
+        out[("velocity", "var", i)] = (float(c[2, 2]), 0.0)
+        out[("displacement", "var", i)] = (float(c[3, 3]), 0.0)
+        sd_integral = scipy.integrate.quad(
+            lambda s: math.sqrt(max(augmented_cov(omega, ZETA, 1.0, s)[2, 2], 0.0)), 0.0, t,
+            limit=200, epsabs=1e-12, epsrel=1e-10)[0]
+        out[("distance", "mean", i)] = (math.sqrt(2.0 / math.pi) * sd_integral, 0.0)
+    return out
+
+
+def cases():
+    """name -> (scene, statistics, target kind, target, references: key -> (value, its se))."""
+    frictionless = Scene(mu=0.0, g=1.0, excitation=KanaiTajimi(omega=2.0, zeta=ZETA, h=1.0),
+                         t0=T0, times=list(TIMES),
+                         observe=["velocity", "displacement", "distance"])
+    refs = frictionless_references()
+    out = {}
+    for rel in (0.02, 0.05):
+        out[f"frictionless_rel_{rel:g}"] = (
+            frictionless, ["velocity:var", "displacement:var", "distance:mean"], "rel_error",
+            rel, refs)
+    for tag, omega, anchor, se, targets in (("euler_omega_tstar_4", 2.0, 0.776, 0.003,
+                                             (0.03, 0.06)),
+                                            ("euler_omega_tstar_1", 0.5, 0.168, 0.002,
+                                             (0.02, 0.04))):
+        sc = Scene(mu=1.0, g=1.0, excitation=KanaiTajimi(omega=omega, zeta=ZETA, h=1.0), t0=T0,
+                   times=[T0], observe=["distance", "stop"])
+        for eps in targets:
+            out[f"{tag}_error_{eps:g}"] = (
+                sc, ["distance_at_stop:mean"], "error", eps,
+                {("distance_at_stop", "mean", None): (anchor * WHITE, se * WHITE)})
+    return out
+
+
+def clopper_pearson(k: int, n: int):
+    lo = 0.0 if k == 0 else float(scipy.stats.beta.ppf(0.025, k, n - k + 1))
+    hi = 1.0 if k == n else float(scipy.stats.beta.ppf(0.975, k + 1, n - k))
+    return [lo, hi]
+
+
+def key_name(key) -> str:
+    name, stat, i = key
+    return f"{name}_{stat}" + ("" if i is None else f"@{TIMES[i]:g}")
+
+
+def run_case(name, case, seeds: int, first_seed: int, threads: int):
+    scene, statistics, kind, target, refs = case
+    rows = {key_name(k): {"reference": v[0], "reference_se": v[1], "inside": 0,
+                          "inside_with_reference_se": 0, "within_target": 0, "z": [],
+                          "error": [], "bias": []} for k, v in refs.items()}
+    costs = []
+    for s in range(first_seed, first_seed + seeds):
+        r = crandall.simulate(scene, seed=s, threads=threads, statistics=statistics,
+                              **{kind: target})
+        assert r.model == "filtered_levels"
+        costs.append(r.cost)
+        for key, (ref, ref_se) in refs.items():
+            q, stat, i = key
+            value = r.mean(q) if stat == "mean" else r.var(q)
+            err, bias = r.error(q, stat), r.bias(q, stat)
+            if i is not None:
+                value, err, bias = value[i], err[i], bias[i]
+            row = rows[key_name(key)]
+            tol = target if kind == "error" else target * abs(ref)
+            row["inside"] += int(abs(value - ref) <= Z95 * err)
+            row["inside_with_reference_se"] += int(abs(value - ref) <= Z95 * math.hypot(err, ref_se))
+            row["within_target"] += int(abs(value - ref) <= tol)
+            row["z"].append(float((value - ref) / err))
+            row["error"].append(float(err))
+            row["bias"].append(float(bias))
+        print(f"{name} seed {s}: {time.strftime('%H:%M:%S')}", file=sys.stderr, flush=True)
+    for row in rows.values():
+        row["coverage"] = row["inside"] / seeds
+        row["coverage_interval"] = clopper_pearson(row["inside"], seeds)
+        row["coverage_with_reference_se"] = row["inside_with_reference_se"] / seeds
+        row["coverage_with_reference_se_interval"] = clopper_pearson(
+            row["inside_with_reference_se"], seeds)
+        row["within_target_fraction"] = row["within_target"] / seeds
+        row["within_target_interval"] = clopper_pearson(row["within_target"], seeds)
+        row["rms_z"] = float(np.sqrt(np.mean(np.square(row["z"]))))
+        row["mean_z"] = float(np.mean(row["z"]))
+        row["max_error"] = max(row["error"])
+        row["mean_bias_over_error"] = float(np.mean(np.array(row["bias"]) / np.array(row["error"])))
+    return {"scene": scene.to_dict(), "statistics": statistics, kind: target, "seeds": seeds,
+            "first_seed": first_seed, "rows": rows,
+            "wall_time_mean": float(np.mean([c["wall_time"] for c in costs])),
+            "paths_mean": [float(np.mean([c["paths"][k] if k < len(c["paths"]) else 0
+                                          for c in costs]))
+                           for k in range(max(len(c["paths"]) for c in costs))]}
+
+
+def plot(data, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    labels, cov, lo, hi = [], [], [], []
+    for cname, c in data["cases"].items():
+        for rname, row in c["rows"].items():
+            labels.append(f"{cname}: {rname}")
+            cov.append(row["coverage_with_reference_se"])
+            lo.append(row["coverage_with_reference_se_interval"][0])
+            hi.append(row["coverage_with_reference_se_interval"][1])
+    y = np.arange(len(labels))
+    fig, ax = plt.subplots(figsize=(8, 0.4 * len(labels) + 1.5))
+    ax.errorbar(cov, y, xerr=[np.array(cov) - lo, np.array(hi) - cov], fmt="o")
+    ax.axvline(0.95, color="g", label="nominal 95 %")
+    ax.set_yticks(y, labels)
+    ax.set_xlim(0.8, 1.0)
+    ax.set_xlabel(f"coverage of the 95 % interval ({data['seeds']} seeds per case; "
+                  "Clopper-Pearson 95 %)")
+    ax.legend(loc="lower left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seeds", type=int, default=200)
+    ap.add_argument("--first-seed", type=int, default=1000)
+    ap.add_argument("--threads", type=int, default=1)
+    ap.add_argument("--cases", default=None, help="comma-separated subset of the cases")
+    ap.add_argument("--stem", default="filtered_error", help="the output files' name")
+    ap.add_argument("--publish", action="store_true")
+    a = ap.parse_args()
+    t = time.perf_counter()
+    chosen = cases()
+    if a.cases:
+        chosen = {k: chosen[k] for k in a.cases.split(",")}
+    data = {"seeds": a.seeds, "cases": {}}
+    for name, case in chosen.items():
+        data["cases"][name] = run_case(name, case, a.seeds, a.first_seed, a.threads)
+    data["wall_time_total"] = time.perf_counter() - t
+    data["command"] = " ".join(["bench/filtered_error.py"] + sys.argv[1:])
+    data["crandall"] = crandall.__version__
+    for cname, c in data["cases"].items():
+        for rname, row in c["rows"].items():
+            print(f"{cname:22s} {rname:24s} coverage {row['coverage']:.3f} "
+                  f"(with ref se {row['coverage_with_reference_se']:.3f}, "
+                  f"CP {row['coverage_with_reference_se_interval'][0]:.3f}-"
+                  f"{row['coverage_with_reference_se_interval'][1]:.3f})  within target "
+                  f"{row['within_target_fraction']:.3f}  rms z {row['rms_z']:.2f}  "
+                  f"mean z {row['mean_z']:+.2f}")
+    for c in data["cases"].values():
+        for row in c["rows"].values():
+            del row["z"], row["error"], row["bias"]
+    write(a.stem, data, plot, publish=a.publish)
+
+
+if __name__ == "__main__":
+    main()

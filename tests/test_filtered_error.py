@@ -1,0 +1,155 @@
+"""Runs to an accuracy of a filtered excitation (simulate(scene, error=EPS) on a Kanai-Tajimi
+scene: crandall.model.FILTERED_LEVELS, docs/methods/adaptive.md). Their calibration over many
+seeds is bench/filtered_error.py's; here a run meets a loose target against references from
+outside the code, says which model it used, refuses what it cannot estimate by name, and
+resumes from a checkpoint to the same bits."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+import crandall
+from crandall import KanaiTajimi, Scene, adaptive, envelopes
+from crandall.adaptive.levels import FILTER_MAX_PATHS
+from crandall.errors import ParameterError
+
+ZETA = 0.6
+T0 = 10.0
+
+
+def _kt(omega=2.0, **kw):
+    return KanaiTajimi(omega=omega, zeta=ZETA, h=1.0, **kw)
+
+
+def _frictionless(times=(1.0, 2.0)):
+    return Scene(mu=0.0, g=1.0, excitation=_kt(), t0=T0, times=list(times),
+                 observe=["velocity", "distance"])
+
+
+def _velocity_var(t, omega=2.0):
+    """Var V(t) from rest without friction, V = -int a_g: Van Loan's integral of the filter's
+    state augmented by G = int a_g (a_g = -omega^2 x - 2 zeta omega x', driven by -dW), by
+    SciPy's expm: a reference independent of the core's own construction."""
+    a = np.array([[0.0, 1.0, 0.0], [-omega ** 2, -2 * ZETA * omega, 0.0],
+                  [-omega ** 2, -2 * ZETA * omega, 0.0]])
+    b = np.array([0.0, -1.0, 0.0])
+    m = np.zeros((6, 6))
+    m[:3, :3], m[:3, 3:], m[3:, 3:] = -a, np.outer(b, b), a.T
+    e = scipy.linalg.expm(m * t)
+    return float((e[3:, 3:].T @ e[:3, 3:])[2, 2])
+
+
+def _distance_mean(t):
+    """E int_0^t |V| ds = sqrt(2 / pi) int_0^t sd V(s) ds (V is Gaussian without friction)."""
+    # Gauss-Legendre with 48 nodes on [0, t] (sd V grows like s^1.5 near 0, smooth beyond):
+    # agrees with SciPy's adaptive quad to 1e-9 here, far below the runs' errors.
+    x, w = np.polynomial.legendre.leggauss(48)
+    s = 0.5 * t * (x + 1.0)
+    integral = 0.5 * t * sum(wi * math.sqrt(_velocity_var(si)) for wi, si in zip(w, s))
+    return math.sqrt(2.0 / math.pi) * integral
+
+
+def test_a_frictionless_run_meets_a_loose_target_against_van_loan(tmp_path):
+    rel = 0.05
+    r = crandall.simulate(_frictionless(), rel_error=rel, seed=11, threads=2,
+                          statistics=["velocity:var", "distance:mean"])
+    for i, t in enumerate((1.0, 2.0)):
+        for stat, ref in (("var", _velocity_var(t)), ("mean", _distance_mean(t))):
+            name = "velocity" if stat == "var" else "distance"
+            value = (r.var(name) if stat == "var" else r.mean(name))[i]
+            err = r.error(name, stat)[i]
+            # The run's own rule: error <= rel x |value| (the distance's mean exceeds its
+            # standard deviation here, so that is its scale too).
+            assert err <= rel * abs(value), (name, stat, t)
+            # 4 reported errors: a false failure has probability about 6e-5 per statistic.
+            assert abs(value - ref) <= 4 * err, (name, stat, t, value, ref, err)
+    # The result names the model it rested on, also read back from a file.
+    assert r.model == "filtered_levels"
+    assert "model=filtered_levels" in r.summary()
+    assert len(r.levels) >= 3  # the measured bias needs the two finest levels' means
+    r.save(tmp_path / "r.nc")
+    back = crandall.load(tmp_path / "r.nc")
+    assert back.model == "filtered_levels"
+    assert back.table("distance").tobytes() == r.table("distance").tobytes()
+    white = crandall.simulate(Scene.scaled(tau0=1.0, times=[1.0], observe=["velocity"]),
+                              error=0.1, seed=3, threads=1)
+    assert white.model == "levels" and "model=" not in white.summary()
+
+
+def test_the_mean_distance_at_the_stop_meets_the_target_against_the_euler_anchor():
+    # omega t* = 4 (t* = 2 h^2 / (mu g)^2 = 2 s): fine-step Euler outside the project gave
+    # 0.776 +- 0.003 of the white-noise value h^2 t0 / (2 mu g) = 5 (tests/test_filtered.py).
+    sc = Scene(mu=1.0, g=1.0, excitation=_kt(), t0=T0, times=[T0], observe=["distance", "stop"])
+    eps = 0.06
+    r = crandall.simulate(sc, error=eps, seed=12, threads=2, statistics=["distance_at_stop:mean"])
+    value, err = r.mean("distance_at_stop"), r.error("distance_at_stop")
+    assert err <= eps and r.bias("distance_at_stop") > 0.0 and not r.exact("distance_at_stop")
+    # 4 standard deviations of the difference (the run's error and the anchor's 0.015).
+    assert abs(value - 0.776 * 5.0) <= 4 * math.hypot(err, 0.003 * 5.0)
+
+
+def test_what_the_filtered_levels_do_not_estimate_is_refused_by_name():
+    sc = Scene(mu=1.0, g=1.0, excitation=_kt(), t0=T0, times=[T0], observe=["distance", "stop"])
+    with pytest.raises(ParameterError, match="stop_time is not available") as exc:
+        crandall.simulate(sc, error=0.1, seed=1, statistics=["stop_time:mean"])
+    assert exc.value.name == "statistics"
+    only_stop = Scene(mu=1.0, g=1.0, excitation=_kt(), t0=T0, times=[T0], observe=["stop"])
+    with pytest.raises(ParameterError, match="estimates no stop time") as exc:
+        crandall.simulate(only_stop, error=0.1, seed=1)
+    assert exc.value.name == "observe"
+    enveloped = Scene(mu=1.0, g=1.0, excitation=KanaiTajimi(omega=2.0, zeta=ZETA), times=[1.0],
+                      envelope=envelopes.amin_ang(1.0, t1=1.0, t2=2.0, c=1.0))
+    with pytest.raises(ParameterError, match=r"not available for a scene with envelope "
+                                             r"\(runs to an accuracy: the multilevel estimator "
+                                             r"on the filtered core") as exc:
+        crandall.simulate(enveloped, error=0.1, seed=1)
+    assert exc.value.name == "scene"
+    # Without statistics=, a run leaves the stop time out (its result holds no stop_time).
+    assert "stop_time" not in {t.name for t in adaptive._targets(sc)}
+    assert "stop_time" in {t.name for t in adaptive._targets(
+        Scene.scaled(tau0=1.0, times=[1.0], observe=["distance", "stop"]))}
+
+
+def test_checkpoint_resume_is_bitwise(tmp_path, monkeypatch):
+    sc = _frictionless(times=[0.5])
+    args = dict(rel_error=0.01, seed=21, statistics=["velocity:var", "distance:mean"])
+    monkeypatch.setattr(adaptive.entry, "CHECKPOINT_SECONDS", 0.0)
+    real = adaptive._core.run_samples
+
+    def batch(first):
+        # A level's time per path is measured on its last paths (discarded): no batch.
+        return first < FILTER_MAX_PATHS - 64
+
+    total = {"n": 0}
+
+    def counting(*a, **kw):
+        total["n"] += batch(a[1])
+        return real(*a, **kw)
+
+    monkeypatch.setattr(adaptive._core, "run_samples", counting)
+    whole = crandall.simulate(sc, threads=1, **args)
+    assert total["n"] >= 4 and whole.cost["rounds"] >= 2
+    for stop_after in (2, total["n"] - 1):
+        ckpt = tmp_path / f"run{stop_after}.json"
+        calls = {"n": 0}
+
+        def interrupted(*a, **kw):
+            calls["n"] += batch(a[1])
+            if calls["n"] > stop_after:
+                raise KeyboardInterrupt
+            return real(*a, **kw)
+
+        monkeypatch.setattr(adaptive._core, "run_samples", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            crandall.simulate(sc, threads=2, checkpoint=ckpt, **args)
+        monkeypatch.setattr(adaptive._core, "run_samples", real)
+        resumed = crandall.simulate(sc, threads=2, checkpoint=ckpt, **args)
+        for name in ("velocity", "distance"):
+            assert resumed.table(name).tobytes() == whole.table(name).tobytes(), (stop_after,
+                                                                                  name)
+        assert resumed.cost["paths"] == whole.cost["paths"]
+        assert resumed.cost["path_steps"] == whole.cost["path_steps"]
