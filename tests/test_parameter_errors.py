@@ -98,3 +98,13 @@ def test_the_entry_points_name_their_parameter():
     moving = crandall.simulate(crandall.Scene(mu=0.3, h=1.0, t0=1.0, v0=0.5, times=[1.0]),
                                paths=10, seed=1)
     assert _names(lambda: crandall.paper.scaled_factors(moving)) == "result"
+
+
+def test_runs_to_an_accuracy_name_their_parameter():
+    scene = crandall.Scene.scaled(tau0=1.0, times=[1.0])
+    assert _names(lambda: crandall.simulate(scene, error=0.1, rel_error=0.1)) == "error, rel_error"
+    assert _names(lambda: crandall.simulate(scene, error=0.1, statistics=["nonesuch:mean"])) \
+        == "statistics"
+    assert _names(lambda: crandall.simulate(scene, error=0.1, statistics=[])) == "statistics"
+    peaks = crandall.Scene.scaled(tau0=1.0, times=[1.0], observe=["velocity", "peaks"])
+    assert _names(lambda: crandall.simulate(peaks, error=0.1)) == "observe"

@@ -33,19 +33,19 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
     check_scene(scene, levels_model(scene) if isinstance(scene, Scene) else None,
                 "a run to an accuracy (error=, rel_error=)")
     if progress is not None and not isinstance(progress, bool):
-        raise ValueError(f"progress must be True, False or None, got {progress!r}")
+        raise ParameterError("progress", f"progress must be True, False or None, got {progress!r}")
     max_seconds = check_positive("max_seconds", max_seconds)
     if (error is None) == (rel_error is None):
-        raise ValueError("error: give exactly one of error= and rel_error=")
+        raise ParameterError("error, rel_error", "error: give exactly one of error= and rel_error=")
     eps = check_positive("error", error) if error is not None else None
     rel = check_positive("rel_error", rel_error) if rel_error is not None else None
     seed = check_int("seed", seed, 0, MAX_SEED)
     if "peaks" in scene.observe:
-        raise ValueError("observe: 'peaks' is not available with error= or rel_error= (the "
+        raise ParameterError("observe", "observe: 'peaks' is not available with error= or rel_error= (the "
                          "peaks are maxima over the grid, whose shortfall the levels do not "
                          "estimate); run the peaks with paths=")
     if scene.distributions:
-        raise ValueError("distributions: a run to an accuracy estimates means and variances "
+        raise ParameterError("distributions", "distributions: a run to an accuracy estimates means and variances "
                          "and keeps no histograms; leave distributions out of the scene, or "
                          "run them with paths=")
     if scene.envelope is not None and scene.envelope.function is None:

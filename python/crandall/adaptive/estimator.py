@@ -15,6 +15,7 @@ import numpy as np
 from .. import _core, bias, pieces
 from .._resources import available_memory
 from ..driver import Estimator, Task
+from ..errors import ParameterError
 from ..quantities import core_flags
 from ..model import FILTERED_EXCITATION
 from ..results import AccuracyResult, StatisticsWarning
@@ -136,8 +137,8 @@ class _Engine(_Features, _Schedule, Estimator):
         need = self.batch * per_path + self.threads * (16 << 20)
         have = available_memory()
         if need > have:
-            raise ValueError(
-                f"times: a run to an accuracy of {len(self.scene.times)} output times "
+            raise ParameterError(
+                "times", f"times: a run to an accuracy of {len(self.scene.times)} output times "
                 f"({self.threads} threads) needs about {need / 2**20:.0f} MiB for its batches "
                 f"and threads, more than the {have / 2**20:.0f} MiB this process may still "
                 "allocate (free memory, rlimits, cgroup); give fewer times, statistics or "

@@ -87,7 +87,7 @@ def _check_statistics(scene: Scene, statistics) -> Optional[set]:
         statistics = [statistics]
     if isinstance(statistics, Mapping) or not isinstance(statistics, Iterable):
         # A dict would be read as its keys (the means), whatever its values say.
-        raise ValueError(f"statistics: give a list such as ['distance:var', 'velocity:mean'] "
+        raise ParameterError("statistics", f"statistics: give a list such as ['distance:var', 'velocity:mean'] "
                          f"or of pairs (name, stat), got {statistics!r}")
     held = names_for(scene.observe)
     out = set()
@@ -98,13 +98,13 @@ def _check_statistics(scene: Scene, statistics) -> Optional[set]:
         elif isinstance(item, tuple) and len(item) == 2:
             name, stat = item
         else:
-            raise ValueError(f"statistics: give names such as 'distance:var' or pairs "
+            raise ParameterError("statistics", f"statistics: give names such as 'distance:var' or pairs "
                              f"(name, stat), got {item!r}")
         if name not in held:
-            raise ValueError(f"statistics: {name!r} is not observed by the scene; it holds "
+            raise ParameterError("statistics", f"statistics: {name!r} is not observed by the scene; it holds "
                              f"{', '.join(held)}")
         if stat not in STATS:
-            raise ValueError(f"statistics: the statistic of {name!r} must be one of "
+            raise ParameterError("statistics", f"statistics: the statistic of {name!r} must be one of "
                              f"{', '.join(STATS)}, got {stat!r}")
         if name in FILTER_LEFT_OUT and FILTERED_EXCITATION in scene.effects:
             raise ParameterError(
@@ -115,7 +115,7 @@ def _check_statistics(scene: Scene, statistics) -> Optional[set]:
                 "estimates its bias from three coupled grids)")
         out.add((name, stat))
     if not out:
-        raise ValueError("statistics: name at least one statistic")
+        raise ParameterError("statistics", "statistics: name at least one statistic")
     return out
 
 

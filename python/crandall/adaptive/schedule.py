@@ -16,6 +16,7 @@ import numpy as np
 from .. import _core, bias, pieces
 from ..checkpoint import json_state, read_json_state
 from ..driver import Progress
+from ..errors import ParameterError
 from ..quantities import quantity
 from .levels import _Level, _Sums, PILOT_PATHS
 #: Levels beyond the base (the finest grid is 2^MAX_LEVELS times finer than the base).
@@ -229,8 +230,8 @@ class _Schedule:
             # outlast max_seconds at a rate no machine reaches is refused before it starts.
             pilot = sum(PILOT_PATHS * self._level(level).cost for level, _ in self.pending)
             if pilot / FASTEST_RATE > self.max_seconds:
-                raise ValueError(
-                    f"max_seconds: the pilot alone ({PILOT_PATHS} paths per level, "
+                raise ParameterError(
+                    "max_seconds", f"max_seconds: the pilot alone ({PILOT_PATHS} paths per level, "
                     f"{pilot:.3g} path-steps) would take at least {pilot / FASTEST_RATE:.3g} s "
                     f"even at {FASTEST_RATE:.0e} path-steps per second, beyond max_seconds="
                     f"{self.max_seconds:g}; give shorter times or t0, or observe only velocity, "
@@ -330,8 +331,8 @@ class _Schedule:
                 self.pending = [[len(self.levels), PILOT_PATHS]]
                 continue
             if deeper:
-                raise ValueError(
-                    f"error: the discretisation bias is still above the target on a grid "
+                raise ParameterError(
+                    "error", f"error: the discretisation bias is still above the target on a grid "
                     f"2^{MAX_LEVELS} times finer than the base; ask for a larger error")
             self.pending = []
             for level, n in enumerate(want):
