@@ -91,6 +91,13 @@ void extend_paths(double* states, std::size_t rows_total, const BranchGrid& grid
       throw std::invalid_argument("states: the start state of row " + std::to_string(rows[i]) +
                                   " is not finite");
   }
+  extend_rows(states, grid, rows, starts, streams, count, key, threads, touched);
+}
+
+void extend_rows(double* states, const BranchGrid& grid, const std::int64_t* rows,
+                 const std::int64_t* starts, const std::uint64_t* streams, std::size_t count,
+                 std::uint64_t key, int threads, std::uint8_t* touched) {
+  const std::size_t points = grid.steps + 1;
   double work = 0.0;  // the steps to take: splitting extends a few short paths at a time
   for (std::size_t i = 0; i < count; ++i)
     work += double(grid.steps - static_cast<std::size_t>(starts[i]));

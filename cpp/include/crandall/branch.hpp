@@ -51,4 +51,10 @@ void extend_paths(double* states, std::size_t rows_total, const BranchGrid& grid
                   const std::uint64_t* streams, std::size_t count, std::uint64_t key,
                   int threads, std::uint8_t* touched = nullptr);
 
+// extend_paths without its checks (the grid, the rows, the start states): for callers that
+// made them once (split_replica, split.hpp).
+void extend_rows(double* states, const BranchGrid& grid, const std::int64_t* rows,
+                 const std::int64_t* starts, const std::uint64_t* streams, std::size_t count,
+                 std::uint64_t key, int threads, std::uint8_t* touched = nullptr);
+
 }  // namespace crandall

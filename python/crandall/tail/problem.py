@@ -12,6 +12,7 @@ import numpy as np
 from .. import _core
 from .._lazy import lazy_module
 from ..errors import ParameterError
+from ..excitation import WhiteNoise
 from ..model import TAIL_MODEL
 from ..scene import Scene
 from ..spec import check_positive, check_scene, default_dt, is_real
@@ -208,6 +209,12 @@ class _Problem:
     def split_threshold(self, level: float, top: float) -> float:
         """The normalised score's value at the last point for Q = level (0 for level = top)."""
         return (level - top) / (self._scale() * np.sqrt(0.0 + self.floor2()))
+
+    @property
+    def white_noise(self) -> bool:
+        """Whether the paths are the white-noise grid's (_extend): splitting's loop then runs in
+        the core (split_core.py)."""
+        return isinstance(self.scene.excitation, WhiteNoise)
 
     @property
     def noisy_steps(self) -> int:
