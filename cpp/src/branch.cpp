@@ -2,12 +2,14 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "crandall/coast.hpp"
+#include "crandall/dispatch.hpp"
 #include "crandall/exact_step.hpp"
 #include "crandall/kernel.hpp"
 #include "crandall/rng.hpp"
@@ -42,10 +44,10 @@ void validate_branch_grid(const BranchGrid& g) {
 namespace {
 
 void extend_one(double* row, std::uint8_t* touched, const BranchGrid& g, std::size_t start,
-                std::uint64_t stream, std::uint64_t key) {
+                std::uint64_t stream, std::uint64_t key, std::size_t end) {
   double x = row[3 * start], u = row[3 * start + 1], s = row[3 * start + 2];
   StepNoise z[2];
-  for (std::size_t k = start; k < g.steps; ++k) {
+  for (std::size_t k = start; k < end; ++k) {
     if (k == start || k % 2 == 0) draw_pair(key, stream, k / 2, z);
     const StepNoise& n = z[k % 2];
     const double len = g.lengths[k], c = g.drift(k, x), sigma = g.noises[k];
@@ -108,7 +110,72 @@ void extend_rows(double* states, const BranchGrid& grid, const std::int64_t* row
     extend_one(states + static_cast<std::size_t>(rows[i]) * points * 3,
                touched == nullptr ? nullptr
                                   : touched + static_cast<std::size_t>(rows[i]) * grid.steps,
-               grid, static_cast<std::size_t>(starts[i]), streams[i], key);
+               grid, static_cast<std::size_t>(starts[i]), streams[i], key, grid.steps);
+}
+
+LaneGridData::LaneGridData(const BranchGrid& g)
+    : grid(g), mean(g.steps), scale(g.steps), twice_variance(g.steps), coast(g.steps) {
+  if (g.slow != nullptr) throw std::invalid_argument("the lanes take no slow law");
+  for (std::size_t k = 0; k < g.steps; ++k) {
+    const StepConstants c = step_constants(g.lengths[k], g.drifts[k], g.noises[k]);
+    mean[k] = c.mean;
+    scale[k] = c.scale;
+    twice_variance[k] = c.twice_variance;
+    coast[k] = g.noises[k] == 0.0 && g.drifts[k] >= 0.0;
+  }
+}
+
+LaneGrid LaneGridData::view() const {
+  return {grid.lengths, grid.drifts, grid.noises, mean.data(), scale.data(),
+          twice_variance.data(), coast.data(), grid.steps};
+}
+
+void extend_rows_in_lanes(double* states, const LaneGridData& data, const std::int64_t* rows,
+                          const std::int64_t* starts, const std::uint64_t* streams,
+                          std::size_t count, std::uint64_t key, int threads,
+                          const KernelTable* kernel) {
+  const KernelTable& table = kernel != nullptr ? *kernel : active_kernel();
+  const BranchGrid& g = data.grid;
+  const std::size_t points = g.steps + 1;
+  // An odd start's first step alone (the second half of its pair); then every start is even.
+  std::vector<std::size_t> order;
+  std::vector<std::int64_t> even(count);
+  order.reserve(count);
+  double work = 0.0;
+  for (std::size_t i = 0; i < count; ++i) {
+    auto k = static_cast<std::size_t>(starts[i]);
+    if (k % 2 == 1 && k < g.steps) {
+      extend_one(states + static_cast<std::size_t>(rows[i]) * points * 3, nullptr, g, k,
+                 streams[i], key, k + 1);
+      ++k;
+    }
+    even[i] = static_cast<std::int64_t>(k);
+    if (k < g.steps) {
+      order.push_back(i);
+      work += double(g.steps - k);
+    }
+  }
+  // Lanes of close starts end together.
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return even[a] < even[b]; });
+  const std::size_t m = order.size();
+  std::vector<std::int64_t> r(m), st(m);
+  std::vector<std::uint64_t> sm(m);
+  for (std::size_t j = 0; j < m; ++j) {
+    r[j] = rows[order[j]];
+    st[j] = even[order[j]];
+    sm[j] = streams[order[j]];
+  }
+  const LaneGrid view = data.view();
+  const long groups = static_cast<long>((m + kBranchLanes - 1) / kBranchLanes);
+  const int team = thread_count(threads, work);
+#pragma omp parallel for schedule(dynamic, 1) num_threads(team) if (team > 1)
+  for (long b = 0; b < groups; ++b) {
+    const std::size_t at = static_cast<std::size_t>(b) * kBranchLanes;
+    const int n = static_cast<int>(std::min<std::size_t>(kBranchLanes, m - at));
+    table.extend_lanes(states, points, view, r.data() + at, st.data() + at, sm.data() + at, n,
+                       key);
+  }
 }
 
 }  // namespace crandall

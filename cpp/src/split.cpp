@@ -151,25 +151,45 @@ SplitOutcome split_replica(const BranchGrid& grid, const SplitScore& score, cons
     throw std::invalid_argument("v0 and u0 must be finite");
   const bool peak = score.quantity == SplitQuantity::peak_displacement_at_stop ||
                     score.quantity == SplitQuantity::peak_speed_at_stop;
-  std::vector<double> states(n * points * 3), rank(n * points), plain(n * points);
+  // Per particle: its states (only the point it continues from is read after it moved on),
+  // the running maximum of its rank from the first point on (`reach`: its path maximum is the
+  // last, and its branch point for a kill level z the first point above z), and for the peaks
+  // the running maximum of the quantity's score (the quantity is the last).
+  std::vector<double> states(n * points * 3), reach(n * points), peaks(peak ? n * points : 0);
+  std::vector<double> rank(points), plain(points);  // one row's scores
   std::vector<double> level(n), value(n);
+  // The paths continue in the vector lanes of the kernel's variant (branch_lanes.inc): the
+  // scalar extend_paths' bits.
+  const LaneGridData lanes(grid);
   const std::uint64_t base = run.replica * kReplicaStreams;
+  constexpr double kLowest = -std::numeric_limits<double>::infinity();
 
+  // The scores of row i from point `from` on (the points before it are its parent's).
   auto rescore = [&](std::size_t i, std::size_t from) {
-    double* r = rank.data() + i * points;
-    double* p = plain.data() + i * points;
-    split_score_row(score, steps, states.data() + i * points * 3, from, r, p);
-    double top = r[run.first];
-    for (std::size_t k = run.first + 1; k <= steps; ++k)
-      if (r[k] > top || std::isnan(r[k])) top = std::isnan(top) ? top : r[k];  // NumPy's max
+    split_score_row(score, steps, states.data() + i * points * 3, from, rank.data(), plain.data());
+    double* r = reach.data() + i * points;
+    const std::size_t k0 = std::max(from, run.first);
+    double top = k0 > run.first ? r[k0 - 1] : kLowest;
+    bool nan = false;
+    for (std::size_t k = k0; k <= steps; ++k) {
+      nan |= std::isnan(rank[k]);
+      top = std::max(top, rank[k]);
+      r[k] = top;
+    }
+    // The paths' states are finite (the exact step's range), so are their scores; a NaN would
+    // make the running maxima meaningless.
+    if (nan) throw std::runtime_error("splitting: a path's score is not a number");
     level[i] = top;
     if (peak) {
-      double v = p[0];
-      for (std::size_t k = 1; k <= steps; ++k)
-        if (p[k] > v || std::isnan(p[k])) v = std::isnan(v) ? v : p[k];
+      double* m = peaks.data() + i * points;
+      double v = from > 0 ? m[from - 1] : kLowest;
+      for (std::size_t k = from; k <= steps; ++k) {
+        v = std::max(v, plain[k]);
+        m[k] = v;
+      }
       value[i] = v;
     } else {
-      value[i] = p[steps];
+      value[i] = plain[steps];
     }
   };
 
@@ -183,8 +203,8 @@ SplitOutcome split_replica(const BranchGrid& grid, const SplitScore& score, cons
     rows[i] = static_cast<std::int64_t>(i);
     streams[i] = base + i;
   }
-  extend_rows(states.data(), grid, rows.data(), starts.data(), streams.data(), n, run.key,
-              run.threads);
+  extend_rows_in_lanes(states.data(), lanes, rows.data(), starts.data(), streams.data(), n,
+                       run.key, run.threads);
   for (std::size_t i = 0; i < n; ++i) rescore(i, 0);
 
   SplitOutcome out;
@@ -244,24 +264,25 @@ SplitOutcome split_replica(const BranchGrid& grid, const SplitScore& score, cons
     for (std::size_t j = 0; j < kc; ++j) {
       const std::size_t parent = static_cast<std::size_t>(survivors[static_cast<std::size_t>(picks[j])]);
       const std::size_t child = static_cast<std::size_t>(killed[j]);
-      const double* r = rank.data() + parent * points;
-      std::size_t b = run.first;
-      for (std::size_t k = run.first; k <= steps; ++k)
-        if (r[k] > z) {
-          b = k;
-          break;
-        }
+      // The first point from `first` on where the parent's score exceeds z (it has one: its
+      // level is above z).
+      const double* r = reach.data() + parent * points;
+      const std::size_t b =
+          static_cast<std::size_t>(std::upper_bound(r + run.first, r + points, z) - r);
       starts[j] = static_cast<std::int64_t>(b);
       streams[j] = base + branches + j;
-      std::copy_n(states.data() + parent * points * 3, (b + 1) * 3, states.data() + child * points * 3);
-      std::copy_n(rank.data() + parent * points, b + 1, rank.data() + child * points);
-      std::copy_n(plain.data() + parent * points, b + 1, plain.data() + child * points);
+      // What the child reads of its parent: the state it continues from, and the scores before
+      // it (the path maxima; the branch points of later clones). The states before it are
+      // never read again.
+      std::copy_n(states.data() + (parent * points + b) * 3, 3, states.data() + (child * points + b) * 3);
+      std::copy_n(reach.data() + parent * points, b, reach.data() + child * points);
+      if (peak) std::copy_n(peaks.data() + parent * points, b, peaks.data() + child * points);
       out.steps += static_cast<std::int64_t>(steps - b);
     }
-    extend_rows(states.data(), grid, killed.data(), starts.data(), streams.data(), kc, run.key,
-                run.threads);
+    extend_rows_in_lanes(states.data(), lanes, killed.data(), starts.data(), streams.data(), kc,
+                         run.key, run.threads);
     for (std::size_t j = 0; j < kc; ++j)
-      rescore(static_cast<std::size_t>(killed[j]), static_cast<std::size_t>(starts[j]) + 1);
+      rescore(static_cast<std::size_t>(killed[j]), static_cast<std::size_t>(starts[j]));
     branches += kc;
     ++out.iterations;
   }

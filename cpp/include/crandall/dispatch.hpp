@@ -15,6 +15,7 @@ namespace crandall {
 
 struct Workspace;
 class BinEdges;
+struct LaneGrid;
 
 using BlockFn = void (*)(const Plan&, std::uint64_t, std::uint64_t, Workspace&);
 
@@ -44,6 +45,11 @@ struct KernelTable {
   // BinEdges::cell in every variant.
   void (*count_values)(const BinEdges& edges, const double* x, std::size_t n,
                        std::uint64_t* counts);
+  // Rows continued in vector lanes (branch_lanes.inc): entries [0, count) of rows, starts
+  // (even) and streams, count <= kBranchLanes (branch.hpp's extend_rows_in_lanes calls it).
+  void (*extend_lanes)(double* states, std::size_t points, const LaneGrid& grid,
+                       const std::int64_t* rows, const std::int64_t* starts,
+                       const std::uint64_t* streams, int count, std::uint64_t key);
 };
 
 // Variants compiled into this build, lowest first (baseline only on non-x86 hosts).
