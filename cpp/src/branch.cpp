@@ -155,7 +155,7 @@ void extend_rows_in_lanes(double* states, const LaneGridData& data, const std::i
       work += double(g.steps - k);
     }
   }
-  // Lanes of close starts end together.
+  // The longest first: the lanes' last rows are short ones.
   std::stable_sort(order.begin(), order.end(),
                    [&](std::size_t a, std::size_t b) { return even[a] < even[b]; });
   const std::size_t m = order.size();
@@ -167,15 +167,19 @@ void extend_rows_in_lanes(double* states, const LaneGridData& data, const std::i
     sm[j] = streams[order[j]];
   }
   const LaneGrid view = data.view();
-  const long groups = static_cast<long>((m + kBranchLanes - 1) / kBranchLanes);
-  const int team = thread_count(threads, work);
-#pragma omp parallel for schedule(dynamic, 1) num_threads(team) if (team > 1)
-  for (long b = 0; b < groups; ++b) {
-    const std::size_t at = static_cast<std::size_t>(b) * kBranchLanes;
-    const int n = static_cast<int>(std::min<std::size_t>(kBranchLanes, m - at));
-    table.extend_lanes(states, points, view, r.data() + at, st.data() + at, sm.data() + at, n,
-                       key);
+  const int team = std::max(1, std::min(thread_count(threads, work), static_cast<int>(m)));
+#pragma omp parallel for schedule(static, 1) num_threads(team) if (team > 1)
+  for (int b = 0; b < team; ++b) {
+    const std::size_t from = m * static_cast<std::size_t>(b) / static_cast<std::size_t>(team);
+    const std::size_t to = m * static_cast<std::size_t>(b + 1) / static_cast<std::size_t>(team);
+    table.extend_lanes(states, points, view, r.data() + from, st.data() + from, sm.data() + from,
+                       static_cast<int>(to - from), key);
   }
+  // The lanes end at the last even point: the last step of an odd grid alone.
+  if (g.steps % 2 == 1)
+    for (std::size_t j = 0; j < m; ++j)
+      extend_one(states + static_cast<std::size_t>(r[j]) * points * 3, nullptr, g, g.steps - 1,
+                 sm[j], key, g.steps);
 }
 
 }  // namespace crandall

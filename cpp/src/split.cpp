@@ -8,6 +8,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "crandall/dispatch.hpp"
 #include "crandall/rng.hpp"
 #include "crandall/run.hpp"
 
@@ -112,7 +113,9 @@ void split_score_row(const SplitScore& sc, std::size_t steps, const double* row,
       for (std::size_t k = from; k <= steps; ++k) plain[k] = std::abs(row[3 * k]);
       break;
   }
-  if (sc.normalised) {
+  if (sc.normalised && sc.normalised_rank != nullptr) {
+    sc.normalised_rank(sc, steps, row, from, plain, rank);
+  } else if (sc.normalised) {
     // _Problem.split_score's normalised form.
     for (std::size_t k = from; k <= steps; ++k) {
       const double q = std::abs(row[3 * k]) / c;
@@ -138,7 +141,10 @@ void split_score_row(const SplitScore& sc, std::size_t steps, const double* row,
   }
 }
 
-SplitOutcome split_replica(const BranchGrid& grid, const SplitScore& score, const SplitRun& run) {
+SplitOutcome split_replica(const BranchGrid& grid, const SplitScore& given, const SplitRun& run) {
+  SplitScore score = given;
+  if (score.normalised && score.normalised_rank == nullptr)
+    score.normalised_rank = active_kernel().normalised_rank;
   validate_branch_grid(grid);
   if (grid.slow != nullptr) throw std::invalid_argument("split_replica: a slow law is not supported");
   const std::size_t n = run.particles, steps = grid.steps, points = steps + 1;

@@ -12,11 +12,14 @@
 
 namespace {
 
-TEST(BranchLanes, EveryVariantGivesTheScalarBits) {
-  // Steps of several lengths and intensities, a pause (the coast), a negative drift, and a step
-  // too short for the regular formulas (the lanes' scalar fallback).
+// Steps of several lengths and intensities, a pause (the coast), a negative drift, and a step
+// too short for the regular formulas (the lanes' scalar fallback); an odd grid (its last step
+// is taken alone) and an even one.
+class BranchLanes : public ::testing::TestWithParam<int> {};
+
+TEST_P(BranchLanes, EveryVariantGivesTheScalarBits) {
   std::vector<double> lengths, noises, drifts;
-  for (int k = 0; k < 41; ++k) {
+  for (int k = 0; k < GetParam(); ++k) {
     lengths.push_back(k == 17 ? 1e-300 : 0.05 + 0.01 * (k % 3));
     noises.push_back(k >= 20 && k < 24 ? 0.0 : 1.0 + 0.5 * (k % 2));
     drifts.push_back(k == 30 ? -0.5 : 1.5);
@@ -51,6 +54,8 @@ TEST(BranchLanes, EveryVariantGivesTheScalarBits) {
   }
   EXPECT_GE(ran, 1);
 }
+
+INSTANTIATE_TEST_SUITE_P(Grids, BranchLanes, ::testing::Values(41, 40));
 
 TEST(SplitParents, UniformAndAPureFunctionOfTheirKey) {
   std::vector<std::int64_t> a(70000), b(10), c(10);

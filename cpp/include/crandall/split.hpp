@@ -59,6 +59,10 @@ struct SplitScore {
   const double* step = nullptr;
   double floor2 = 0.0;
   double scale = 1.0;
+  // The normalised rank's loop of a kernel variant (KernelTable::normalised_rank: the same
+  // bits, vectorised), or null: split_score_row's own.
+  void (*normalised_rank)(const SplitScore&, std::size_t steps, const double* row,
+                          std::size_t from, const double* plain, double* rank) = nullptr;
 };
 
 // rank[k] and plain[k] for k in [from, steps] of a row of states (steps + 1 points x 3).
