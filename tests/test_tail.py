@@ -293,6 +293,10 @@ def test_the_result_does_not_depend_on_threads_and_a_checkpoint_resumes_bitwise(
     two = tail(PAPER, "stop_time", [12.0], threads=2, **args)
     assert one.probability.tobytes() == two.probability.tobytes()
     assert one.stderr.tobytes() == two.stderr.tobytes()
+    # Replicas run three at a time here: batches that do not divide the pilot's.
+    three = tail(PAPER, "stop_time", [12.0], threads=3, **args)
+    assert three.probability.tobytes() == one.probability.tobytes()
+    assert three.samples == one.samples
     path = tmp_path / "tail.ckpt"
     full = tail(PAPER, "stop_time", [12.0], threads=2, checkpoint=str(path), **args)
     assert full.probability.tobytes() == one.probability.tobytes()
