@@ -9,7 +9,9 @@ Measured, one thread, in one run:
    importance sampling) to a 10 % relative error: wall time, achieved relative error, and the
    stop time's estimate against the closed form (z with the reported standard error).
 2. Plain Monte Carlo of the same quantities (crandall.simulate, method exact, the same step):
-   its measured time per path; its time to 10 % at p is 100 / p paths times that.
+   its measured time per path; its time to 10 % at p is 100 / p paths times that. Its
+   path-steps per second (the fixed-step kernel's rate) against splitting's (the steps its
+   particles take over the seconds of its run): ``rate_against_kernel``.
 3. The residual displacement |U(t_s)| of the shipped scene crate (SI), from 1 down to 1e-9 in one
    splitting run, with its 95 % band, joined to plain Monte Carlo where that is informative;
    and its last level by importance sampling (the excursions' signs re-drawn) and by
@@ -89,8 +91,22 @@ def main() -> None:
     t = time.perf_counter()
     crandall.simulate(mc_scene, paths=mc_paths, seed=1, method="exact", threads=1)
     per_path = (time.perf_counter() - t) / mc_paths
-    mc = {"paths": mc_paths, "seconds_per_path": per_path}
+    # The fixed-step kernel's path-step rate on the grid splitting stores its paths on (the
+    # same step; the coast after the excitation is closed-form in both): what the rate of
+    # splitting's own path-steps (its particles' steps, clones from their branch point) is
+    # compared with.
+    from crandall.tail.problem import _Problem
+    grid_steps = _Problem(scene, "stop_time", None, None).steps
+    kernel_rate = grid_steps / per_path
+    mc = {"paths": mc_paths, "seconds_per_path": per_path, "steps_per_path": grid_steps,
+          "path_steps_per_second": kernel_rate}
+    print(f"plain Monte Carlo: {kernel_rate / 1e6:.0f} M path-steps/s")
     for name, e in runs.items():
+        if e["method"] == "splitting":
+            e["path_steps_per_second"] = e["steps"] / e["seconds"]
+            e["rate_against_kernel"] = e["path_steps_per_second"] / kernel_rate
+            print(f"  {name}: {e['path_steps_per_second'] / 1e6:.1f} M path-steps/s, "
+                  f"{e['rate_against_kernel']:.3f} of the kernel's")
         mc_seconds = 100.0 / e["probability"] * per_path
         e["plain_monte_carlo_seconds"] = mc_seconds
         e["speedup"] = mc_seconds / e["seconds"]

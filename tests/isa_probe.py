@@ -38,7 +38,25 @@ def probe(paths: int) -> dict:
                               progress=False)
         stats[f"{method}/pauses"] = hex_statistics(r)
     return {"isa": _core.build_info()["isa"], "available": _core.build_info()["isa_available"],
-            "stats": stats, "newmark": newmark_probe()}
+            "stats": stats, "newmark": newmark_probe(), "split": split_probe()}
+
+
+def split_probe() -> dict:
+    """Splitting replicas in the core (its particles in the variant's vector lanes) with the
+    plain and the normalised score: their estimates and info, as hex."""
+    import numpy as np
+
+    from crandall.tail.problem import _Problem
+    from crandall.tail.splitting import _splitting_replica
+
+    scene = crandall.Scene.scaled(tau0=2.0, times=[2.0])
+    out = {}
+    for quantity, levels in (("stop_time", [3.0, 4.0]), ("distance_at_stop", [6.0])):
+        est, info = _splitting_replica(_Problem(scene, quantity, None, 0.05),
+                                       np.array(levels), 30, 3, 11, 1, 1, 5000)
+        out[quantity] = [float(x).hex() for x in est] + [
+            float(info["log_weight"]).hex(), info["iterations"], info["steps"]]
+    return out
 
 
 def newmark_probe() -> dict:

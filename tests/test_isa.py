@@ -59,6 +59,7 @@ def test_default_is_the_best_variant_and_every_variant_gives_the_same_bits(nativ
         for key, stats in native["stats"].items():
             assert got["stats"][key] == stats, (isa, key)
         assert got["newmark"] == native["newmark"], isa
+        assert got["split"] == native["split"], isa
 
 
 def test_unknown_variant_is_refused_at_import():
@@ -127,6 +128,7 @@ def test_wheel_runs_on_a_cpu_without_avx_with_the_same_bits(native, installed_wh
     assert got["isa"] == "baseline" and got["available"] == ["baseline"]
     assert got["stats"] == native["stats"]
     assert got["newmark"] == native["newmark"]   # Newmark's block too (slammer, exact)
+    assert got["split"] == native["split"]   # splitting's particles in the lanes
     # A variant the emulated CPU lacks is refused, not run into an illegal instruction.
     out = run_probe("avx2", prefix=prefix, pythonpath=[str(installed_wheel), *site], timeout=1800)
     assert out.returncode != 0 and "not supported by this CPU" in out.stderr

@@ -7,6 +7,8 @@
 #include "crandall/filter.hpp"
 #include "crandall/filtered.hpp"
 #include "crandall/plan.hpp"
+#include "crandall/run.hpp"
+#include "crandall/split.hpp"
 
 void register_branch(py::module_& m) {
   m.def(
@@ -138,4 +140,109 @@ void register_branch(py::module_& m) {
       py::arg("plan"),
       "(lengths, noises, z0) of a filtered plan's walked grid: every fine step's length and "
       "intensity in time order, and the filter's start state.");
+
+  using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
+  m.def(
+      "split_parents",
+      [](std::uint64_t key, std::uint64_t replica, std::uint64_t iteration,
+         std::uint64_t survivors, std::size_t count) {
+        py::array_t<std::int64_t> out(static_cast<py::ssize_t>(count));
+        crandall::split_parents(key, replica, iteration, survivors, count, out.mutable_data());
+        return out;
+      },
+      py::arg("key"), py::arg("replica"), py::arg("iteration"), py::arg("survivors"),
+      py::arg("count"),
+      "The parents of one splitting iteration's `count` clones: indices uniform on "
+      "[0, survivors), drawn from Philox keyed by (key, replica, iteration) (split.hpp).");
+  m.def(
+      "split_replica",
+      [](Doubles lengths, Doubles noises, Doubles drifts, std::uint64_t key,
+         std::uint64_t replica, std::size_t particles, std::size_t kill,
+         std::int64_t max_iterations, py::object deadline, double v0, double u0,
+         std::size_t first, Doubles levels, Doubles thresholds, int quantity, double drift,
+         double horizon, double coast, double mass, Doubles remaining, bool uncoast,
+         py::object top, py::object normaliser, int threads) {
+        const auto steps = static_cast<std::size_t>(lengths.size());
+        if (noises.size() != lengths.size() || drifts.size() != lengths.size())
+          throw std::invalid_argument("lengths, noises and drifts must have one value per step");
+        if (steps == 0) throw std::invalid_argument("lengths: the grid has no step");
+        if (static_cast<std::size_t>(remaining.size()) != steps + 1)
+          throw std::invalid_argument("remaining must have steps + 1 values");
+        if (levels.size() != thresholds.size() || levels.size() == 0)
+          throw std::invalid_argument("levels and thresholds must have the same (> 0) length");
+        if (quantity < 0 || quantity > static_cast<int>(crandall::SplitQuantity::peak_speed_at_stop))
+          throw std::invalid_argument("quantity must be an index of TAIL_QUANTITIES, got " +
+                                      std::to_string(quantity));
+        if (!(drift > 0.0)) throw std::invalid_argument("drift must be > 0");
+        crandall::BranchGrid grid{lengths.data(), noises.data(), drifts.data(), steps};
+        crandall::SplitScore score;
+        score.quantity = static_cast<crandall::SplitQuantity>(quantity);
+        score.drift = drift;
+        score.horizon = horizon;
+        score.coast = coast;
+        score.mass = mass;
+        score.remaining = remaining.data();
+        score.uncoast = uncoast;
+        std::vector<Doubles> keep;
+        if (top.is_none() != normaliser.is_none())
+          throw std::invalid_argument("top and normaliser: give both or neither");
+        if (!top.is_none()) {
+          score.normalised = true;
+          score.top = top.cast<double>();
+          auto t = normaliser.cast<py::tuple>();
+          if (t.size() != 8)
+            throw std::invalid_argument("normaliser must be (points, cum0, cum1, cum2, "
+                                        "stationary, step, floor2, scale)");
+          for (int j = 0; j < 6; ++j) {
+            keep.push_back(Doubles::ensure(t[static_cast<std::size_t>(j)]));
+            if (!keep.back() || keep.back().ndim() != 1 ||
+                static_cast<std::size_t>(keep.back().size()) != steps + 1)
+              throw std::invalid_argument("normaliser: its arrays must have steps + 1 values");
+          }
+          score.points = keep[0].data();
+          score.cum0 = keep[1].data();
+          score.cum1 = keep[2].data();
+          score.cum2 = keep[3].data();
+          score.stationary = keep[4].data();
+          score.step = keep[5].data();
+          score.floor2 = t[6].cast<double>();
+          score.scale = t[7].cast<double>();
+        }
+        crandall::SplitRun run;
+        run.particles = particles;
+        run.kill = kill;
+        run.key = key;
+        run.replica = replica;
+        run.max_iterations = max_iterations;
+        run.has_deadline = !deadline.is_none();
+        if (run.has_deadline) run.deadline = deadline.cast<double>();
+        run.v0 = v0;
+        run.u0 = u0;
+        run.first = first;
+        run.levels = levels.data();
+        run.thresholds = thresholds.data();
+        run.level_count = static_cast<std::size_t>(levels.size());
+        run.threads = threads;
+        run.cancelled = bindings::python_cancel_check();
+        crandall::SplitOutcome out;
+        try {
+          out = bindings::without_gil([&] { return crandall::split_replica(grid, score, run); });
+        } catch (const crandall::Cancelled&) {
+          // The KeyboardInterrupt (or a signal handler's exception) set by PyErr_CheckSignals.
+          if (PyErr_Occurred()) throw py::error_already_set();
+          throw std::runtime_error("run cancelled: the interpreter is exiting");
+        }
+        py::array_t<double> estimates(static_cast<py::ssize_t>(out.estimates.size()));
+        std::copy(out.estimates.begin(), out.estimates.end(), estimates.mutable_data());
+        return py::make_tuple(estimates, out.iterations, out.steps, out.log_weight, out.extinct,
+                              out.timed_out);
+      },
+      py::arg("lengths"), py::arg("noises"), py::arg("drifts"), py::arg("key"),
+      py::arg("replica"), py::arg("particles"), py::arg("kill"), py::arg("max_iterations"),
+      py::arg("deadline"), py::arg("v0"), py::arg("u0"), py::arg("first"), py::arg("levels"),
+      py::arg("thresholds"), py::arg("quantity"), py::arg("drift"), py::arg("horizon"),
+      py::arg("coast"), py::arg("mass"), py::arg("remaining"), py::arg("uncoast"),
+      py::arg("top"), py::arg("normaliser"), py::arg("threads") = 1,
+      "One replica of adaptive multilevel splitting on a white-noise grid (split.hpp): "
+      "(estimates, iterations, steps, log_weight, extinct, timed_out). The GIL is released.");
 }

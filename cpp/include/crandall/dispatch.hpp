@@ -15,6 +15,8 @@ namespace crandall {
 
 struct Workspace;
 class BinEdges;
+struct LaneGrid;
+struct SplitScore;
 
 using BlockFn = void (*)(const Plan&, std::uint64_t, std::uint64_t, Workspace&);
 
@@ -44,6 +46,16 @@ struct KernelTable {
   // BinEdges::cell in every variant.
   void (*count_values)(const BinEdges& edges, const double* x, std::size_t n,
                        std::uint64_t* counts);
+  // Rows continued in vector lanes (branch_lanes.inc): entries [0, count) of rows, starts
+  // (even) and streams, to the last even grid point (branch.hpp's extend_rows_in_lanes calls
+  // it and takes an odd grid's last step).
+  void (*extend_lanes)(double* states, std::size_t points, const LaneGrid& grid,
+                       const std::int64_t* rows, const std::int64_t* starts,
+                       const std::uint64_t* streams, int count, std::uint64_t key);
+  // Splitting's normalised rank at points [from, steps] of a row (split.hpp's
+  // split_score_row, vectorised: the same bits).
+  void (*normalised_rank)(const SplitScore& score, std::size_t steps, const double* row,
+                          std::size_t from, const double* plain, double* rank);
 };
 
 // Variants compiled into this build, lowest first (baseline only on non-x86 hosts).

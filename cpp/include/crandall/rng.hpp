@@ -159,6 +159,64 @@ inline void philox_paths(std::uint64_t seed, std::uint64_t path0, std::uint64_t 
   }
 }
 
+#if CRANDALL_VARIANT_LEVEL >= 3
+namespace detail {
+// philox_vector with a counter of its own in every lane: (pairs[l], paths[l]).
+inline void philox_vector_lanes(std::uint64_t seed, const std::uint64_t* paths,
+                                const std::uint64_t* pairs, std::uint64_t* o0,
+                                std::uint64_t* o1, std::uint64_t* o2, std::uint64_t* o3) {
+  using O = PhiloxOps;
+#if CRANDALL_VARIANT_LEVEL >= 4
+  const O::V path = _mm512_loadu_si512(paths), pair = _mm512_loadu_si512(pairs);
+#else
+  const O::V path = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(paths));
+  const O::V pair = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(pairs));
+#endif
+  O::V c0 = pair, c1 = O::high32(pair);  // c0's high half is ignored by mul32
+  O::V c2 = path, c3 = O::high32(path);
+  const O::V m0 = O::set1(kPhiloxM0), m1 = O::set1(kPhiloxM1);
+  std::uint32_t k0 = static_cast<std::uint32_t>(seed), k1 = static_cast<std::uint32_t>(seed >> 32);
+  for (int r = 0; r < 10; ++r) {
+    if (r > 0) {
+      k0 += kPhiloxW0;
+      k1 += kPhiloxW1;
+    }
+    const O::V p0 = O::mul32(c0, m0), p1 = O::mul32(c2, m1);
+    const O::V n0 = O::bitxor(O::bitxor(O::high32(p1), c1), O::set1(k0));
+    const O::V n2 = O::bitxor(O::bitxor(O::high32(p0), c3), O::set1(k1));
+    c1 = p1;
+    c3 = p0;
+    c0 = n0;
+    c2 = n2;
+  }
+  O::store(o0, c0);
+  O::store(o1, c1);
+  O::store(o2, c2);
+  O::store(o3, c3);
+}
+}  // namespace detail
+#endif
+
+// The words of the blocks (pairs[l], paths[l]) of N lanes, word j of lane l in w[j][l] (low 32
+// bits): philox_paths with a counter per lane.
+template <int N>
+inline void philox_lanes(std::uint64_t seed, const std::uint64_t* paths,
+                         const std::uint64_t* pairs, std::uint64_t (&w)[4][N]) {
+  int l = 0;
+#if CRANDALL_VARIANT_LEVEL >= 3
+  constexpr int V = detail::kPhiloxWidth;
+  if constexpr (N >= V)
+    for (; l + V <= N; l += V)
+      detail::philox_vector_lanes(seed, paths + l, pairs + l, &w[0][l], &w[1][l], &w[2][l],
+                                  &w[3][l]);
+#endif
+  for (; l < N; ++l) {
+    std::uint64_t o[4];
+    detail::philox_scalar(seed, paths[l], pairs[l], o);
+    for (int j = 0; j < 4; ++j) w[j][l] = o[j];
+  }
+}
+
 // One Philox4x32-10 block yields the noise of two consecutive steps (k = 2*pair, 2*pair+1).
 //   key     = seed (64 bits)
 //   counter = (pair index, 64 bits; path index, 64 bits)
@@ -175,10 +233,20 @@ inline void philox_paths(std::uint64_t seed, std::uint64_t path0, std::uint64_t 
 // All N lanes are drawn: in a partial group the lanes past its paths hold the draws of paths
 // that are not simulated, and are never read.
 template <int N>
+inline void noise_of_words(const std::uint64_t (&w)[4][N], PairNoise<N>& out);
+
+template <int N>
 inline void draw_pairs(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair,
                        PairNoise<N>& out) {
   alignas(64) std::uint64_t w[4][N];
   philox_paths<N>(seed, path0, pair, N, w);
+  noise_of_words<N>(w, out);
+}
+
+// The noise of N Philox blocks (word j of lane l in the low 32 bits of w[j][l]), laid out as
+// above: what draw_pairs makes of its words, and the lanes of branch_lanes.inc of theirs.
+template <int N>
+inline void noise_of_words(const std::uint64_t (&w)[4][N], PairNoise<N>& out) {
   alignas(64) double lg[3][N], sn[N], cs[N];
 #pragma omp simd
   for (int l = 0; l < N; ++l) {

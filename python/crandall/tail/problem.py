@@ -234,6 +234,12 @@ class _Problem:
         return (level - top) / (self._scale() * np.sqrt(0.0 + self.floor2()))
 
     @property
+    def white_noise(self) -> bool:
+        """Whether the paths are the white-noise grid's (_extend), not the filtered walk's:
+        splitting's loop then runs in the core (split_core.py)."""
+        return not self.filtered
+
+    @property
     def noisy_steps(self) -> int:
         return int(np.count_nonzero(self.noises > 0))
 

@@ -212,6 +212,9 @@ class _TailRun(Estimator):
         self.job, self.spec, self.threads = job, spec, threads
         self.task_threads = task_threads
         self.splitting = job["proposal"] is None
+        #: Splitting replicas run at once here, one per thread (_LocalReplicas): replicas are
+        #: independent, and one replica's iterations are too short to share among threads.
+        self.local_width = max(1, threads) if self.splitting else 1
         self.levels = len(job["levels"])
         self.max_samples, self.rel_error = max_samples, rel_error
         self.max_seconds, self.started = max_seconds, started
@@ -248,6 +251,10 @@ class _TailRun(Estimator):
         _check_memory(self.job["particles"], self.path_bytes, self.threads, "particles",
                       f"particles: {self.job['particles']} paths", "give fewer particles or a "
                       "larger dt")
+        if self.local_width > 1:  # as many replicas at once as fit (one always does)
+            room = available_memory() - self.threads * (16 << 20)
+            self.local_width = int(max(1, min(self.local_width, room // (
+                4 * self.job["particles"] * self.path_bytes))))
 
     def state(self):
         return json_state({"samples": self.samples, "checksum": self.digest.hexdigest()})
@@ -281,8 +288,11 @@ class _TailRun(Estimator):
         self.samples, self.digest = samples, digest
 
     def _tasks(self, first: int, last: int):
+        here = (_LocalReplicas(self.job, first, last, self.deadline, self.local_width)
+                if self.workers is None and self.local_width > 1 and last - first > 1 else None)
         return [Task(sample, (self.job, i, self.task_threads, self.deadline,
                              _streams.RANDOM_STREAM),
+                     here.local(i) if here is not None else
                      functools.partial(sample, self.job, i, self.threads, self.deadline), 1)
                 for i in range(first, last)]
 
@@ -298,7 +308,7 @@ class _TailRun(Estimator):
             return seconds / done * count
         if not self.rate:
             return 0.0
-        parallel = 1 if self.workers is None else max(1, min(count, self.workers))
+        parallel = max(1, min(count, self.local_width if self.workers is None else self.workers))
         paths = self.job["particles"] * -(-count // parallel)
         return paths * self.steps / self.rate
 
@@ -332,14 +342,16 @@ class _TailRun(Estimator):
             f"reach in that time; {self.advice}")
 
     def rounds(self):
-        # On a cluster a batch of as many samples as it has threads (at least 8); here one.
+        # On a cluster a batch of as many samples as it has threads (at least 8); here one, or
+        # for splitting as many replicas as threads (local_width).
         # A batch is not started when the time per sample measured so far (before any: its
         # least cost at the measured rate) says it would end past max_seconds; a replica
         # running then stops (sample's deadline). A pilot that cannot finish is refused.
-        width = 1 if self.workers is None else max(8, self.workers)
+        width = self.local_width if self.workers is None else max(8, self.workers)
         what = "replicas" if self.splitting else "batches"
         while len(self.samples) < self.pilot_n:
-            last = self.pilot_n if self.workers is not None else len(self.samples) + 1
+            last = (self.pilot_n if self.workers is not None
+                    else min(self.pilot_n, len(self.samples) + self.local_width))
             left = self.pilot_n - len(self.samples)
             expect = self._expect(left)
             if self._elapsed() + expect > self.max_seconds:
@@ -402,6 +414,38 @@ class _TailRun(Estimator):
 
     def result(self):
         return self.samples
+
+
+class _LocalReplicas:
+    """Splitting replicas [first, last) of a batch run here at once, one per thread (each a
+    pure function of the job and its index, run with one thread: the same bits as one at a
+    time); the driver takes their outputs in order. They start when the first is asked for."""
+
+    def __init__(self, job, first: int, last: int, deadline, width: int) -> None:
+        self.job, self.first, self.last = job, first, last
+        self.deadline, self.width = deadline, width
+        self.futures = None
+
+    def _start(self) -> None:
+        from concurrent.futures import ThreadPoolExecutor
+
+        pool = ThreadPoolExecutor(max_workers=min(self.width, self.last - self.first),
+                                  thread_name_prefix="crandall-replica")
+        self.futures = [pool.submit(sample, self.job, i, 1, self.deadline)
+                        for i in range(self.first, self.last)]
+        pool.shutdown(wait=False)  # its threads end with their replicas
+
+    def local(self, i: int):
+        def run():
+            if self.futures is None:
+                self._start()
+            try:
+                return self.futures[i - self.first].result()
+            except BaseException:
+                for f in self.futures:  # an error or Ctrl-C: the replicas not yet started
+                    f.cancel()
+                raise
+        return run
 
 
 def _check_memory(paths: int, path_bytes: int, threads: int, name: str, what: str,

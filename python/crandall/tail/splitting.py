@@ -9,7 +9,9 @@ from typing import Optional
 
 import numpy as np
 
+from .. import _core
 from .problem import _extend, _Problem
+from .split_core import core_replica
 #: A replica's path streams: replica r uses streams r * 2^40 + 0, 1, ...
 _REPLICA_STREAMS = 1 << 40
 
@@ -23,7 +25,8 @@ def _normalised_top(problem: _Problem, levels: np.ndarray, schedule: bool = True
 
 def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, kill: int,
                        key: int, replica: int, threads: int, max_iterations: int,
-                       normalise: Optional[bool] = None, deadline: Optional[float] = None):
+                       normalise: Optional[bool] = None, deadline: Optional[float] = None,
+                       core: bool = True):
     """One run of adaptive multilevel splitting: an unbiased estimate of P(Q > L) for each L.
 
     The estimate for L is taken at the first iteration whose kill level z (the kill-th smallest
@@ -43,19 +46,25 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     ``deadline`` (a ``time.time()``): past it, between iterations, the replica stops and its
     info says so (``timed_out``, with the iterations and log weight it reached); its estimates
     are then NaN and no sample. The info's ``extinct`` is the log weight at an extinction.
+
+    The parents of iteration j's clones are ``_core.split_parents(key, replica, j, ...)``.
+    A white-noise problem runs the same loop in the core (split_core.py; ``core=False``: this
+    one, the reference the core's is tested against).
     """
     n = particles
-    rng = np.random.default_rng([key, replica, 1])
-    base = replica * _REPLICA_STREAMS
-    states = problem.start_states(n)
-    _extend(problem, states, np.arange(n), np.zeros(n), base + np.arange(n), key, threads)
-    branches = n
-    steps = n * problem.steps
     top = None if normalise is False else _normalised_top(problem, levels, normalise is None)
     first = problem.first_random_point() if top is not None else 0
     thresholds = (np.array([problem.split_threshold(float(x), top) for x in levels])
                   if top is not None else levels)
     uncoast = top is None and problem.coasts_to_rest(levels)
+    if core and problem.white_noise:
+        return core_replica(problem, levels, n, kill, key, replica, threads, max_iterations,
+                            top, first, thresholds, uncoast, deadline)
+    base = replica * _REPLICA_STREAMS
+    states = problem.start_states(n)
+    _extend(problem, states, np.arange(n), np.zeros(n), base + np.arange(n), key, threads)
+    branches = n
+    steps = n * problem.steps
     score, plain = problem.split_score(states, top, uncoast)
     level = score[:, first:].max(axis=1)
     value = problem.value(plain)
@@ -84,7 +93,8 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
             raise RuntimeError(f"splitting did not reach the level after {iterations} iterations")
         log_weight += math.log1p(-len(killed) / n)
         survivors = np.flatnonzero(level > z)
-        parents = survivors[rng.integers(len(survivors), size=len(killed))]
+        parents = survivors[_core.split_parents(key, replica, iterations, len(survivors),
+                                                len(killed))]
         branch = np.argmax(score[parents, first:] > z, axis=1) + first
         states[killed] = states[parents]
         _extend(problem, states, killed, branch, base + branches + np.arange(len(killed)), key,

@@ -1,0 +1,5 @@
+// The avx2 variant of the kernel, its rows continued in vector lanes (variant.hpp,
+// kernel_variant.inc, branch_lanes.inc).
+#define CRANDALL_VARIANT_LEVEL 3
+#define CRANDALL_KERNEL_BRANCH 1
+#include "kernel_variant.inc"

@@ -1,0 +1,41 @@
+"""Splitting's loop in the core (``_core.split_replica``, cpp/src/split.cpp) for a white-noise
+scene: the same iterations as splitting.py's Python loop, operation by operation, so the same
+bits (tests/test_tail_split_core.py), at the core's speed."""
+
+from __future__ import annotations
+
+from typing import Optional
+
+import numpy as np
+
+from .. import _core
+from .problem import TAIL_QUANTITIES, _Problem
+
+_QUANTITY_INDEX = {name: i for i, name in enumerate(TAIL_QUANTITIES)}
+
+
+def core_replica(problem: _Problem, levels: np.ndarray, particles: int, kill: int, key: int,
+                 replica: int, threads: int, max_iterations: int, top: Optional[float],
+                 first: int, thresholds: np.ndarray, uncoast: bool,
+                 deadline: Optional[float]):
+    """_splitting_replica's result (estimates, info) from the core's loop."""
+    scene = problem.scene
+    energy = problem.q.name == "dissipated_energy_at_stop"
+    normaliser = None
+    if top is not None:
+        points, cum, stationary, step = problem._normaliser()
+        normaliser = (points, cum[0], cum[1], cum[2], stationary, step, problem.floor2(),
+                      problem._scale())
+    est, iterations, steps, log_weight, extinct, timed_out = _core.split_replica(
+        problem.lengths, problem.noises, problem.drifts, key, replica, particles, kill,
+        max_iterations, deadline, float(scene.v0), float(scene.u0), first,
+        np.asarray(levels, dtype=np.float64), np.asarray(thresholds, dtype=np.float64),
+        _QUANTITY_INDEX[problem.q.name], float(scene.drift), float(problem.horizon),
+        float(problem.coast), float(scene.mass) if energy else 1.0, problem.remaining,
+        bool(uncoast), top, normaliser, threads)
+    info = {"iterations": int(iterations), "steps": int(steps), "log_weight": float(log_weight)}
+    if timed_out:
+        info["timed_out"] = True
+    else:
+        info["extinct"] = float(log_weight) if extinct else None
+    return est, info
