@@ -200,6 +200,41 @@ def filtered_grid(
     """(lengths, noises, z0) of a filtered plan's walked grid: every step's length and
     intensity, and the filter's start state."""
 
+def split_parents(
+    key: int, replica: int, iteration: int, survivors: int, count: int
+) -> npt.NDArray[np.int64]:
+    """The parents of one splitting iteration's count clones: indices uniform on
+    [0, survivors), drawn from Philox keyed by (key, replica, iteration)."""
+
+def split_replica(
+    lengths: npt.NDArray[np.float64],
+    noises: npt.NDArray[np.float64],
+    drifts: npt.NDArray[np.float64],
+    key: int,
+    replica: int,
+    particles: int,
+    kill: int,
+    max_iterations: int,
+    deadline: Optional[float],
+    v0: float,
+    u0: float,
+    first: int,
+    levels: npt.NDArray[np.float64],
+    thresholds: npt.NDArray[np.float64],
+    quantity: int,
+    drift: float,
+    horizon: float,
+    coast: float,
+    mass: float,
+    remaining: npt.NDArray[np.float64],
+    uncoast: bool,
+    top: Optional[float],
+    normaliser: Optional[Tuple[Any, ...]],
+    threads: int = 1,
+) -> Tuple[npt.NDArray[np.float64], int, int, float, bool, bool]:
+    """One replica of adaptive multilevel splitting on a white-noise grid: (estimates,
+    iterations, steps, log_weight, extinct, timed_out). The GIL is released."""
+
 def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
     """Generate the kernel's noise for paths x steps with no physics (a throughput floor)."""
 
