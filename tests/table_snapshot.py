@@ -33,7 +33,7 @@ def _fixed(result):
 
 def results():
     """(name, result) of every kind: fixed-step (bias not estimated yet, estimated, a method
-    without a bias estimate, one path), runs to an accuracy (every statistic, a few) and
+    without a bias estimate, one path, distributions), runs to an accuracy (every statistic, a few) and
     tails (a run, and one made by hand with an unreliable level)."""
     out = []
     r = _fixed(crandall.simulate(_SCALED, paths=400, seed=3, method="exact", threads=1))
@@ -44,6 +44,11 @@ def results():
         _SI, paths=64, seed=4, method="euler", dt=0.05, threads=1))))
     out.append(("fixed_one_path", _fixed(crandall.simulate(
         _SI, paths=1, seed=5, method="exact", dt=0.05, threads=1))))
+    binned = crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=[1.0, 2.0],
+                            observe=["velocity", "stop"],
+                            distributions=["velocity", "stop_time"])
+    out.append(("fixed_distributions", _fixed(crandall.simulate(
+        binned, paths=300, seed=6, method="exact", dt=0.05, threads=1))))
     scene = crandall.Scene.scaled(tau0=5.0, times=[1.0, 5.0],
                                   observe=["velocity", "displacement", "distance",
                                            "kinetic_energy", "stop"])
