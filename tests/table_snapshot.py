@@ -33,7 +33,7 @@ def _fixed(result):
 
 def results():
     """(name, result) of every kind: fixed-step (bias not estimated yet, estimated, a method
-    without a bias estimate, one path, distributions), runs to an accuracy (every statistic, a few) and
+    without a bias estimate, one path, distributions, a stop time the scene sets), runs to an accuracy (every statistic, a few) and
     tails (a run, and one made by hand with an unreliable level)."""
     out = []
     r = _fixed(crandall.simulate(_SCALED, paths=400, seed=3, method="exact", threads=1))
@@ -47,6 +47,9 @@ def results():
     binned = crandall.Scene(mu=0.3, h=1.0, t0=2.0, times=[1.0, 2.0],
                             observe=["velocity", "stop"],
                             distributions=["velocity", "stop_time"])
+    rests = crandall.Scene(mu=5.0, h=1.0, t0=2.0, times=[1.0], observe=["velocity", "stop"])
+    out.append(("fixed_stop_set_by_scene", _fixed(crandall.simulate(
+        rests, paths=200, seed=7, method="exact", dt=0.05, threads=1))))
     out.append(("fixed_distributions", _fixed(crandall.simulate(
         binned, paths=300, seed=6, method="exact", dt=0.05, threads=1))))
     scene = crandall.Scene.scaled(tau0=5.0, times=[1.0, 5.0],
