@@ -145,3 +145,17 @@ def levels_pandas(table):
                          "probability": c["probability"], "stderr": c["stderr"],
                          "rel_error": c["rel_error"], f"lower_{pct}": c["lower"],
                          f"upper_{pct}": c["upper"], "reliable": c["reliable"]})
+
+
+def levels_xarray(table, attrs=None):
+    """A tail's table (layout "levels") as an ``xarray.Dataset`` over ``level``: probability,
+    stderr, rel_error and reliable (0 or 1), the level's units, and the attributes given."""
+    xr = _require("xarray")
+    c = table.columns
+    ds = xr.Dataset({name: ("level", np.asarray(c[name], dtype=np.float64))
+                     for name in ("probability", "stderr", "rel_error")},
+                    coords={"level": np.asarray(c["level"], dtype=np.float64)})
+    ds["reliable"] = ("level", np.asarray(c["reliable"]).astype(np.int8))
+    ds["level"].attrs["units"] = (c["units"][0] if len(table) else "") or "1"
+    ds.attrs.update(attrs or {})
+    return ds

@@ -114,19 +114,12 @@ class TailResult:
     def to_xarray(self):
         """An xarray Dataset over ``level``: probability, stderr, rel_error, reliable; the
         quantity, units, method, samples, cost, diagnostics and spec (JSON) as attributes."""
-        import xarray as xr
-
-        ds = xr.Dataset({name: ("level", np.asarray(getattr(self, name), dtype=np.float64))
-                         for name in ("probability", "stderr", "rel_error")},
-                        coords={"level": np.asarray(self.levels, dtype=np.float64)})
-        ds["reliable"] = ("level", np.asarray(self.reliable).astype(np.int8))
-        ds["level"].attrs["units"] = self.units or "1"
-        ds.attrs.update({FILE_ATTR: 1}, quantity=self.quantity, units=self.units,
-                        method=self.method, samples=int(self.samples),
-                        seconds=float(self.seconds), steps=int(self.steps),
-                        diagnostics=json.dumps(self.diagnostics, default=_plain),
-                        spec=json.dumps(self.spec, default=_plain))
-        return ds
+        attrs = {FILE_ATTR: 1, "quantity": self.quantity, "units": self.units,
+                 "method": self.method, "samples": int(self.samples),
+                 "seconds": float(self.seconds), "steps": int(self.steps),
+                 "diagnostics": json.dumps(self.diagnostics, default=_plain),
+                 "spec": json.dumps(self.spec, default=_plain)}
+        return _frames.levels_xarray(self._statistics_table(), attrs)
 
     def save(self, path: Union[str, "os.PathLike[str]"]) -> None:
         """Write a netCDF file (netCDF-3 by SciPy, as crandall's other results), replaced
