@@ -20,75 +20,15 @@ from ._version import __version__
 from ._files import check_moments, write_atomic
 from .bins import Histograms, check_histograms, recorded
 from .methods import METHODS
-from .quantities import VARIABLES, names_for as scene_names_for, quantity
+from .quantities import names_for as scene_names_for, quantity
 from .scene import Scene
 from .spec import RunSpec
 from .errors import ParameterError
+from ._frames import ACCURACY, STATISTICS, _require, _units
 
 __all__ = ["to_xarray", "to_pandas", "save", "read", "sweep", "STATISTICS"]
 
-#: The statistics a table holds, per quantity and time.
-STATISTICS = ("mean", "var", "std", "stderr", "var_stderr")
-
 _FORMAT = "crandall-result"
-
-
-def _require(module: str):
-    try:
-        return __import__(module)
-    except ImportError:  # pragma: no cover - depends on the environment
-        raise ImportError(f"this needs {module}: pip install 'crandall[io]'") from None
-
-
-def _stats(result, name):
-    if result.kind == "accuracy":
-        return result.table(name)[..., :len(STATISTICS)]
-    out = [result.mean(name), result.var(name), result.std(name), result.stderr(name)]
-    if not result._has_var_stderr(name):
-        out.append(np.full_like(np.asarray(out[0], dtype=float), np.nan))
-    else:
-        out.append(result.var_stderr(name))
-    return np.stack([np.asarray(x, dtype=float) for x in out], axis=-1)
-
-
-def _accuracy(result, name):
-    """bias and total error of the mean and of the variance (the tables' last columns)."""
-    if result.kind == "accuracy":
-        return result.table(name)[..., len(STATISTICS):]
-    out = [result._bias(name, "mean", False), result._error(name, "mean", False),
-           result._bias(name, "var", False), result._error(name, "var", False)]
-    return np.stack([np.asarray(x, dtype=float) for x in out], axis=-1)
-
-
-#: The columns of _accuracy, in to_pandas and in the datasets' variables.
-ACCURACY = ("bias_mean", "error_mean", "bias_var", "error_var")
-#: Per statistic: what it is, and the power of the quantity's unit it carries.
-_STATISTIC_TEXT = {
-    "mean": ("mean over paths", 1), "var": ("unbiased variance over paths", 2),
-    "std": ("standard deviation over paths", 1), "stderr": ("standard error of the mean", 1),
-    "var_stderr": ("standard error of the variance", 2),
-    "bias_mean": ("estimated discretisation bias of the mean", 1),
-    "error_mean": ("total error sqrt(stderr^2 + bias^2) of the mean", 1),
-    "bias_var": ("estimated discretisation bias of the variance", 2),
-    "error_var": ("total error of the variance", 2),
-}
-#: The quantities' units as UDUNITS strings, to the first and second power.
-_UDUNITS = {"m/s": ("m s-1", "m2 s-2"), "m": ("m", "m2"), "s": ("s", "s2"), "J": ("J", "J2"),
-            "m/s^2": ("m s-2", "m2 s-4")}
-
-
-def _units(unit: str, power: int) -> str:
-    """A CF ``units`` attribute: "1" for a scaled (dimensionless) quantity."""
-    if not unit:
-        return "1"
-    pair = _UDUNITS.get(unit)
-    if pair is not None:
-        return pair[power - 1]
-    return unit if power == 1 else f"({unit})^{power}"
-
-
-def _long_name(result, name):
-    return quantity(name).long_name_in(result.scene.units)
 
 
 def _count_attr(n: int):
@@ -100,42 +40,14 @@ def _count_attr(n: int):
 
 def to_xarray(result):
     """The result as an ``xarray.Dataset``; see :meth:`crandall.Result.to_xarray`."""
-    xr = _require("xarray")
+    return result.to_xarray()
+
+
+def fixed_step_contents(result):
+    """What a fixed-step result's file holds beyond its statistics: (variables, coordinates,
+    attributes) of the dataset, the raw accumulators and the run's fields."""
     sc = result.scene
-    time_names = [n for n in result.names if not quantity(n).at_stop]
-    stop_names = [n for n in result.names if quantity(n).at_stop]
-    exps = [tuple(e) for e in _core.monomial_exponents()]
     data_vars = {}
-    coords = {
-        "variable": ("variable", list(VARIABLES)),
-        "monomial": ("monomial", np.arange(len(exps), dtype=np.int32),
-                     {"long_name": "index of a central sum (its powers: exponents)",
-                      "units": "1"}),
-        "exponents": (("monomial", "variable"), np.array(exps, dtype=np.int32),
-                      {"long_name": "powers of (velocity, displacement, distance) of each "
-                                    "central sum"}),
-    }
-    # CF: a time coordinate in SI is the standard name "time" on axis T; scaled time is a
-    # dimensionless number, not a time CF knows, so it is only named.
-    time_attrs = ({"long_name": "scaled time tau", "units": "1"} if sc.units == "scaled" else
-                  {"long_name": "time", "standard_name": "time", "units": "s", "axis": "T"})
-    if time_names:
-        coords["time"] = ("time", np.asarray(result.times, dtype=float), time_attrs)
-    # One variable per quantity and statistic, with its own units (CF: UDUNITS strings).
-    for name in time_names + stop_names:
-        table = np.concatenate([_stats(result, name), _accuracy(result, name)], axis=-1)
-        dims = () if quantity(name).at_stop else ("time",)
-        unit = sc.units_of(name)
-        for j, stat in enumerate(STATISTICS + ACCURACY):
-            what, power = _STATISTIC_TEXT[stat]
-            data_vars[f"{name}_{stat}"] = (
-                dims, table[..., j],
-                {"long_name": f"{what} of {_long_name(result, name)}",
-                 "units": _units(unit, power)})
-    if result.kind == "accuracy":
-        _accuracy_vars(result, data_vars, coords)
-        return xr.Dataset(data_vars=data_vars, coords=coords,
-                          attrs=_accuracy_attrs(result))
     held = result.accumulators
     acc_times, acc_stop = held.times, held.stop
     accs = [("", acc_times, "slot")]
@@ -193,7 +105,7 @@ def to_xarray(result):
         # For netCDF tools (the scene's JSON above is what load reads).
         attrs["scene_distributions"] = " ".join(sc.distributions)
         attrs["scene_bins"] = json.dumps(sc.bins)
-    return xr.Dataset(data_vars=data_vars, coords=coords, attrs=attrs)
+    return data_vars, {}, attrs
 
 
 def _scene_attrs(sc) -> Dict[str, Any]:
@@ -223,9 +135,12 @@ def _scene_attrs(sc) -> Dict[str, Any]:
 ACCURACY_KIND = "accuracy"
 
 
-def _accuracy_vars(result, data_vars, coords) -> None:
-    """The estimates a run to an accuracy is rebuilt from, bitwise: per statistic and slot
-    (value, stderr, bias) before the quantity's factor, and whether it is exact."""
+def accuracy_contents(result):
+    """What a run to an accuracy's file holds beyond its statistics: (variables, coordinates,
+    attributes) of the dataset, the estimates it is rebuilt from, bitwise (per statistic and
+    slot (value, stderr, bias) before the quantity's factor, and whether it is exact), and
+    the run's fields."""
+    data_vars, coords = {}, {}
     rows, values, exact = [], [], []
     for name in result.names:
         for stat in result.stats_of(name):
@@ -242,6 +157,7 @@ def _accuracy_vars(result, data_vars, coords) -> None:
                                             "error, bias"})
     data_vars["estimate_exact"] = (("estimate",), np.array(exact, dtype=np.int32),
                                    {"long_name": "1 where the statistic is exact (no bias)"})
+    return data_vars, coords, _accuracy_attrs(result)
 
 
 def _accuracy_attrs(result) -> Dict[str, Any]:
@@ -428,7 +344,7 @@ def sweep(results):
             raise ParameterError(f"results[{i}]", f"results[{i}]: a sweep's results must hold the "
                                                   "same quantities at the same output times")
     stats = [f"{n}_{s}" for n in first.names for s in STATISTICS + ACCURACY]
-    parts = [to_xarray(r)[stats] for r in results]
+    parts = [r.to_xarray()[stats] for r in results]
     ds = xr.concat(parts, dim="scene", combine_attrs="override")
     keys = sorted({k for r in results for k in r.scene.params})
     coords = {}
@@ -447,30 +363,7 @@ def sweep(results):
 
 def to_pandas(result, tidy: bool = False):
     """The result as a ``pandas.DataFrame``; see :meth:`crandall.Result.to_pandas`."""
-    pd = _require("pandas")
-    rows = []
-    sc = result.scene
-    if tidy:
-        time_units = _units("s" if sc.units == "SI" else "", 1)
-        for name in result.names:
-            table = np.concatenate([_stats(result, name), _accuracy(result, name)], axis=-1)
-            times = [math.nan] if quantity(name).at_stop else result.times
-            unit = sc.units_of(name)
-            for t, values in zip(times, np.reshape(table, (len(times), -1))):
-                for stat, value in zip(STATISTICS + ACCURACY, values.tolist()):
-                    rows.append((name, float(t), time_units, stat, value,
-                                 _units(unit, _STATISTIC_TEXT[stat][1])))
-        return pd.DataFrame(rows, columns=["quantity", "time", "time_units", "statistic",
-                                           "value", "units"])
-    for name in result.names:
-        table = np.concatenate([_stats(result, name), _accuracy(result, name)], axis=-1)
-        if quantity(name).at_stop:
-            rows.append((name, math.nan, sc.units_of(name), *np.ravel(table).tolist()))
-        else:
-            for t, stats in zip(result.times, table):
-                rows.append((name, float(t), sc.units_of(name), *stats.tolist()))
-    return pd.DataFrame(rows, columns=["quantity", sc.time_name, "units", *STATISTICS,
-                                       *ACCURACY])
+    return result.to_pandas(tidy=tidy)
 
 
 def save(result, path: Union[str, "os.PathLike[str]"]) -> None:

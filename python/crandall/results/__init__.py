@@ -3,7 +3,9 @@
 The package's modules: ``common`` (the warning, ``Stat``, ``Accumulators``, the moments' layout
 and the numbers' formatting), ``result`` (the fixed-step ``Result`` and the bias hook
 ``set_bias_estimator``), ``histograms`` and ``tables`` (the parts of ``Result`` that answer
-from histograms and that show or save it), ``accuracy`` (``AccuracyResult``). The names below
+from histograms and that build its statistics table, show and save it), ``accuracy``
+(``AccuracyResult``), ``table`` (the table every result's shown forms render) and
+``render_text`` (its text). The names below
 are the package's public face and the ones other modules and tests reach as
 ``crandall.results.<name>``; a name is looked up where its module uses it, so a test replaces
 it there (``crandall.results.result._bias_estimator``).

@@ -7,7 +7,7 @@ from typing import Dict, List, Optional, Tuple
 
 import numpy as np
 
-from .. import _core
+from .. import _core, _dataset
 from ..model import FILTERED_EXCITATION, FILTERED_LEVELS, LEVELS
 from ..quantities import names_for, quantity
 from ..scene import Scene
@@ -209,34 +209,53 @@ class AccuracyResult(Result):
         return (f"error <= {self.error_target:g}" if self.error_target is not None
                 else f"rel_error <= {self.rel_error_target:g}")
 
-    def summary(self) -> str:
-        """A readable table: every statistic with its standard error, bias and total error."""
-        sc = self.scene
+    # -- its statistics table (rendered as every result's: results/tables.py) --------------
+
+    _layout = "statistic_rows"
+
+    def _statistics_rows(self, rows, name: str, pending: bool) -> None:
+        """A quantity's rows from the levels' estimates (NaN for a statistic not asked
+        for)."""
+        q = quantity(name)
+        times = [math.nan] if q.at_stop else self.times
+        m = [self._get(name, "mean", k, True) for k in (0, 1, 2)]
+        v = [self._get(name, "var", k, True) for k in (0, 1, 2)]
+        std = np.sqrt(np.maximum(v[0], 0.0))
+        for stat, (value, stderr, bias) in (("mean", m), ("var", v)):
+            rows.add(name, self.scene.units_of(name), q.long_name_in(self.scene.units), times,
+                     stat, value=value, std=std, stderr=stderr, bias=bias,
+                     error=np.hypot(stderr, bias), estimated=(name, stat) in self._estimates,
+                     exact=self._exact.get((name, stat), False), bound=False, few=False)
+
+    def _run_lines(self, pending: bool) -> tuple:
         wall = self._wall_time
-        lines = [f"crandall result: {sc!r}",
-                 f"  {self.target_text()}  seed={self.seed}  method=mlmc  "
-                 + ("" if self.model == "levels" else f"model={self.model}  ")
-                 + 
-                 f"levels={len(self.levels)}  paths per level={self.cost['paths']}  "
-                 f"path-steps={self._path_steps:.3g}"
-                 + ("" if wall is None else f"  time={wall:.3g} s")]
-        for n in self.names:
-            q = quantity(n)
-            u = sc.units_of(n)
-            lines.append(f"  {n}" + (f" [{u}]" if u else ""))
-            lines.append(f"    {'' if q.at_stop else sc.time_name:>10}  {'stat':>4}  "
-                         f"{'estimate':>13}  {'stderr':>9}  {'bias':>9}  {'error':>9}")
-            for stat in self.stats_of(n):
-                vals = np.atleast_1d(self._get(n, stat, 0))
-                ses = np.atleast_1d(self._get(n, stat, 1))
-                bs = np.atleast_1d(self._get(n, stat, 2))
-                ts = [None] if q.at_stop else list(self.times)
-                for j, t in enumerate(ts):
-                    tt = "stop" if t is None else f"{t:.4g}"
-                    b = "exact" if self._exact[(n, stat)] else f"{bs[j]:.2g}"
-                    lines.append(f"    {tt:>10}  {stat:>4}  {vals[j]:>13.6g}  {ses[j]:>9.2g}  "
-                                 f"{b:>9}  {math.hypot(ses[j], bs[j]):>9.2g}")
-        return "\n".join(lines)
+        return (f"  {self.target_text()}  seed={self.seed}  method=mlmc  "
+                + ("" if self.model == "levels" else f"model={self.model}  ")
+                + f"levels={len(self.levels)}  paths per level={self.cost['paths']}  "
+                f"path-steps={self._path_steps:.3g}"
+                + ("" if wall is None else f"  time={wall:.3g} s"),)
+
+    def _run_brief(self) -> str:
+        return (f"{self.target_text()}, seed {self.seed}, multilevel"
+                + ("" if self.model == "levels" else f" ({self.model})")
+                + f": {len(self.levels)} levels, paths per level {self.cost['paths']}")
+
+    def _table_notes(self) -> tuple:
+        # No note on a stop time set by the scene (Result._scene_note reads the fixed-step
+        # moments); no standard error is marked (_few), so there is no note on them either.
+        return ()
+
+    def _file_contents(self) -> tuple:
+        return _dataset.accuracy_contents(self)
+
+    @property
+    def bias_pending(self) -> bool:
+        """False: the levels' biases are part of the run."""
+        return False
+
+    def estimate_bias(self) -> "AccuracyResult":
+        """Nothing to do: the levels' biases are part of the run."""
+        return self
 
     def __repr__(self) -> str:
         return (f"<crandall.Result {self.scene!r} {self.target_text()} seed={self.seed} "

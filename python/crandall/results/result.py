@@ -391,20 +391,6 @@ class Result(_Distributions, _Tables):
             self._warn_nan(name, "the standard error of the variance", se, "; ".join(reasons), 2)
         return float(se[0]) if slot is not None else se
 
-    def _var_stderr_quiet(self, name: str) -> np.ndarray:
-        """The variance's standard error for tables (NaN, without a warning, where it has none
-        or cannot be estimated)."""
-        if not self._has_var_stderr(name):
-            return np.full(1 if quantity(name).at_stop else self.times.size, math.nan)
-        with self._table():
-            return np.atleast_1d(self.var_stderr(name))
-
-    def _stderr_quiet(self, name: str) -> np.ndarray:
-        """The mean's standard error for tables (NaN, without a warning, where it cannot be
-        estimated)."""
-        with self._table():
-            return np.atleast_1d(self.stderr(name))
-
     def moment(self, j: int, k: int, l: int) -> np.ndarray:  # noqa: E741 - the paper's index
         """Mixed moment E[U1^j U2^k U3^l] over times, in the paper's scaled units (eq3, eq8).
 
@@ -479,7 +465,7 @@ class Result(_Distributions, _Tables):
         or an envelope's pieces): :meth:`estimate_bias`, or the first call of :meth:`bias`,
         makes it. Until then the summary and the HTML table show no bias (printing never
         runs paths)."""
-        if self.kind == "accuracy" or self._bias_cache is not None:
+        if self._bias_cache is not None:
             return False
         return _bias_needs_run is None or bool(_bias_needs_run(self))
 
@@ -487,7 +473,7 @@ class Result(_Distributions, _Tables):
         """Make the bias estimate now (a run of its own, with a progress bar where a person
         watches; see :meth:`bias`) and keep it; returns the result. Nothing to do when it is
         made already or needs no run."""
-        if self.kind != "accuracy" and self._bias_cache is None:
+        if self._bias_cache is None:
             self._bias_cache = _estimate_bias(self)
         return self
 

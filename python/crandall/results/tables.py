@@ -1,4 +1,5 @@
-"""A result's summary, notes, HTML table, xarray and pandas tables, and its file."""
+"""A result's statistics table (built once: ``_statistics_table``) and its shown forms: the summary
+and its notes, the HTML table, the xarray and pandas tables, and its file."""
 
 from __future__ import annotations
 
@@ -7,79 +8,87 @@ from typing import Any
 
 import numpy as np
 
-from .. import _dataset, _render
+from .. import _dataset, _frames, _render
 from ..quantities import quantity
-from .common import _fmt, _sqrt, FEW_MARK, MIN_CARRIERS
+from . import render_text
+from .table import few_note, StatisticsRows, Table
 
 
 class _Tables:
     """A result's text, HTML and tables: the summary and its notes, ``to_xarray``, ``to_pandas``
     and ``save``. A part of :class:`Result`."""
 
-    # -- presentation -------------------------------------------------------------------
+    # -- the table every shown form renders --------------------------------------------
 
-    def summary(self) -> str:
-        """A readable table of the statistics."""
+    #: How the text summary lays the table out (:data:`crandall.results.table.LAYOUTS`).
+    _layout = "statistics"
+
+    def _statistics_table(self, estimate_bias: bool = True) -> Table:
+        """The result's statistics table, which every shown form renders (the summary, HTML,
+        pandas, CSV and xarray). ``estimate_bias=False``: a bias that takes a run of its own
+        is left out (NaN, ``bias_pending``) instead of made (showing never runs paths)."""
+        pending = bool(self.bias_pending and not estimate_bias)
+        rows = StatisticsRows()
+        for name in self.names:
+            self._statistics_rows(rows, name, pending)
         sc = self.scene
-        lines = [
-            f"crandall result: {sc!r}",
-            f"  paths={self.paths}  seed={self.seed}  method={self.method}  dt={self.dt:.6g}  "
-            f"min_steps={self.min_steps}  steps/path={self.steps_per_path}  "
-            f"random_stream={self.random_stream}",
-        ]
+        columns = rows.columns()
+        notes = tuple(n for n in (few_note(columns, sc.time_name), *self._table_notes()) if n)
+        return Table(self._layout, "crandall result",
+                     (f"crandall result: {sc!r}", *self._run_lines(pending)),
+                     (repr(sc), self._run_brief()), columns, notes, time_name=sc.time_name,
+                     units_system=sc.units, times=np.asarray(self.times, dtype=float),
+                     bias_pending=pending)
+
+    def _statistics_rows(self, rows: StatisticsRows, name: str, pending: bool) -> None:
+        """A quantity's rows: its mean and variance at each output time (or at the stop)."""
+        q = quantity(name)
+        times = [math.nan] if q.at_stop else self.times
+        mean, var, std, se = self.mean(name), self.var(name), self.std(name), self.stderr(name)
+        vse = (self.var_stderr(name) if self._has_var_stderr(name)
+               else np.full(np.shape(mean), math.nan))
+        for stat, value, stderr in (("mean", mean, se), ("var", var, vse)):
+            if pending:
+                bias = error = np.full(np.shape(mean), math.nan)
+                bound = False
+            else:
+                bias, error = self._bias(name, stat, False), self._error(name, stat, False)
+                bound = bool(self._bias_cache[(name, stat)][1])
+            rows.add(name, self.scene.units_of(name), q.long_name_in(self.scene.units), times,
+                     stat, value=value, std=std, stderr=stderr, bias=bias, error=error,
+                     estimated=True, exact=self.exact(name, stat), bound=bound,
+                     few=self._few(name, stat))
+
+    def _run_lines(self, pending: bool) -> tuple:
+        """The summary's lines on the run, below the scene."""
+        lines = [f"  paths={self.paths}  seed={self.seed}  method={self.method}  "
+                 f"dt={self.dt:.6g}  min_steps={self.min_steps}  "
+                 f"steps/path={self.steps_per_path}  random_stream={self.random_stream}"]
         if self.paths < 2:
             lines.append("  (n/a: a variance needs at least 2 paths)")
-        pending = self.bias_pending
         if pending:
             lines.append("  bias: not estimated yet (?): it takes a run of its own; "
                          "result.estimate_bias() makes it (so does result.bias(name))")
         else:
             lines.append("  bias: estimated discretisation bias (0: exact in law; "
                          "Result.bias, docs/methods/adaptive.md)")
+        return tuple(lines)
 
-        def bias_of(n, stat):
-            if pending:
-                return np.full(np.shape(self._stats(n)[0]), np.nan)
-            return self._bias(n, stat, False)
+    def _run_brief(self) -> str:
+        """The run in a line (the HTML table's heading)."""
+        return (f"{self.paths:,} paths, seed {self.seed}, method {self.method}, "
+                f"dt {self.dt:.4g}")
 
-        def shown(value, spec):
-            return f"{'?':>{spec.split('.')[0] or 1}}" if pending else _fmt(value, spec)
-        time_names = [n for n in self.names if not quantity(n).at_stop]
-        if time_names and self.times.size:
-            # One block per quantity: time, mean ± standard error, variance, standard deviation.
-            for n in time_names:
-                u = sc.units_of(n)
-                lines.append(f"  {n}" + (f" [{u}]" if u else ""))
-                lines.append(f"    {sc.time_name:>10}  {'mean':>13}  {'± stderr':>10}  "
-                             f"{'bias':>9}  {'var':>12}  {'± stderr':>10}  {'var bias':>9}  "
-                             f"{'std':>12}")
-                mean, var, cnt = self._stats(n)
-                bm, bv = bias_of(n, "mean"), bias_of(n, "var")
-                se, vse = self._stderr_quiet(n), self._var_stderr_quiet(n)
-                fm, fv = self._few(n, "mean"), self._few(n, "var")
-                for i, t in enumerate(self.times):
-                    lines.append(f"    {t:>10.4g}  {mean[i]:>13.6g}  "
-                                 f"{_fmt(se[i], '10.2g', fm[i])}  "
-                                 f"{shown(bm[i], '9.2g')}  "
-                                 f"{_fmt(var[i], '12.6g')}  {_fmt(vse[i], '10.2g', fv[i])}  "
-                                 f"{shown(bv[i], '9.2g')}  {_fmt(_sqrt(var[i]), '12.6g')}")
-        stop_names = [n for n in self.names if quantity(n).at_stop]
-        if stop_names:
-            lines.append("  at the stop:")
-            for n in stop_names:
-                mean, var, cnt = self._stats(n)
-                u = sc.units_of(n)
-                lines.append(f"    {n:<26} mean {mean:.6g}"
-                             f" ± {_fmt(self._stderr_quiet(n)[0], '.2g', self._few(n, 'mean')[0])}"
-                             f" (bias {shown(bias_of(n, 'mean'), '.2g')})"
-                             f"   var {_fmt(var, '.6g')}"
-                             f" ± {_fmt(self._var_stderr_quiet(n)[0], '.2g', self._few(n, 'var')[0])}"
-                             f" (bias {shown(bias_of(n, 'var'), '.2g')})"
-                             + (f"   [{u}]" if u else ""))
-        for note in (self._few_note(), self._scene_note()):
-            if note:
-                lines.append(f"  {note}")
-        return "\n".join(lines)
+    def _table_notes(self) -> tuple:
+        """The table's notes beyond the marked standard errors."""
+        return (self._scene_note(),)
+
+    # -- presentation -------------------------------------------------------------------
+
+    def summary(self) -> str:
+        """A readable table of the statistics."""
+        with self._table():
+            return render_text.text(self._statistics_table(estimate_bias=False))
 
     #: A stop time this close to the end of the noise (relative to it) is said to be set by
     #: the scene (:meth:`_scene_note`).
@@ -106,29 +115,13 @@ class _Tables:
                 "(the shaking has died down so far by then that they stop at once): it "
                 "tells when the scene's shaking ends, not how the friction stops the body")
 
-    def _few_note(self) -> str:
-        """The tables' note on the standard errors marked FEW_MARK ("" if none)."""
-        marked = []
-        for n in self.names:
-            for stat in ("mean", "var"):
-                few = self._few(n, stat)
-                if few.any():
-                    at = ("at the stop" if quantity(n).at_stop else
-                          f"{self.scene.time_name} = " + ", ".join(
-                              f"{t:g}" for t in self.times[few]))
-                    marked.append(f"{'the variance of ' if stat == 'var' else ''}{n} ({at})")
-        if not marked:
-            return ""
-        return (f"{FEW_MARK}: fewer than {MIN_CARRIERS} paths carry the spread "
-                f"(Result.carriers), so the standard error is not estimated (more paths "
-                "would give it): " + "; ".join(marked))
-
     def __str__(self) -> str:
         return self.summary()
 
     def _repr_html_(self) -> str:
         """The statistics as an HTML table (Jupyter shows it for a result)."""
-        return _render.table_html(self)
+        with self._table():
+            return _render.html_table(self._statistics_table(estimate_bias=False))
 
     # -- export -------------------------------------------------------------------------
 
@@ -150,7 +143,7 @@ class _Tables:
             JSON and one ``scene_*`` attribute per parameter), paths, seed (a string: it may
             not fit a netCDF-3 integer), dt, method, crandall version.
         """
-        return _dataset.to_xarray(self)
+        return _frames.table_xarray(self._statistics_table(), *self._file_contents())
 
     def to_pandas(self, *, tidy: bool = False) -> Any:
         """The statistics as a ``pandas.DataFrame``, one row per quantity and time.
@@ -171,7 +164,7 @@ class _Tables:
             ``time_units``, ``statistic``, ``value`` and ``units``, units as UDUNITS strings
             (``m s-1``, ``m2``; ``1`` in scaled units).
         """
-        return _dataset.to_pandas(self, tidy=tidy)
+        return _frames.table_pandas(self._statistics_table(), tidy=tidy)
 
     def save(self, path) -> None:
         """Write the result to a netCDF file (replaced atomically); read it with
@@ -186,3 +179,9 @@ class _Tables:
         # statistics are NaN: writing it warns of nothing.
         with self._table():
             _dataset.save(self, path)
+
+    def _file_contents(self) -> tuple:
+        """What a saved result holds beyond its statistics table, from which
+        :func:`crandall.load` rebuilds it: (variables, coordinates, attributes) of the
+        dataset."""
+        return _dataset.fixed_step_contents(self)

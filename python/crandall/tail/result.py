@@ -10,8 +10,10 @@ from typing import Any, Dict, Union
 
 import numpy as np
 
-from .. import _render
+from .. import _frames, _render
 from .._files import write_atomic
+from ..results import render_text
+from ..results.table import Table
 from ..errors import ParameterError
 
 #: The netCDF attribute that marks a saved tail result (crandall.load reads it back).
@@ -76,29 +78,30 @@ class TailResult:
         return (np.maximum(self.probability - q * self.stderr, 0.0),
                 self.probability + q * self.stderr)
 
+    def _statistics_table(self) -> Table:
+        """The result's table, which its summary, HTML and pandas table render: per level the
+        probability, its standard error, relative error, 95 % interval, and whether it is
+        reliable."""
+        lo, hi = self.interval()
+        what = "replicas" if self.method == "splitting" else "paths"
+        n = len(self.levels)
+        columns = {"level": np.asarray(self.levels), "units": np.array([self.units] * n,
+                                                                       dtype=object),
+                   "probability": np.asarray(self.probability),
+                   "stderr": np.asarray(self.stderr), "rel_error": np.asarray(self.rel_error),
+                   "lower": lo, "upper": hi, "reliable": np.asarray(self.reliable)}
+        head = f"P({self.quantity} > level), {self.method}"
+        return Table("levels", "crandall tail",
+                     (f"{head}, {self.samples} {what}, {self.seconds:.1f} s, "
+                      f"{self.steps:.3g} steps",),
+                     (f"{head}, {self.samples:,} {what}, {self.seconds:.1f} s",), columns)
+
     def to_pandas(self):
         """One row per level: probability, stderr, rel_error, the 95 % interval, reliable."""
-        import pandas as pd
-
-        lo, hi = self.interval()
-        return pd.DataFrame({"level": self.levels, "units": self.units,
-                             "probability": self.probability, "stderr": self.stderr,
-                             "rel_error": self.rel_error, "lower_95": lo, "upper_95": hi,
-                             "reliable": self.reliable})
+        return _frames.levels_pandas(self._statistics_table())
 
     def __str__(self) -> str:
-        lo, hi = self.interval()
-        unit = f" [{self.units}]" if self.units else ""
-        lines = [f"P({self.quantity} > level), {self.method}, {self.samples} "
-                 f"{'replicas' if self.method == 'splitting' else 'paths'}, "
-                 f"{self.seconds:.1f} s, {self.steps:.3g} steps",
-                 f"{'level' + unit:>16} {'probability':>12} {'stderr':>10} {'rel.err':>8} "
-                 f"{'95% interval':>25}"]
-        for i, lv in enumerate(self.levels):
-            flag = "" if self.reliable[i] else "  UNRELIABLE (see diagnostics)"
-            lines.append(f"{lv:16.6g} {self.probability[i]:12.4g} {self.stderr[i]:10.3g} "
-                         f"{self.rel_error[i]:8.3f} [{lo[i]:.3g}, {hi[i]:.3g}]{flag}")
-        return "\n".join(lines)
+        return render_text.text(self._statistics_table())
 
     def summary(self) -> str:
         """The table of :meth:`__str__` (as every crandall result has)."""
@@ -106,24 +109,17 @@ class TailResult:
 
     def _repr_html_(self) -> str:
         """The table of :meth:`__str__` as HTML (Jupyter shows it for a tail result)."""
-        return _render.tail_html(self)
+        return _render.html_table(self._statistics_table())
 
     def to_xarray(self):
         """An xarray Dataset over ``level``: probability, stderr, rel_error, reliable; the
         quantity, units, method, samples, cost, diagnostics and spec (JSON) as attributes."""
-        import xarray as xr
-
-        ds = xr.Dataset({name: ("level", np.asarray(getattr(self, name), dtype=np.float64))
-                         for name in ("probability", "stderr", "rel_error")},
-                        coords={"level": np.asarray(self.levels, dtype=np.float64)})
-        ds["reliable"] = ("level", np.asarray(self.reliable).astype(np.int8))
-        ds["level"].attrs["units"] = self.units or "1"
-        ds.attrs.update({FILE_ATTR: 1}, quantity=self.quantity, units=self.units,
-                        method=self.method, samples=int(self.samples),
-                        seconds=float(self.seconds), steps=int(self.steps),
-                        diagnostics=json.dumps(self.diagnostics, default=_plain),
-                        spec=json.dumps(self.spec, default=_plain))
-        return ds
+        attrs = {FILE_ATTR: 1, "quantity": self.quantity, "units": self.units,
+                 "method": self.method, "samples": int(self.samples),
+                 "seconds": float(self.seconds), "steps": int(self.steps),
+                 "diagnostics": json.dumps(self.diagnostics, default=_plain),
+                 "spec": json.dumps(self.spec, default=_plain)}
+        return _frames.levels_xarray(self._statistics_table(), attrs)
 
     def save(self, path: Union[str, "os.PathLike[str]"]) -> None:
         """Write a netCDF file (netCDF-3 by SciPy, as crandall's other results), replaced
