@@ -39,6 +39,22 @@ def _floats(text: str) -> List[float]:
         raise argparse.ArgumentTypeError(f"not a comma-separated list of numbers: {text!r}") from None
 
 
+def _block_options(parser: argparse.ArgumentParser) -> None:
+    """The Newmark block's options (crandall newmark and crandall suite): its yields in g, one
+    or several (a sweep)."""
+    block = parser.add_argument_group("the block (one of --ky, --mu, --kd with --ku)")
+    block.add_argument("--ky", type=_float, nargs="+", metavar="KY",
+                       help="one-way yield acceleration(s), g")
+    block.add_argument("--mu", type=_float, nargs="+", metavar="MU",
+                       help="two-way on a flat surface: kinetic friction coefficient(s)")
+    block.add_argument("--mu-static", type=_float, nargs="+", metavar="MU",
+                       help="with --mu: static friction coefficient(s) (default: --mu)")
+    block.add_argument("--kd", type=_float, nargs="+", metavar="KD",
+                       help="incline: downslope yield acceleration(s), g")
+    block.add_argument("--ku", type=_float, nargs="+", metavar="KU",
+                       help="incline: upslope yield acceleration(s), g")
+
+
 def _progress_options(parser: argparse.ArgumentParser) -> None:
     bar = parser.add_mutually_exclusive_group()
     bar.add_argument("--progress", dest="progress", action="store_const", const=True,
@@ -234,17 +250,7 @@ def _parser() -> argparse.ArgumentParser:
     su.add_argument("records", nargs="+", metavar="RECORD", help="the records' files")
     su.add_argument("--thresholds", type=_floats, required=True, metavar="D1,D2,...",
                     help="displacements, m: increasing, > 0")
-    block = su.add_argument_group("the block (one of --ky, --mu, --kd with --ku)")
-    block.add_argument("--ky", type=_float, nargs="+", metavar="KY",
-                       help="one-way yield acceleration(s), g")
-    block.add_argument("--mu", type=_float, nargs="+", metavar="MU",
-                       help="two-way on a flat surface: kinetic friction coefficient(s)")
-    block.add_argument("--mu-static", type=_float, nargs="+", metavar="MU",
-                       help="with --mu: static friction coefficient(s) (default: --mu)")
-    block.add_argument("--kd", type=_float, nargs="+", metavar="KD",
-                       help="incline: downslope yield acceleration(s), g")
-    block.add_argument("--ku", type=_float, nargs="+", metavar="KU",
-                       help="incline: upslope yield acceleration(s), g")
+    _block_options(su)
     su.add_argument("--pga", type=_floats, metavar="G1,G2,...",
                     help="scale every record to each of these PGAs, g (an axis: a curve over PGA)")
     su.add_argument("--weights", type=_floats, metavar="W1,W2,...",
@@ -277,17 +283,7 @@ def _parser() -> argparse.ArgumentParser:
                     "acceleration; pySLAMMER's CSV files), one column (with --dt), or a PEER "
                     "NGA .AT2 file. Several yield values sweep them.")
     nm.add_argument("record", metavar="RECORD", help="the record's file")
-    mode = nm.add_argument_group("the block (one of --ky, --mu, --kd with --ku)")
-    mode.add_argument("--ky", type=_float, nargs="+", metavar="KY",
-                      help="one-way yield acceleration(s), g")
-    mode.add_argument("--mu", type=_float, nargs="+", metavar="MU",
-                      help="two-way on a flat surface: kinetic friction coefficient(s)")
-    mode.add_argument("--mu-static", type=_float, nargs="+", metavar="MU",
-                      help="with --mu: static friction coefficient(s) (default: --mu)")
-    mode.add_argument("--kd", type=_float, nargs="+", metavar="KD",
-                      help="incline: downslope yield acceleration(s), g")
-    mode.add_argument("--ku", type=_float, nargs="+", metavar="KU",
-                      help="incline: upslope yield acceleration(s), g")
+    _block_options(nm)
     nm.add_argument("--method", choices=("exact", "slammer"), default="exact",
                     help="exact: the record joined by straight lines, integrated exactly "
                          "(default); slammer: pySLAMMER 0.2.2's recursion, bit for bit")
