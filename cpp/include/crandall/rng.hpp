@@ -104,15 +104,12 @@ struct PhiloxOps {
 
 #if CRANDALL_VARIANT_LEVEL >= 3
 constexpr int kPhiloxWidth = PhiloxOps::kWidth;
-// Random123's Philox4x32-10 for paths path0 .. path0 + kPhiloxWidth - 1 at once; word j of
-// lane l goes to the low 32 bits of o_j[l].
-inline void philox_vector(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair,
-                          std::uint64_t* o0, std::uint64_t* o1, std::uint64_t* o2,
-                          std::uint64_t* o3) {
+// Philox4x32-10's ten rounds on a vector of counters (c0, c1, c2, c3: word j in the low 32
+// bits of each lane; c0's and c2's high halves are ignored by mul32), the words stored to o_j.
+inline void philox_rounds(std::uint64_t seed, PhiloxOps::V c0, PhiloxOps::V c1, PhiloxOps::V c2,
+                          PhiloxOps::V c3, std::uint64_t* o0, std::uint64_t* o1,
+                          std::uint64_t* o2, std::uint64_t* o3) {
   using O = PhiloxOps;
-  const O::V path = O::add(O::set1(path0), O::lanes());
-  O::V c0 = O::set1(pair & 0xFFFFFFFFu), c1 = O::set1(pair >> 32);
-  O::V c2 = path, c3 = O::high32(path);  // c2's high half is ignored by mul32
   const O::V m0 = O::set1(kPhiloxM0), m1 = O::set1(kPhiloxM1);
   std::uint32_t k0 = static_cast<std::uint32_t>(seed), k1 = static_cast<std::uint32_t>(seed >> 32);
   for (int r = 0; r < 10; ++r) {
@@ -132,6 +129,18 @@ inline void philox_vector(std::uint64_t seed, std::uint64_t path0, std::uint64_t
   O::store(o1, c1);
   O::store(o2, c2);
   O::store(o3, c3);
+}
+
+// Random123's Philox4x32-10 for paths path0 .. path0 + kPhiloxWidth - 1 at once; word j of
+// lane l goes to the low 32 bits of o_j[l].
+inline void philox_vector(std::uint64_t seed, std::uint64_t path0, std::uint64_t pair,
+                          std::uint64_t* o0, std::uint64_t* o1, std::uint64_t* o2,
+                          std::uint64_t* o3) {
+  using O = PhiloxOps;
+  const O::V path = O::add(O::set1(path0), O::lanes());
+  O::V c0 = O::set1(pair & 0xFFFFFFFFu), c1 = O::set1(pair >> 32);
+  O::V c2 = path, c3 = O::high32(path);  // c2's high half is ignored by mul32
+  philox_rounds(seed, c0, c1, c2, c3, o0, o1, o2, o3);
 }
 #else
 constexpr int kPhiloxWidth = 1;
@@ -174,25 +183,7 @@ inline void philox_vector_lanes(std::uint64_t seed, const std::uint64_t* paths,
 #endif
   O::V c0 = pair, c1 = O::high32(pair);  // c0's high half is ignored by mul32
   O::V c2 = path, c3 = O::high32(path);
-  const O::V m0 = O::set1(kPhiloxM0), m1 = O::set1(kPhiloxM1);
-  std::uint32_t k0 = static_cast<std::uint32_t>(seed), k1 = static_cast<std::uint32_t>(seed >> 32);
-  for (int r = 0; r < 10; ++r) {
-    if (r > 0) {
-      k0 += kPhiloxW0;
-      k1 += kPhiloxW1;
-    }
-    const O::V p0 = O::mul32(c0, m0), p1 = O::mul32(c2, m1);
-    const O::V n0 = O::bitxor(O::bitxor(O::high32(p1), c1), O::set1(k0));
-    const O::V n2 = O::bitxor(O::bitxor(O::high32(p0), c3), O::set1(k1));
-    c1 = p1;
-    c3 = p0;
-    c0 = n0;
-    c2 = n2;
-  }
-  O::store(o0, c0);
-  O::store(o1, c1);
-  O::store(o2, c2);
-  O::store(o3, c3);
+  philox_rounds(seed, c0, c1, c2, c3, o0, o1, o2, o3);
 }
 }  // namespace detail
 #endif
