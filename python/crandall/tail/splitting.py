@@ -57,7 +57,7 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     thresholds = (np.array([problem.split_threshold(float(x), top) for x in levels])
                   if top is not None else levels)
     uncoast = top is None and problem.coasts_to_rest(levels)
-    if core and problem.white_noise:
+    if core and problem.in_core:
         return core_replica(problem, levels, n, kill, key, replica, threads, max_iterations,
                             top, first, thresholds, uncoast, deadline)
     base = replica * _REPLICA_STREAMS
