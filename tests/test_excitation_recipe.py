@@ -178,3 +178,21 @@ def stub_declared(monkeypatch):
 def test_the_refusal_comes_from_the_declaration_alone(entry, stub_kind, stub_declared,
                                                       tmp_path):
     ENTRY_POINTS[entry](tmp_path)
+
+
+def test_a_kind_the_tails_splitting_holds_for_but_not_its_paths_is_refused(stub_kind,
+                                                                           monkeypatch):
+    # Step 3 half done: simulated, and TAIL_SPLITTING declared, but the tail has no paths of
+    # its own for the kind (neither the sign-drift diffusion's, TAIL_MODEL, nor the filtered
+    # walk): refused naming the scene, instead of the white-noise paths.
+    monkeypatch.setattr(model, "SIMULATED", model.SIMULATED | {STUB_EFFECT})
+    kept = model.TAIL_SPLITTING.supports
+    object.__setattr__(model.TAIL_SPLITTING, "supports", kept | {STUB_EFFECT})
+    try:
+        with pytest.raises(ParameterError, match="scene: crandall.tail continues the paths "
+                                                 f".* not those of a scene with {STUB_EFFECT}"
+                           ) as exc:
+            crandall.tail(_scene(), "distance_at_stop", [0.5], seed=1, threads=1)
+        assert exc.value.name == "scene"
+    finally:
+        object.__setattr__(model.TAIL_SPLITTING, "supports", kept)

@@ -12,7 +12,8 @@ import numpy as np
 from .. import _core, quantities
 from .._lazy import lazy_module
 from ..errors import ParameterError
-from ..model import ITO_DISTANCE, MOVING_AT_SWITCH_OFF, TAIL_MODEL, TAIL_SPLITTING, holds
+from ..model import (FILTERED_EXCITATION, ITO_DISTANCE, MOVING_AT_SWITCH_OFF, TAIL_MODEL,
+                     TAIL_SPLITTING, holds)
 from ..quantities import Quantity
 from ..scene import Scene
 from ..spec import check_positive, check_scene, default_dt, is_real
@@ -64,6 +65,12 @@ class _Problem:
         #: The paths are the core's filtered walk (_FilteredGrid), not the exact skeleton of
         #: the sign-drift diffusion (_core.extend_paths), which holds where TAIL_MODEL does.
         self.filtered = not holds(scene, TAIL_MODEL)
+        if self.filtered and FILTERED_EXCITATION not in scene.effects:
+            # A kind TAIL_SPLITTING was declared to hold for before the tail had its paths.
+            missing = ", ".join(sorted(frozenset(scene.effects) - TAIL_MODEL.supports))
+            raise ParameterError("scene", f"scene: crandall.tail continues the paths of the "
+                                 f"sign-drift diffusion or of a filtered excitation, not those "
+                                 f"of a scene with {missing}")
         if self.filtered:
             if getattr(scene.excitation, "ring_down", False):
                 raise ParameterError(
