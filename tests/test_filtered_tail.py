@@ -176,6 +176,16 @@ def test_refusals_name_the_parameter():
                                              "for a scene with filtered_excitation") as e:
         tail(scene, "distance_at_stop", [1.0], method="importance", seed=1, dt=DT)
     assert e.value.name == "method"
+    # A Dask task of importance sampling (its job built by hand: crandall.tail refuses the
+    # method first) refuses the scene too, before any path is drawn.
+    from crandall.tail.run import sample
+    job = {"scene": scene.to_dict(), "quantity": "distance_at_stop", "time": None, "dt": DT,
+           "levels": [1.0], "particles": 10, "key": 1, "proposal": (1.0, 0.0, 0.0, None)}
+    with pytest.raises(ParameterError, match="scene: importance sampling .crandall.tail. is "
+                                             "not available for a scene with "
+                                             "filtered_excitation") as e:
+        sample(job, 0, 1)
+    assert e.value.name == "scene"
     with pytest.raises(ParameterError, match="ring_down") as e:
         tail(_scene(ring_down=True), "distance_at_stop", [1.0], seed=1, dt=DT)
     assert e.value.name == "scene"

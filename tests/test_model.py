@@ -77,6 +77,9 @@ ENTRY_POINTS = {
     "simulate_many": lambda sc: crandall.simulate_many([sc], paths=100, seed=1, threads=1),
     "tail": lambda sc: crandall.tail(sc, "distance_at_stop", [0.5], seed=1, threads=1),
     "paths": lambda sc: crandall.paths(sc, n=2, seed=1, threads=1),
+    "fragility": lambda sc: crandall.fragility(sc, "distance_at_stop", [0.5],
+                                               intensities=[0.5, 1.0], seed=1, threads=1,
+                                               progress=False),
     "RunSpec": lambda sc: RunSpec(sc, 100, 1, 0.01, "exact"),
     "RunSpec.create": lambda sc: RunSpec.create(sc, paths=100, seed=1),
     "RunSpec.from_dict": lambda sc: RunSpec.from_dict(_SPEC),
@@ -115,6 +118,7 @@ def test_every_entry_point_runs_the_stub_once_it_is_declared_simulated(
 #: The entry points of the estimators with a model of their own, and the identity each rests on.
 _ESTIMATOR_MODELS = {"simulate(error=)": model.LEVELS, "simulate(rel_error=)": model.LEVELS,
                      "accuracy Dask task": model.LEVELS, "tail": model.TAIL_SPLITTING,
+                     "fragility": model.TAIL_SPLITTING,
                      "tail Dask task": model.TAIL_SPLITTING, "paths": model.TAIL_MODEL}
 
 

@@ -5,9 +5,15 @@ import math
 import numpy as np
 import pytest
 
+import importlib
+
 import crandall
-from crandall import quantities
+from crandall import _core, quantities
+from crandall.errors import ParameterError
 from crandall.quantities import Quantity, VELOCITY
+from crandall.tail import TAIL_QUANTITIES
+
+TAIL_PROBLEM = importlib.import_module("crandall.tail.problem")
 
 
 def test_public_names_still_where_they_were():
@@ -57,7 +63,7 @@ def test_units_and_long_names_come_from_the_table(physical_scene):
         "energy dissipated by friction")
 
 
-def test_a_new_quantity_is_one_row(monkeypatch, physical_scene):
+def test_a_new_quantity_is_one_row(monkeypatch, physical_scene, tmp_path):
     """The worked example of docs/architecture.md: the momentum m V, added by one row."""
     def momentum_factor(scene):
         return scene.mass
@@ -81,6 +87,75 @@ def test_a_new_quantity_is_one_row(monkeypatch, physical_scene):
     assert isinstance(table, pd.DataFrame)
     assert set(table.loc[table.quantity == "momentum", "units"]) == {"kg m/s"}
     assert not math.isnan(table.loc[table.quantity == "momentum", "var_stderr"].iloc[0])
+    # The other entry points and the result file hold it too.
+    many = crandall.simulate_many([scene, scene], paths=200, seed=3, dt=0.1)
+    assert all(np.array_equal(m.mean("momentum"), 4.0 * m.mean("velocity")) for m in many)
+    accurate = crandall.simulate(scene, error=0.05, seed=3, threads=1)
+    assert np.array_equal(accurate.mean("momentum"), 4.0 * accurate.mean("velocity"))
+    pytest.importorskip("xarray")
+    r.save(tmp_path / "momentum.nc")
+    loaded = crandall.load(tmp_path / "momentum.nc")
+    assert np.array_equal(loaded.mean("momentum"), r.mean("momentum"))
+    # A row without a tail score is not a tail quantity: crandall.tail (and crandall.fragility,
+    # which checks against the same view) refuses it naming the quantity, before any path.
+    assert "momentum" not in TAIL_QUANTITIES
+    with pytest.raises(ParameterError, match="momentum has no tail score") as exc:
+        crandall.tail(scene, "momentum", [8.0], time=1.0, seed=3, threads=1)
+    assert exc.value.name == "quantity"
+    with pytest.raises(ParameterError) as exc:
+        crandall.fragility(scene, "momentum", [8.0], intensities=[1.0], seed=3, threads=1,
+                           progress=False)
+    assert exc.value.name == "quantity"
+
+
+def test_a_new_quantity_with_a_tail_score_reaches_the_tail(monkeypatch, tmp_path):
+    """The same row with a tail score (the velocity's, times its factor m): crandall.tail
+    estimates P(m V > 4 L) as P(V > L), bit for bit (a power of 2: no rounding), with splitting's
+    Python loop (the core's loop has no score of its own for it), and saves its unit."""
+    def momentum_factor(scene):
+        return scene.mass
+
+    row = Quantity("momentum", VELOCITY, "kg m/s", "momentum", ("velocity",),
+                   factor=momentum_factor, tail="velocity")
+    scene = crandall.Scene(mu=0.3, h=1.0, t0=2.0, mass=4.0, times=[1.0])
+    kw = dict(time=1.0, seed=3, threads=1, dt=0.1, rel_error=0.3, max_samples=40)
+    velocity = crandall.tail(scene, "velocity", [1.2, 1.6], **kw)
+    monkeypatch.setattr(quantities, "QUANTITIES", quantities.QUANTITIES + (row,))
+    assert "momentum" in TAIL_QUANTITIES and "momentum" not in _core.SPLIT_QUANTITIES
+    momentum = crandall.tail(scene, "momentum", [4.8, 6.4], **kw)
+    assert np.array_equal(momentum.probability, velocity.probability)
+    assert np.array_equal(momentum.stderr, velocity.stderr)
+    assert momentum.samples == velocity.samples and momentum.units == "kg m/s"
+    pytest.importorskip("xarray")
+    path = tmp_path / "momentum.nc"
+    momentum.save(path)
+    loaded = crandall.load(path)
+    assert loaded.quantity == "momentum" and loaded.units == "kg m/s"
+    assert np.array_equal(loaded.probability, momentum.probability)
+
+
+def test_the_tail_quantities_are_the_rows_with_a_tail_score():
+    # The tail's facts, as its own table had them: unit, at the stop, velocity only, peak.
+    facts = {"stop_time": ("s", True, True, False), "velocity": ("m/s", False, True, False),
+             "speed": ("m/s", False, True, False),
+             "distance_at_stop": ("m", True, False, False),
+             "dissipated_energy_at_stop": ("J", True, False, False),
+             "displacement_at_stop": ("m", True, False, False),
+             "residual_displacement": ("m", True, False, False),
+             "peak_displacement_at_stop": ("m", True, False, True),
+             "peak_speed_at_stop": ("m/s", True, True, True)}
+    assert set(TAIL_QUANTITIES) == set(facts)
+    for name, (unit, at_stop, velocity_only, peak) in facts.items():
+        q = TAIL_QUANTITIES[name]
+        assert q is quantities.quantity(name)
+        assert (q.si_unit, q.at_stop, q.velocity_only, q.peak) == (unit, at_stop, velocity_only,
+                                                                  peak), name
+        assert q.tail in TAIL_PROBLEM.SCORES
+    # The core's splitting loop scores them all, indexed by the names it exposes.
+    assert set(_core.SPLIT_QUANTITIES) == set(facts)
+    assert len(_core.SPLIT_QUANTITIES) == len(facts)
+    # The speed is a tail quantity only: no result holds it (the core keeps no moments of it).
+    assert "speed" not in quantities.names_for(quantities.OBSERVABLES)
 
 
 def test_accumulators_are_public(paper_scene):

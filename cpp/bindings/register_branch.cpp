@@ -141,6 +141,29 @@ void register_branch(py::module_& m) {
       "(lengths, noises, z0) of a filtered plan's walked grid: every fine step's length and "
       "intensity in time order, and the filter's start state.");
 
+  m.def(
+      "tail_grid",
+      [](const crandall::Plan& plan, double dt, bool coarse, double max_steps) {
+        if (plan.options().filtered())
+          throw std::invalid_argument("plan: tail_grid needs a white-noise plan (filtered_grid "
+                                      "is a filtered plan's)");
+        const crandall::TailGrid grid = crandall::tail_grid(plan, dt, coarse, max_steps);
+        auto array = [](const std::vector<double>& v) {
+          return py::array_t<double>(static_cast<py::ssize_t>(v.size()), v.data());
+        };
+        return py::make_tuple(array(grid.lengths), array(grid.noises), array(grid.starts));
+      },
+      py::arg("plan"), py::arg("dt"), py::arg("coarse") = false, py::arg("max_steps") = 1e7,
+      "(lengths, noises, starts) of a tail run's grid on a white-noise plan (plan.hpp "
+      "tail_grid): each segment of the plan cut into max(1, ceil(length / dt - 1e-9)) equal "
+      "steps (one without noise or when `coarse`). ValueError starting with 'dt:' past "
+      "`max_steps` steps in a segment.");
+
+  py::tuple split_quantities(crandall::kSplitQuantityNames.size());
+  for (std::size_t i = 0; i < crandall::kSplitQuantityNames.size(); ++i)
+    split_quantities[i] = py::str(crandall::kSplitQuantityNames[i]);
+  m.attr("SPLIT_QUANTITIES") = split_quantities;
+
   using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
   m.def(
       "split_parents",
@@ -170,8 +193,8 @@ void register_branch(py::module_& m) {
           throw std::invalid_argument("remaining must have steps + 1 values");
         if (levels.size() != thresholds.size() || levels.size() == 0)
           throw std::invalid_argument("levels and thresholds must have the same (> 0) length");
-        if (quantity < 0 || quantity > static_cast<int>(crandall::SplitQuantity::peak_speed_at_stop))
-          throw std::invalid_argument("quantity must be an index of TAIL_QUANTITIES, got " +
+        if (quantity < 0 || quantity >= static_cast<int>(crandall::kSplitQuantityNames.size()))
+          throw std::invalid_argument("quantity must be an index of SPLIT_QUANTITIES, got " +
                                       std::to_string(quantity));
         if (!(drift > 0.0)) throw std::invalid_argument("drift must be > 0");
         crandall::BranchGrid grid{lengths.data(), noises.data(), drifts.data(), steps};

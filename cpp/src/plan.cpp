@@ -1,6 +1,7 @@
 #include "crandall/plan.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "crandall/exact_step.hpp"
@@ -207,6 +208,7 @@ Plan::Plan(Options options) : options_(std::move(options)) {
       n = (n + group - 1) / group * group;
     }
     segments_.push_back({n > 0 ? gap / static_cast<double>(n) : 0.0, n, s, noise_until(until)});
+    segment_ends_.push_back(until);
     steps_per_path_ += n;
     previous = until;
   };
@@ -264,6 +266,40 @@ std::uint64_t Plan::chunk_paths(std::uint64_t chunk) const {
   const std::uint64_t first = chunk * kChunkPaths;
   const std::uint64_t left = options_.paths - first;
   return left < kChunkPaths ? left : kChunkPaths;
+}
+
+TailGrid tail_grid(const Plan& plan, double dt, bool coarse, double max_steps) {
+  require(std::isfinite(dt) && dt > 0.0, "dt must be finite and > 0");
+  TailGrid grid;
+  double a = 0.0;
+  for (std::size_t k = 0; k < plan.segments().size(); ++k) {
+    const double b = plan.segment_ends()[k];
+    const double sigma = plan.segments()[k].noise;
+    if (b > a) {
+      // The operations of tail/problem.py's former NumPy cut, in its order (no contraction:
+      // -ffp-contract=off), so the same bits (tests/test_tail_grid.py).
+      const double want = (sigma == 0.0 || coarse) ? 1.0 : std::ceil((b - a) / dt - 1e-9);
+      if (!(want <= max_steps)) {
+        char text[64];
+        std::snprintf(text, sizeof text, "%.0f", want);
+        throw std::invalid_argument(std::string("dt: ") + text +
+                                    " steps over one piece of the excitation; the paths would "
+                                    "not fit");
+      }
+      const auto n = static_cast<std::uint64_t>(want < 1.0 ? 1.0 : want);
+      const double nd = static_cast<double>(n);
+      double previous = a;
+      for (std::uint64_t i = 1; i <= n; ++i) {
+        const double edge = a + (b - a) * static_cast<double>(i) / nd;
+        grid.lengths.push_back(edge - previous);
+        grid.noises.push_back(sigma);
+        grid.starts.push_back(previous);
+        previous = edge;
+      }
+    }
+    a = b;
+  }
+  return grid;
 }
 
 }  // namespace crandall

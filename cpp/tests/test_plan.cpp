@@ -125,6 +125,39 @@ TEST(Plan, SwitchOffOffTheGrid) {
   EXPECT_DOUBLE_EQ(plan.coast_elapsed()[0], 0.4);
 }
 
+TEST(TailGrid, CutsTheSegmentsAtPiecesAndOutputTimes) {
+  // Pieces ending at 0.3 (calm), 1.0 and 1.5; output times 0.7 (a break) and 1.2 (the
+  // horizon): segments [0, 0.3] (one step, no noise), [0.3, 0.7], [0.7, 1.0], [1.0, 1.2].
+  crandall::Options o;
+  o.piece_ends = {0.3, 1.0, 1.5};
+  o.piece_noise = {0.0, 1.0, 2.0};
+  o.switch_off = 1.5;
+  o.times = {0.7, 1.2};
+  o.dt = 0.1;
+  const crandall::Plan plan(o);
+  const crandall::TailGrid grid = crandall::tail_grid(plan, 0.1, false, 1e7);
+  // ceil(0.4 / 0.1 - 1e-9) = 4, ceil(0.3 / 0.1 - 1e-9) = 3, ceil(0.2 / 0.1 - 1e-9) = 2.
+  ASSERT_EQ(grid.lengths.size(), 10u);
+  const std::vector<double> noise = {0, 1, 1, 1, 1, 1, 1, 1, 2, 2};
+  for (std::size_t k = 0; k < noise.size(); ++k) EXPECT_EQ(grid.noises[k], noise[k]) << k;
+  EXPECT_EQ(grid.starts[0], 0.0);
+  EXPECT_EQ(grid.lengths[0], 0.3);
+  EXPECT_EQ(grid.starts[1], 0.3);
+  EXPECT_EQ(grid.starts[5], 0.7);
+  EXPECT_EQ(grid.starts[8], 1.0);
+  double end = 0.0;
+  for (std::size_t k = 0; k < grid.lengths.size(); ++k) {
+    EXPECT_NEAR(grid.starts[k], end, 1e-15) << k;
+    end = grid.starts[k] + grid.lengths[k];
+  }
+  EXPECT_NEAR(end, 1.2, 1e-15);
+  // Coarse: one step per segment.
+  EXPECT_EQ(crandall::tail_grid(plan, 0.1, true, 1e7).lengths.size(), 4u);
+  // Too many steps in a segment, and a bad dt, are refused.
+  EXPECT_THROW(crandall::tail_grid(plan, 1e-9, false, 1e7), std::invalid_argument);
+  EXPECT_THROW(crandall::tail_grid(plan, 0.0, false, 1e7), std::invalid_argument);
+}
+
 TEST(Options, RejectBadInput) {
   auto bad = [](auto mutate) {
     auto o = scene();

@@ -14,6 +14,9 @@ LANES: int
 METHOD_GRIDS: dict[str, int]
 #: Histogram variables per slot, in the order of Options.histogram_axes.
 HISTOGRAM_VARIABLES: int
+#: The quantities whose splitting score the core computes, in the order of split.hpp's
+#: SplitQuantity (split_replica's `quantity` is an index into it).
+SPLIT_QUANTITIES: Tuple[str, ...]
 
 def monomial_exponents() -> List[Tuple[int, int, int]]:
     """Exponent triples (a, b, c) of the central sums, in storage order."""
@@ -205,6 +208,16 @@ def split_parents(
 ) -> npt.NDArray[np.int64]:
     """The parents of one splitting iteration's count clones: indices uniform on
     [0, survivors), drawn from Philox keyed by (key, replica, iteration)."""
+
+def tail_grid(
+    plan: Plan,
+    dt: float,
+    coarse: bool = ...,
+    max_steps: float = ...,
+) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """(lengths, noises, starts) of a tail run's grid on a white-noise plan: each segment cut
+    into max(1, ceil(length / dt - 1e-9)) equal steps (one without noise or when `coarse`);
+    ValueError starting with 'dt:' past `max_steps` steps in a segment."""
 
 def split_replica(
     lengths: npt.NDArray[np.float64],

@@ -75,6 +75,16 @@ class Quantity:
     magnitude : bool
         The magnitude |variable| at the stop: its moments are the stop's second slot (the
         core's ``residual`` option), its distribution the variable's folded at 0.
+    tail : str or None
+        Its score in a tail run (``crandall.tail``, whose quantities are the rows with one): a
+        key of ``crandall.tail.problem.SCORES``, the function of a path's state whose value at
+        the last grid point (its maximum over the path for a ``peak``) is the quantity over
+        ``factor(scene)``; None: ``crandall.tail`` refuses it. The tail's other facts are the
+        row's: ``at_stop`` (the horizon is the end of the shaking), ``peak``, and whether it is
+        a function of the velocity alone (``variable`` VELOCITY: exact on any grid).
+    held : bool
+        Whether results hold it (the core accumulates its moments); False for a quantity only
+        a tail run estimates (the speed |V(t)|).
     """
 
     name: str
@@ -91,6 +101,8 @@ class Quantity:
     offset: Optional[Callable[[Any], float]] = None
     peak: bool = False
     magnitude: bool = False
+    tail: Optional[str] = None
+    held: bool = True
 
     @property
     def histogram_variable(self) -> int:
@@ -102,6 +114,11 @@ class Quantity:
         """The long name in a scene of ``units`` ("SI" or "scaled")."""
         text = self.long_name + (f" {self.symbol}" if units == "scaled" and self.symbol else "")
         return text + (" at the stop" if self.at_stop else "")
+
+    @property
+    def velocity_only(self) -> bool:
+        """A function of the velocity alone (the peak speed too): no step bias in a tail run."""
+        return self.variable == VELOCITY
 
     @property
     def has_var_stderr(self) -> bool:
@@ -121,7 +138,7 @@ def _kinetic(scene) -> float:
 # Time-resolved quantities; each is also an observable of the same name.
 _OVER_TIME = (
     Quantity("velocity", VELOCITY, "m/s", "velocity", ("velocity",), symbol="U1",
-             kind="velocity"),
+             kind="velocity", tail="velocity"),
     Quantity("displacement", DISPLACEMENT, "m", "displacement", ("displacement",),
              symbol="U2", twin="displacement_at_stop", kind="length"),
     Quantity("distance", DISTANCE, "m", "distance travelled", ("distance",), symbol="U3",
@@ -144,10 +161,19 @@ _OVER_TIME = (
 )
 
 
+#: The tail scores of the stop twins (Quantity.tail): the energy's is the distance's times
+#: its factor m mu g.
+_STOP_TAILS = {"displacement_at_stop": "displacement_at_stop",
+               "distance_at_stop": "distance_at_stop",
+               "dissipated_energy_at_stop": "distance_at_stop",
+               "peak_speed_at_stop": "peak_speed_at_stop",
+               "peak_displacement_at_stop": "peak_displacement_at_stop"}
+
+
 def _at_stop(q: Quantity) -> Quantity:
     return Quantity(q.twin, q.variable, q.si_unit, q.long_name, (STOP,) + q.needs,
                     factor=q.factor, power=q.power, symbol=q.symbol, at_stop=True, twin=q.name,
-                    kind=q.kind, peak=q.peak)
+                    kind=q.kind, peak=q.peak, tail=_STOP_TAILS.get(q.twin))
 
 
 def _stop_time_offset(scene) -> float:
@@ -157,14 +183,17 @@ def _stop_time_offset(scene) -> float:
 #: Every quantity, time-resolved ones first, in the order results list them.
 QUANTITIES: Tuple[Quantity, ...] = _OVER_TIME + (
     Quantity("stop_time", VELOCITY, "s", "stop time", (STOP,), at_stop=True, kind="time",
-             offset=_stop_time_offset),
+             offset=_stop_time_offset, tail="stop_time"),
 ) + tuple(_at_stop(q) for q in _OVER_TIME if q.twin is not None) + (
     # |U(t_s)|: how far from where it started the body comes to rest, in either direction
     # (displacement_at_stop is signed).
     Quantity("residual_displacement", DISPLACEMENT, "m",
              "residual displacement (magnitude of the displacement)",
              (STOP, "displacement", RESIDUAL), symbol="|U2|", at_stop=True, kind="length",
-             magnitude=True),
+             magnitude=True, tail="residual_displacement"),
+    # |V(t)|: a tail run's quantity only (the core keeps no moments of it).
+    Quantity("speed", VELOCITY, "m/s", "speed (magnitude of the velocity)", ("velocity",),
+             symbol="|U1|", kind="velocity", tail="speed", held=False),
 )
 
 #: Everything a scene can observe: each time-resolved quantity but the peaks, "stop" (the
@@ -179,7 +208,8 @@ DEFAULT_OBSERVE: Tuple[str, ...] = tuple(n for n in OBSERVABLES if n not in (PEA
 
 #: Scalar quantities at the stop, and the observable each needs besides "stop".
 STOP_QUANTITIES: Dict[str, Optional[str]] = {
-    q.name: next((n for n in q.needs if n != STOP), None) for q in QUANTITIES if q.at_stop}
+    q.name: next((n for n in q.needs if n != STOP), None) for q in QUANTITIES
+    if q.at_stop and q.held}
 
 
 def find(name: Any) -> Optional[Quantity]:
@@ -200,7 +230,7 @@ def quantity(name: str) -> Quantity:
 def names_for(observe: Iterable[str]) -> Tuple[str, ...]:
     """The quantities a result of a scene observing ``observe`` holds, in table order."""
     obs = set(observe)
-    return tuple(q.name for q in QUANTITIES if set(q.needs) <= obs)
+    return tuple(q.name for q in QUANTITIES if q.held and set(q.needs) <= obs)
 
 
 def simulated_variables(observe: Iterable[str], *, at_stop: bool) -> Tuple[int, ...]:

@@ -193,6 +193,8 @@ class Plan {
 
   const Options& options() const { return options_; }
   const std::vector<Segment>& segments() const { return segments_; }
+  // Where each segment ends (the output time, piece end or switch-off it was cut at), exactly.
+  const std::vector<double>& segment_ends() const { return segment_ends_; }
   // Slots of output times after the switch-off (filled in closed form), with the time since it.
   const std::vector<long>& coast_slots() const { return coast_slots_; }
   const std::vector<double>& coast_elapsed() const { return coast_elapsed_; }
@@ -213,6 +215,7 @@ class Plan {
  private:
   Options options_;
   std::vector<Segment> segments_;
+  std::vector<double> segment_ends_;
   std::vector<long> coast_slots_;
   std::vector<double> coast_elapsed_;
   bool needs_switch_state_ = false;
@@ -221,5 +224,19 @@ class Plan {
   std::vector<long> histogram_slot_;
   std::shared_ptr<const FilterModel> filter_;
 };
+
+// A tail run's grid (crandall.tail on a white-noise scene, tail/problem.py): the plan's
+// segments (cut at its output times and pieces' ends) each split into n equal parts by the
+// points a + (b - a) i / n, i = 0 .. n, with n = max(1, ceil((b - a) / dt - 1e-9)), or n = 1
+// on a segment without noise or when `coarse` (the velocity's law does not depend on the
+// grid). Per step: its length (the difference of its points), its intensity and its start.
+// Throws std::invalid_argument, its message starting with "dt:", when a segment would take
+// more than `max_steps` steps.
+struct TailGrid {
+  std::vector<double> lengths;
+  std::vector<double> noises;
+  std::vector<double> starts;
+};
+TailGrid tail_grid(const Plan& plan, double dt, bool coarse, double max_steps);
 
 }  // namespace crandall

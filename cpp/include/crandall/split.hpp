@@ -6,6 +6,7 @@
 // scores operation by operation.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -24,7 +25,10 @@ namespace crandall {
 void split_parents(std::uint64_t key, std::uint64_t replica, std::uint64_t iteration,
                    std::uint64_t survivors, std::size_t count, std::int64_t* out);
 
-// The quantities of crandall.tail.problem.TAIL_QUANTITIES, in its order.
+// The quantities whose score the core's loop computes (split_score_row). Python reads their
+// names from the core (_core.SPLIT_QUANTITIES, kSplitQuantityNames) and passes the index of
+// its quantity's name there; a tail quantity the core does not name runs splitting's Python
+// loop.
 enum class SplitQuantity : int {
   stop_time = 0,
   velocity,
@@ -36,6 +40,22 @@ enum class SplitQuantity : int {
   peak_displacement_at_stop,
   peak_speed_at_stop,
 };
+
+// SplitQuantity's names, in its order: the names of the quantities (crandall.quantities).
+inline constexpr std::array<const char*, 9> kSplitQuantityNames = {
+    "stop_time",
+    "velocity",
+    "speed",
+    "distance_at_stop",
+    "dissipated_energy_at_stop",
+    "displacement_at_stop",
+    "residual_displacement",
+    "peak_displacement_at_stop",
+    "peak_speed_at_stop",
+};
+static_assert(kSplitQuantityNames.size() ==
+                  static_cast<std::size_t>(SplitQuantity::peak_speed_at_stop) + 1,
+              "a name for every SplitQuantity");
 
 // The score of _Problem.split_score, point by point (points 0 .. steps of a row): `plain` the
 // quantity's score (_Problem.score), `rank` what splitting ranks by (plain, the uncoasted

@@ -87,7 +87,7 @@ def fragility(scene: Scene, quantity: str, thresholds, *, intensities=None, mu=N
         out[name] = out[name].reshape(shape + (len(thr),))
     out["run"] = out["run"].reshape(shape)
     return FragilityResult(quantity=quantity, axis="intensity", values=hs, by="mu", by_values=ms,
-                           thresholds=thr, units=TAIL_QUANTITIES[quantity].unit, seed=seed,
+                           thresholds=thr, units=TAIL_QUANTITIES[quantity].si_unit, seed=seed,
                            scene=scene.to_dict(), method=method,
                            rel_error_target=float(rel_error), **out)
 
@@ -104,6 +104,6 @@ def run_grid(scene: Scene, quantity: str, thr: np.ndarray, scenes: Sequence[Scen
                       rel_error=rel_error, seed=seed, threads=threads, progress=progress,
                       time=time, dt=dt, method=method, max_seconds=max_seconds, share=share)
     return FragilityResult(quantity=quantity, axis=axis, values=values, thresholds=thr,
-                           units=TAIL_QUANTITIES[quantity].unit, seed=seed,
+                           units=TAIL_QUANTITIES[quantity].si_unit, seed=seed,
                            scene=scene.to_dict(), method=method,
                            rel_error_target=float(rel_error), **out)

@@ -16,12 +16,12 @@ from .. import streams as _streams
 from ..driver import check_client, drive
 from ..driver import threads as resolve_threads
 from ..errors import ParameterError
-from ..model import TAIL_MODEL, holds
+from ..model import EXACT_STEP, TAIL_MODEL, holds
 from ..results import StatisticsWarning
 from ..scene import Scene
 from ..spec import MAX_SEED, as_seed, check_int, draw_seed, is_real
 from .importance import _choose_proposal, _TOP_WEIGHTS, pareto_shape, SIGN_QUANTITIES
-from .problem import _extend, _grid_for, _Problem, TAIL_QUANTITIES
+from .problem import _extend, _grid_for, _Problem
 from .result import _stats, StatisticsFailure, TailResult
 from .run import _check_memory, _TailRun
 from .splitting import _normalised_top
@@ -219,7 +219,7 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
         # the others (a short excitation); a coarser dt the user gave defines their trapezoid
         # rule, and is refused. Under a filtered excitation no quantity is exact on any grid
         # (its events are located on substeps of the grid's steps): a dt given is refused.
-        if (TAIL_QUANTITIES[quantity].velocity_only and not problem.filtered) or dt is None:
+        if (problem.q.velocity_only and holds(scene, EXACT_STEP)) or dt is None:
             problem = _Problem(scene, quantity, time, problem.noisy_time / MIN_SPLITTING_STEPS)
         else:
             raise ParameterError("dt", f"dt: splitting needs at least {MIN_SPLITTING_STEPS} "
@@ -266,7 +266,7 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
                              f"{_MAX_SAMPLES - 1} {what} (their random streams are numbered in "
                              f"blocks of 2^40); give fewer" + ("" if splitting else " or more particles"))
     key = _streams.tail_key(seed)
-    unit = "" if scene.units == "scaled" else TAIL_QUANTITIES[quantity].unit
+    unit = "" if scene.units == "scaled" else problem.q.si_unit
     # What the samples are and how many the run takes (max_seconds is not: a run stopped by
     # it resumes with more time).
     spec = {"scene": scene.to_dict(), **problem.describe(), "levels": lv.tolist(),

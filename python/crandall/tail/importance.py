@@ -9,6 +9,7 @@ from typing import List, Optional
 
 import numpy as np
 
+from ..model import TAIL_MODEL, require
 from .problem import _coarse, _extend, _grid_for, _Law, _Problem, log_transition_density
 
 
@@ -44,6 +45,9 @@ def _proposal(problem: _Problem, window: float, drift: float, slow: float = 0.0,
     likelihood ratio on the coarse grid, its pieces tilted (_tilted), falls with the final
     speed, so paths past the level weigh about what one at the level does at most, and the
     mixture's weights at most that over DEFENSIVE (docs/methods/tails.md)."""
+    # The weights are the sign-drift velocity's transition density: refused, naming the
+    # scene, where it does not hold (also in a Dask task, which starts here).
+    require(problem.scene, TAIL_MODEL, "importance sampling (crandall.tail)")
     d = problem.drifts.copy()
     noisy = problem.noises > 0
     inside = (problem.step_starts >= problem.horizon - window - 1e-12 * problem.horizon) & noisy

@@ -4,46 +4,47 @@ the quantities' scores, and the paths continued from any grid point (``_core.ext
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any, Dict, NamedTuple, Optional, Sequence
+from collections.abc import Mapping
+from typing import Any, Dict, Iterator, NamedTuple, Optional, Sequence
 
 import numpy as np
 
-from .. import _core
+from .. import _core, quantities
 from .._lazy import lazy_module
 from ..errors import ParameterError
-from ..model import FILTERED_EXCITATION, TAIL_SPLITTING
+from ..model import (FILTERED_EXCITATION, ITO_DISTANCE, MOVING_AT_SWITCH_OFF, TAIL_MODEL,
+                     TAIL_SPLITTING, holds)
+from ..quantities import Quantity
 from ..scene import Scene
 from ..spec import check_positive, check_scene, default_dt, is_real
 
 _schedule = lazy_module("crandall.analytic.schedule")
 
 
-@dataclass(frozen=True)
-class _Quantity:
-    name: str
-    unit: str  # SI unit ("" in scaled scenes)
-    at_stop: bool  # needs the stop: the horizon is the end of the excitation
-    velocity_only: bool  # a function of the velocity alone (no step bias)
-    peak: bool  # the quantity is the path maximum of its score
-    text: str
+class _TailQuantities(Mapping):
+    """The quantities a tail run estimates: the rows of ``crandall.quantities.QUANTITIES`` with
+    a tail score (``Quantity.tail``), by name, in the table's order. A view of the table as it
+    is now, so that a row added to it reaches crandall.tail (and the CLI's and
+    crandall.fragility's checks) with no other change."""
+
+    def _rows(self) -> Dict[str, Quantity]:
+        return {q.name: q for q in quantities.QUANTITIES if q.tail is not None}
+
+    def __getitem__(self, name: str) -> Quantity:
+        return self._rows()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._rows())
+
+    def __len__(self) -> int:
+        return len(self._rows())
+
+    def __repr__(self) -> str:
+        return f"TAIL_QUANTITIES({', '.join(self)})"
 
 
-#: The quantities a tail run estimates, with their units in an SI scene.
-TAIL_QUANTITIES: Dict[str, _Quantity] = {q.name: q for q in (
-    _Quantity("stop_time", "s", True, True, False, "stop time t_s"),
-    _Quantity("velocity", "m/s", False, True, False, "velocity V(t) (signed)"),
-    _Quantity("speed", "m/s", False, True, False, "speed |V(t)|"),
-    _Quantity("distance_at_stop", "m", True, False, False, "distance travelled S(t_s)"),
-    _Quantity("dissipated_energy_at_stop", "J", True, False, False,
-              "energy dissipated by friction, m mu g S(t_s)"),
-    _Quantity("displacement_at_stop", "m", True, False, False, "displacement U(t_s) (signed)"),
-    _Quantity("residual_displacement", "m", True, False, False,
-              "residual displacement |U(t_s)| (magnitude)"),
-    _Quantity("peak_displacement_at_stop", "m", True, False, True,
-              "peak displacement max |U| over the grid and the coast"),
-    _Quantity("peak_speed_at_stop", "m/s", True, True, True, "peak speed max |V| over the grid"),
-)}
+#: The quantities a tail run estimates (rows of QUANTITIES; their SI unit is ``si_unit``).
+TAIL_QUANTITIES = _TailQuantities()
 
 
 class _Problem:
@@ -53,11 +54,23 @@ class _Problem:
                  breaks: Sequence[float] = (), coarse: bool = False):
         # tail() and its Dask task (sample) both start here
         check_scene(scene, TAIL_SPLITTING, "crandall.tail")
-        if not isinstance(quantity, str) or quantity not in TAIL_QUANTITIES:
-            raise ParameterError("quantity", f"quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
-        self.scene, self.q = scene, TAIL_QUANTITIES[quantity]
-        #: A filtered excitation: its paths are the core's filtered walk (_FilteredGrid).
-        self.filtered = FILTERED_EXCITATION in scene.effects
+        row = quantities.find(quantity) if isinstance(quantity, str) else None
+        if row is None or row.tail is None:
+            held = "" if row is None else f" ({quantity} has no tail score)"
+            raise ParameterError("quantity", f"quantity must be one of {', '.join(TAIL_QUANTITIES)}; got {quantity!r}{held}")
+        if row.tail not in SCORES:
+            raise ParameterError("quantity", f"quantity: {quantity}'s tail score {row.tail!r} is "
+                                 f"not one of {', '.join(SCORES)}")
+        self.scene, self.q = scene, row
+        #: The paths are the core's filtered walk (_FilteredGrid), not the exact skeleton of
+        #: the sign-drift diffusion (_core.extend_paths), which holds where TAIL_MODEL does.
+        self.filtered = not holds(scene, TAIL_MODEL)
+        if self.filtered and FILTERED_EXCITATION not in scene.effects:
+            # A kind TAIL_SPLITTING was declared to hold for before the tail had its paths.
+            missing = ", ".join(sorted(frozenset(scene.effects) - TAIL_MODEL.supports))
+            raise ParameterError("scene", f"scene: crandall.tail continues the paths of the "
+                                 f"sign-drift diffusion or of a filtered excitation, not those "
+                                 f"of a scene with {missing}")
         if self.filtered:
             if getattr(scene.excitation, "ring_down", False):
                 raise ParameterError(
@@ -70,8 +83,7 @@ class _Problem:
                     "excitation (its peaks are not simulated: a fixed-step run refuses them "
                     "too)")
         c = scene.drift
-        pieces = list(scene.pieces) if scene.pieces is not None else [(scene.t0, scene.noise)]
-        end = pieces[-1][0]
+        end = scene.pieces[-1][0] if scene.pieces is not None else scene.t0
         if self.q.at_stop:
             if time is not None:
                 raise ParameterError("time", f"time: {quantity} is a quantity at the stop; it takes no output time")
@@ -93,15 +105,6 @@ class _Problem:
         dt = check_positive("dt", default_dt(scene) if dt is None else dt)
         self.dt = dt
         self.args = (scene, quantity, time, dt)
-        # The intervals between the pieces' ends and the extra breaks; coarse: one exact step
-        # each (the velocity's law does not depend on the grid).
-        cuts = sorted({0.0, horizon} | {e for e, _ in pieces if 0 < e < horizon}
-                      | {x for x in breaks if 0 < x < horizon})
-        intervals = []
-        for a, b in zip(cuts[:-1], cuts[1:]):
-            sigma = next(n for e, n in pieces if e >= b)
-            intervals.append((a, b, sigma))
-        lengths, noises, starts = [], [], []
         self._grid = None
         if self.filtered:
             # The filtered walk's grid is its plan's (as a fixed-step run builds it), ending at
@@ -109,16 +112,8 @@ class _Problem:
             self._grid = _FilteredGrid(scene, horizon, dt)
             lengths, noises = self._grid.lengths, self._grid.noises
             starts = np.concatenate([[0.0], np.cumsum(lengths)[:-1]]) if len(lengths) else []
-            intervals = []
-        for a, b, sigma in intervals:
-            if b > a:
-                n = 1 if (sigma == 0 or coarse) else max(1, math.ceil((b - a) / dt - 1e-9))
-                if n > 10_000_000:
-                    raise ParameterError("dt", f"dt: {n} steps over one piece of the excitation; the paths would not fit")
-                edges = a + (b - a) * np.arange(n + 1) / n
-                lengths.extend(np.diff(edges))
-                noises.extend([sigma] * n)
-                starts.extend(edges[:-1])
+        else:
+            lengths, noises, starts = white_noise_grid(scene, horizon, dt, breaks, coarse)
         self.lengths = np.asarray(lengths, dtype=np.float64)
         self.noises = np.asarray(noises, dtype=np.float64)
         self.drifts = np.full(len(lengths), c, dtype=np.float64)
@@ -128,7 +123,7 @@ class _Problem:
         # to come makes the distance's score its conditional mean. Not under a filtered
         # excitation (d(S + V^2/(2c)) = -V a_g / c dt there): its score is where the body would
         # stop if the shaking ended now.
-        if c > 0 and not self.filtered:
+        if c > 0 and holds(scene, ITO_DISTANCE):
             per_step = self.noises ** 2 * self.lengths / (2 * c)
             self.remaining = np.concatenate([np.cumsum(per_step[::-1])[::-1], [0.0]])
         else:
@@ -156,11 +151,11 @@ class _Problem:
                 self._normal = (points, cum, stationary, step)
         return self._normal
 
-    #: The quantities whose splitting score is normalised by the spread still to come (when a
-    #: run asks for one level): the distance and energy at the stop and the displacement where
-    #: the body would stop, whose martingale parts all grow at the rate sigma^2 V^2 / c^2.
-    NORMALISED = ("distance_at_stop", "dissipated_energy_at_stop", "displacement_at_stop",
-                  "residual_displacement")
+    #: The scores (Quantity.tail) normalised by the spread still to come in splitting (when a
+    #: run asks for one level): the distance at the stop (and the energy, its multiple) and the
+    #: displacement where the body would stop, whose martingale parts all grow at the rate
+    #: sigma^2 V^2 / c^2 (the sign-drift diffusion: model.TAIL_MODEL).
+    NORMALISED = ("distance_at_stop", "displacement_at_stop", "residual_displacement")
 
     def first_random_point(self) -> int:
         """The first grid point that differs between paths: the end of the first noisy step."""
@@ -195,17 +190,17 @@ class _Problem:
         return (m - top) / (self._scale() * np.sqrt(var)), m
 
     def _scale(self) -> float:
-        """The quantity's unit over the distance's (the energy: m mu g)."""
-        return self.scene.mass * self.scene.drift if self.q.name == "dissipated_energy_at_stop" else 1.0
+        """The quantity's unit over its score's (its factor: the energy's m mu g)."""
+        return self.q.factor(self.scene)
 
     def normalisable(self, schedule: bool = True) -> bool:
         """Whether split_score's normalisation serves: a NORMALISED quantity, one intensity
         (unless ``schedule`` is False: bench/tails_score.py measures the others), its
         sums finite and its floor eps^2 positive (an intensity far outside a physical range can
         overflow sigma^6 or underflow it to 0; such a run keeps the plain score)."""
-        if (self.filtered or self.q.name not in self.NORMALISED
+        if (not holds(self.scene, TAIL_MODEL) or self.q.tail not in self.NORMALISED
                 or (schedule and not self.one_intensity())):
-            return False  # (a filtered body's speed is no sign-drift diffusion)
+            return False
         points, cum, stationary, step = self._normaliser()
         f = self.floor2()
         return (math.isfinite(f) and f > 0 and all(np.all(np.isfinite(x)) for x in cum)
@@ -234,10 +229,12 @@ class _Problem:
         return (level - top) / (self._scale() * np.sqrt(0.0 + self.floor2()))
 
     @property
-    def white_noise(self) -> bool:
-        """Whether the paths are the white-noise grid's (_extend), not the filtered walk's:
-        splitting's loop then runs in the core (split_core.py)."""
-        return not self.filtered
+    def in_core(self) -> bool:
+        """Whether splitting's loop runs in the core (split_core.py): the paths are the
+        white-noise grid's (_extend), not the filtered walk's, and the core computes the
+        quantity's score (its name is in _core.SPLIT_QUANTITIES); otherwise splitting.py's
+        Python loop, the reference, runs it."""
+        return not self.filtered and self.q.name in _core.SPLIT_QUANTITIES
 
     @property
     def noisy_steps(self) -> int:
@@ -273,7 +270,7 @@ class _Problem:
         """Whether splitting ranks the paths by :meth:`uncoasted`: the velocity and the speed
         after the switch-off, at levels >= 0 (where Q > L if and only if the unclipped value
         exceeds L, so that a path past the level is always ranked past it)."""
-        return (self.q.name in ("velocity", "speed") and self.coast > 0
+        return (self.q.tail in ("velocity", "speed") and self.coast > 0
                 and bool(np.min(levels) >= 0))
 
     def uncoasted(self, states: np.ndarray) -> np.ndarray:
@@ -284,7 +281,7 @@ class _Problem:
         them, and above 0 it is the quantity."""
         v = states[..., 0]
         shift = self.scene.drift * self.coast
-        return (np.abs(v) if self.q.name == "speed" else v) - shift
+        return self._times_factor((np.abs(v) if self.q.tail == "speed" else v) - shift)
 
     def _coasted(self, v):
         """The velocity at the output time from the velocity at the end of the grid."""
@@ -295,33 +292,13 @@ class _Problem:
 
     def score(self, states: np.ndarray) -> np.ndarray:
         """The score at every grid point, shape states.shape[:2]; its last point (or, for the
-        peaks, its maximum over the path) is the quantity."""
-        v, u, s = states[..., 0], states[..., 1], states[..., 2]
-        c = self.scene.drift
-        name = self.q.name
-        if name == "stop_time":
-            if self.filtered:
-                # A filtered body may come to rest for good before the horizon: at rest, its
-                # stop is the last time it came to rest (states[..., 3]).
-                return np.where(v == 0.0, states[..., 3], self.horizon + np.abs(v) / c)
-            return self.horizon + np.abs(v) / c
-        if name == "velocity":
-            return self._coasted(v)
-        if name == "speed":
-            return np.abs(self._coasted(v))
-        if name in ("distance_at_stop", "dissipated_energy_at_stop"):
-            out = s + v * v / (2 * c) + self.remaining
-            return out * (self.scene.mass * c) if name == "dissipated_energy_at_stop" else out
-        ahead = u + v * np.abs(v) / (2 * c)  # the displacement where the body would stop now
-        if name == "displacement_at_stop":
-            return ahead
-        if name == "residual_displacement":
-            return np.abs(ahead)
-        if name == "peak_displacement_at_stop":
-            out = np.abs(u)
-            out[..., -1] = np.maximum(out[..., -1], np.abs(ahead[..., -1]))
-            return out
-        return np.abs(v)  # peak_speed_at_stop: the speed only falls after the last piece
+        peaks, its maximum over the path) is the quantity: its row's score (SCORES) times its
+        factor."""
+        return self._times_factor(SCORES[self.q.tail](self, states))
+
+    def _times_factor(self, out: np.ndarray) -> np.ndarray:
+        f = self.q.factor(self.scene)
+        return out if f == 1.0 else out * f
 
     def value(self, score: np.ndarray) -> np.ndarray:
         return score.max(axis=-1) if self.q.peak else score[..., -1]
@@ -333,6 +310,68 @@ class _Problem:
 
     def describe(self) -> Dict[str, Any]:
         return {"quantity": self.q.name, "time": self.time, "dt": self.dt, "steps": self.steps}
+
+
+def _stop_time(p: _Problem, states: np.ndarray) -> np.ndarray:
+    v = states[..., 0]
+    c = p.scene.drift
+    if not holds(p.scene, MOVING_AT_SWITCH_OFF):
+        # A filtered body may come to rest for good before the horizon: at rest, its stop is
+        # the last time it came to rest (states[..., 3], the filtered walk's).
+        return np.where(v == 0.0, states[..., 3], p.horizon + np.abs(v) / c)
+    return p.horizon + np.abs(v) / c
+
+
+def _velocity(p: _Problem, states: np.ndarray) -> np.ndarray:
+    return p._coasted(states[..., 0])
+
+
+def _speed(p: _Problem, states: np.ndarray) -> np.ndarray:
+    return np.abs(p._coasted(states[..., 0]))
+
+
+def _distance_at_stop(p: _Problem, states: np.ndarray) -> np.ndarray:
+    v, s = states[..., 0], states[..., 2]
+    return s + v * v / (2 * p.scene.drift) + p.remaining
+
+
+def _ahead(p: _Problem, states: np.ndarray) -> np.ndarray:
+    """The displacement where the body would stop now (the coast at the deceleration c)."""
+    v, u = states[..., 0], states[..., 1]
+    return u + v * np.abs(v) / (2 * p.scene.drift)
+
+
+def _residual_displacement(p: _Problem, states: np.ndarray) -> np.ndarray:
+    return np.abs(_ahead(p, states))
+
+
+def _peak_displacement_at_stop(p: _Problem, states: np.ndarray) -> np.ndarray:
+    out = np.abs(states[..., 1])
+    out[..., -1] = np.maximum(out[..., -1], np.abs(_ahead(p, states)[..., -1]))
+    return out
+
+
+def _peak_speed_at_stop(p: _Problem, states: np.ndarray) -> np.ndarray:
+    return np.abs(states[..., 0])  # the speed only falls after the last piece
+
+
+#: The tail scores (``Quantity.tail``): per grid point a function of the path's state whose
+#: last value (maximum over the path for a peak) is the quantity over its factor. The stop
+#: time, the velocity after the grid and where the body would stop rest on the coast at the
+#: deceleration c once the shaking has ended (model.TAIL_SPLITTING, checked by every tail
+#: run), the stop time from the horizon on the body moving there (model.MOVING_AT_SWITCH_OFF),
+#: the distance's conditional mean (``_Problem.remaining``) on model.ITO_DISTANCE.
+#: The core's loop computes the score of every quantity named in _core.SPLIT_QUANTITIES.
+SCORES = {
+    "stop_time": _stop_time,
+    "velocity": _velocity,
+    "speed": _speed,
+    "distance_at_stop": _distance_at_stop,
+    "displacement_at_stop": _ahead,
+    "residual_displacement": _residual_displacement,
+    "peak_displacement_at_stop": _peak_displacement_at_stop,
+    "peak_speed_at_stop": _peak_speed_at_stop,
+}
 
 
 def _extend(problem: _Problem, states, rows, starts, streams, key, threads, law=None,
@@ -361,36 +400,68 @@ def filtered_key(key: int, block: int) -> int:
     return int(state[0])
 
 
+#: The most steps a tail run's grid takes over one piece of the excitation.
+MAX_PIECE_STEPS = 10_000_000
+
+
+def _plan_options(scene: Scene, times: Sequence[float], dt: float):
+    """The core's options of the scene's model (as engine.scene_options sets them: the tail
+    does not reach the engine layer; tests/test_filtered_tail.py checks that the two agree)
+    with output times ``times``, observing the velocity alone, the exact method and step dt."""
+    o = _core.Options()
+    o.drift = scene.drift
+    o.noise = scene.noise
+    o.switch_off = scene.t0
+    if scene.pieces is not None:
+        o.piece_ends = [e for e, _ in scene.pieces]
+        o.piece_noise = [n for _, n in scene.pieces]
+    o.start_velocity = scene.v0
+    o.start_displacement = scene.u0
+    for name, value in scene.excitation.core_options().items():
+        setattr(o, name, value)
+    if scene.static_drift != scene.drift:
+        o.static_drift = scene.static_drift
+    o.times = list(times)
+    o.velocity = True
+    o.displacement = o.distance = False
+    o.stop = o.peaks = o.energy = o.residual = False
+    o.dt = dt
+    o.min_steps = 0
+    o.method = "exact"
+    o.seed = 0
+    o.paths = 1
+    return o
+
+
+def white_noise_grid(scene: Scene, horizon: float, dt: float, breaks: Sequence[float] = (),
+                     coarse: bool = False):
+    """(lengths, noises, starts) of a white-noise tail run's grid to ``horizon``: the core's
+    plan of the scene with output times at the horizon and the ``breaks`` before it, its
+    segments (cut there and at the pieces' ends) each split into steps of at most about dt,
+    one step without noise or when ``coarse`` (the velocity's law does not depend on the
+    grid): ``_core.tail_grid`` (cpp/src/plan.cpp)."""
+    times = sorted({float(horizon)} | {float(x) for x in breaks if 0 < x < horizon})
+    try:
+        plan = _core.Plan(_plan_options(scene, times, dt))
+    except ValueError as exc:
+        raise ParameterError("scene", f"scene: the core's plan of the grid to {horizon:g} "
+                             f"refuses it ({exc})") from None
+    try:
+        lengths, noises, starts = _core.tail_grid(plan, dt, coarse, MAX_PIECE_STEPS)
+    except ValueError as exc:
+        raise ParameterError("dt", str(exc)) from None
+    return (np.asarray(lengths, dtype=np.float64), np.asarray(noises, dtype=np.float64),
+            np.asarray(starts, dtype=np.float64))
+
+
 class _FilteredGrid:
     """A filtered excitation's paths for a tail run: the core's plan of a fixed-step run of the
     scene with one output time, the horizon (dt as given; no graded steps), and its walked
     grid; paths continued from any grid point by ``_core.extend_filtered_paths``."""
 
     def __init__(self, scene: Scene, horizon: float, dt: float):
-        # The model's options as engine.scene_options sets them (the tail does not reach the
-        # engine layer; tests/test_filtered_tail.py checks that the two agree).
-        o = _core.Options()
-        o.drift = scene.drift
-        o.noise = scene.noise
-        o.switch_off = scene.t0
-        if scene.pieces is not None:
-            o.piece_ends = [e for e, _ in scene.pieces]
-            o.piece_noise = [n for _, n in scene.pieces]
-        o.start_velocity = scene.v0
-        o.start_displacement = scene.u0
-        for name, value in scene.excitation.core_options().items():
-            setattr(o, name, value)
-        if scene.static_drift != scene.drift:
-            o.static_drift = scene.static_drift
-        o.times = [horizon]
-        o.velocity = True
+        o = _plan_options(scene, [horizon], dt)
         o.displacement = o.distance = True
-        o.stop = o.peaks = o.energy = o.residual = False
-        o.dt = dt
-        o.min_steps = 0
-        o.method = "exact"
-        o.seed = 0
-        o.paths = 1
         try:
             self.plan = _core.Plan(o)
         except ValueError as exc:

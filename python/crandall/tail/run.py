@@ -244,7 +244,7 @@ class _TailRun(Estimator):
         #: its own; a white-noise scene's GROUP of them in step in the core, whose vector
         #: lanes a tenth of one replica's particles would leave idle.
         self.parallel = max(1, threads) if self.splitting else 1
-        white = self.splitting and _problem(job).white_noise
+        white = self.splitting and _problem(job).in_core
         self.local_width = self.parallel * (GROUP if white else 1)
         self.levels = len(job["levels"])
         self.max_samples, self.rel_error = max_samples, rel_error

@@ -9,9 +9,10 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 
 from .. import _core
-from .problem import TAIL_QUANTITIES, _Problem
+from .problem import _Problem
 
-_QUANTITY_INDEX = {name: i for i, name in enumerate(TAIL_QUANTITIES)}
+#: The core's index of each quantity whose score it computes (split.hpp's SplitQuantity).
+_QUANTITY_INDEX = {name: i for i, name in enumerate(_core.SPLIT_QUANTITIES)}
 
 
 def core_replicas(problem: _Problem, levels: np.ndarray, particles: int, kill: int, key: int,

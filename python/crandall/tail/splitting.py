@@ -29,7 +29,7 @@ def _splitting_replicas(problem: _Problem, levels: np.ndarray, particles: int, k
     """_splitting_replica's (estimates, info) for each of ``replicas``: a white-noise problem's
     in the core at once, in step (the same bits as one by one: tests/test_tail_split_core.py),
     others one by one."""
-    if not problem.white_noise:
+    if not problem.in_core:
         return [_splitting_replica(problem, levels, particles, kill, key, r, threads,
                                    max_iterations, deadline=deadline) for r in replicas]
     top, first, thresholds, uncoast = _score_form(problem, levels, None)
@@ -79,7 +79,7 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     """
     n = particles
     top, first, thresholds, uncoast = _score_form(problem, levels, normalise)
-    if core and problem.white_noise:
+    if core and problem.in_core:
         return core_replicas(problem, levels, n, kill, key, [replica], threads, max_iterations,
                              top, first, thresholds, uncoast, deadline)[0]
     base = replica * _REPLICA_STREAMS
