@@ -4,6 +4,8 @@
 //   g++ -O2 -std=c++17 -fopenmp -Icpp/include -Ithird_party/Random123/include -I/usr/include/eigen3 \
 //       bench/filtered_block.cpp build-s/libcrandall_core.a -o /tmp/filtered_block
 //   /tmp/filtered_block time 8192            the probe's scenes: ns per skeleton step
+//   /tmp/filtered_block default 8192         the same at bench/filtered.py's default steps (0.2,
+//                                            0.2, 0.125 s, at least 64 steps to t0): us per path
 //   /tmp/filtered_block save 20000 FILE 2 2  per-path (stop time, distance) with the margin x2
 //                                            and depth + 2 (binary), for `bias` against another build
 //   /tmp/filtered_block bias 20000           paired differences: default against margin x2 and
@@ -24,7 +26,7 @@
 
 namespace {
 
-crandall::Options scene(double wt, std::uint64_t paths, int depth) {
+crandall::Options scene(double wt, std::uint64_t paths, int depth, bool default_step = false) {
   const auto f = crandall::kanai_tajimi(wt / 2, 0.6);
   crandall::Options o;
   o.excitation = crandall::Excitation::filtered;
@@ -34,7 +36,7 @@ crandall::Options scene(double wt, std::uint64_t paths, int depth) {
   o.drift = 1.0;
   o.static_drift = std::nan("");
   o.noise = 1.0;
-  o.dt = wt == 16.0 ? 0.0125 : 0.02;
+  o.dt = default_step ? (wt == 16.0 ? 0.125 : 0.2) : wt == 16.0 ? 0.0125 : 0.02;
   o.min_steps = 64;
   o.times = {10.0};
   o.switch_off = 10.0;
@@ -84,9 +86,10 @@ int main(int argc, char** argv) {
   const std::string mode = argc > 1 ? argv[1] : "time";
   const std::uint64_t paths = argc > 2 ? std::strtoull(argv[2], nullptr, 10) : 8192;
   const double wts[] = {1.0, 4.0, 16.0};
-  if (mode == "time") {
+  if (mode == "time" || mode == "default") {
+    const bool default_step = mode == "default";
     for (double wt : wts) {
-      const crandall::Plan plan(scene(wt, paths, crandall::kDefaultEventDepth));
+      const crandall::Plan plan(scene(wt, paths, crandall::kDefaultEventDepth, default_step));
       double best = 1e300;
       for (int rep = 0; rep < 3; ++rep) {
         const auto t0 = std::chrono::steady_clock::now();
@@ -94,7 +97,7 @@ int main(int argc, char** argv) {
         const double el = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
         best = std::min(best, el);
       }
-      const double steps = 10.0 / (wt == 16.0 ? 0.0125 : 0.02);
+      const double steps = default_step ? (wt == 16.0 ? 80.0 : 64.0) : 10.0 / (wt == 16.0 ? 0.0125 : 0.02);
       std::printf("wt %4.0f  us/path %7.1f  ns/skeleton step %6.0f\n", wt, best / paths * 1e6,
                   best / paths / steps * 1e9);
     }
