@@ -185,3 +185,15 @@ def test_a_run_to_an_accuracy_still_refuses_the_peaks_naming_observe():
     with pytest.raises(crandall.ParameterError, match="not calibrated for maxima") as exc:
         crandall.simulate(sc, error=0.1, seed=1)
     assert exc.value.name == "observe"
+
+
+def test_an_envelopes_peaks_have_the_piece_error_in_their_bias():
+    # On an envelope's pieces the bias adds the pieces' error, from one-grid runs on 2n and
+    # 4n pieces that record the peaks too: finite, where white noise's peaks give NaN.
+    sc = Scene(mu=1.0, g=1.0, excitation=KanaiTajimi(omega=OMEGA, zeta=ZETA), times=[1.0, 2.0],
+               envelope=crandall.envelopes.amin_ang(1.0, t1=0.5, t2=1.5, c=1.0, end=2.5),
+               observe=["velocity", "displacement", "stop", "peaks"])
+    r = crandall.simulate(sc, paths=1000, seed=3)
+    for name in ("peak_speed", "peak_displacement", "peak_speed_at_stop"):
+        bias = np.asarray(r.bias(name))
+        assert np.all(np.isfinite(bias)) and np.all(bias > 0.0), (name, bias)

@@ -297,7 +297,7 @@ def piece_errors(scene, names, *, seed: int, paths: int = BIAS_PATHS,
     """Per (name, stat) of ``names``: the estimated error of simulating the envelope of
     ``scene`` by its pieces, in the core's units (multiply by the quantity's factor, squared
     for "var"; an array over the output times, or one value at the stop) and
-    whether it is a bound; NaN for the peaks; {} for a scene without an envelope. The coupled
+    whether it is a bound; NaN for white noise's peaks; {} for a scene without an envelope. The coupled
     run on the default grid (its finest grid: the default step), on both schedules (see the
     module's docstring), with at most ``paths`` paths; for runs to an accuracy, whose own
     bias is the grid's."""
@@ -341,7 +341,7 @@ MAX_ORDER_FACTOR = 11.0
 
 def piece_table(spec, names, threads: int, paths: Optional[int] = None):
     """Per (name, stat) of ``names``: the estimated error of the envelope's pieces at each
-    slot (core units; NaN for the peaks) and whether each is a bound; and per name the
+    slot (core units; NaN for white noise's peaks) and whether each is a bound; and per name the
     scene's per-path values (paths, slots). The coupled run (``spec``'s options, on coupled
     grids, at most ``paths`` or ``spec.paths`` paths) on three nested schedules laid on the
     finest one's grid: the scene's pieces (n), each halved (2n) and halved again (4n). The
@@ -381,15 +381,17 @@ def piece_table(spec, names, threads: int, paths: Optional[int] = None):
         d = _sum(phi, threads) / n
         return d, math.sqrt(_sum((phi - d) ** 2, threads) / max(n - 1, 1) / n)
 
+    peak_base = n_times + (1 if "stop" in scene.observe else 0)  # (Options::sample_slots)
     for name in names:
         q = quantity(name)
         slots = [n_times] if q.at_stop else list(range(n_times))
-        if q.peak:
+        if q.peak and not _peaks_recorded(scene):
             for stat in ("mean", "var"):
                 out[(name, stat)] = (np.full(len(slots), math.nan),
                                      np.zeros(len(slots), dtype=bool))
             continue
-        x = [moments(r[:, slots, 0, q.variable]) for r in runs]
+        columns = [peak_base + k for k in slots] if q.peak else slots
+        x = [moments(r[:, columns, 0, q.variable]) for r in runs]
         values[name] = x[0]
         for stat in ("mean", "var"):
             errors, bounds = [], []
