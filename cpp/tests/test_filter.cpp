@@ -420,18 +420,6 @@ TEST(FilterOptions, RefusedWithTheFieldNamed) {
   o.displacement = o.distance = true;
   o.quadratic_variation = true;
   expect_refused(o, "quadratic_variation");
-  // The peaks are taken: run_samples' values get (max |V|, max |U|, 0) per output time and at
-  // the stop, after the stop's slot (Options::sample_slots; the white-noise kernel's have none).
-  o = filtered_options();
-  o.peaks = true;
-  o.validate();
-  EXPECT_EQ(o.sample_slots(), 2u);
-  o.stop = true;
-  o.drift = 1.0;
-  EXPECT_EQ(o.sample_slots(), 4u);
-  o.excitation = crandall::Excitation::white;
-  o.filter_a = o.filter_b = o.filter_c = {};
-  EXPECT_EQ(o.sample_slots(), 2u);
   o = filtered_options();
   o.stop = true;
   o.filter_a = crandall::kanai_tajimi(2.0, -0.1).a;
