@@ -12,7 +12,7 @@ import pytest
 import crandall
 from crandall import _core
 from crandall.tail.problem import _Problem
-from crandall.tail.splitting import _splitting_replica
+from crandall.tail.splitting import _splitting_replica, _splitting_replicas
 
 PAPER = crandall.Scene.scaled(tau0=2.0, times=[2.0])
 PIECES = crandall.Scene(mu=0.3, h=[1.0, 0.5], t0=[1.0, 2.0], v0=0.2, times=[2.0])
@@ -53,6 +53,44 @@ def test_the_core_loop_gives_the_python_loops_bits(scene, quantity, time_, dt, l
                 for core in (True, False)]
         _same(*runs)
     assert runs[0][1]["iterations"] > 0 or runs[0][1]["extinct"] is not None
+
+
+@pytest.mark.parametrize("case", [0, 2, 6, 9], ids=lambda i: CASES[i][1])
+def test_replicas_in_step_give_each_replicas_bits_alone(case):
+    # split_replicas continues the clones of several replicas together in the vector lanes
+    # (each row's draws are its own stream's): every replica's outcome is the Python loop's
+    # for it alone, whatever the group and its threads; replicas that end at different
+    # iterations (an extinction, a level reached early) leave the others running.
+    scene, quantity, time_, dt, levels = CASES[case]
+    problem = _Problem(scene, quantity, time_, dt)
+    lv = np.asarray(levels, dtype=float)
+    alone = [_splitting_replica(problem, lv, 30, 3, 77, r, 1, 5000, core=False)
+             for r in (0, 3, 4, 11)]
+    for threads in (1, 2):
+        together = _splitting_replicas(problem, lv, 30, 3, 77, [0, 3, 4, 11], threads, 5000)
+        for a, b in zip(together, alone):
+            _same(a, b)
+
+
+def test_a_tail_run_gives_the_same_bits_with_its_replicas_grouped():
+    # _LocalReplicas runs a batch's replicas in groups (GROUP per thread): the estimates and
+    # counts of a run with one thread (groups of 4), two (two groups) and one replica per
+    # call (GROUP 1) are the same bits.
+    from crandall.tail import run as tail_run
+
+    def go(threads):
+        r = crandall.tail(PAPER, "stop_time", [3.5, 4.5], dt=0.05, rel_error=0.3, seed=11,
+                          threads=threads, particles=30)
+        return r.probability.tolist(), r.stderr.tolist(), r.samples, r.steps
+
+    one, two = go(1), go(2)
+    group = tail_run.GROUP
+    try:
+        tail_run.GROUP = 1
+        single = go(1)
+    finally:
+        tail_run.GROUP = group
+    assert one == two == single
 
 
 def test_an_extinction_and_the_plain_score_forced_behave_alike():

@@ -157,7 +157,7 @@ void register_branch(py::module_& m) {
   m.def(
       "split_replica",
       [](Doubles lengths, Doubles noises, Doubles drifts, std::uint64_t key,
-         std::uint64_t replica, std::size_t particles, std::size_t kill,
+         std::vector<std::uint64_t> replicas, std::size_t particles, std::size_t kill,
          std::int64_t max_iterations, py::object deadline, double v0, double u0,
          std::size_t first, Doubles levels, Doubles thresholds, int quantity, double drift,
          double horizon, double coast, double mass, Doubles remaining, bool uncoast,
@@ -212,7 +212,8 @@ void register_branch(py::module_& m) {
         run.particles = particles;
         run.kill = kill;
         run.key = key;
-        run.replica = replica;
+        if (replicas.empty()) throw std::invalid_argument("replicas: give at least one");
+        run.replica = replicas.front();
         run.max_iterations = max_iterations;
         run.has_deadline = !deadline.is_none();
         if (run.has_deadline) run.deadline = deadline.cast<double>();
@@ -224,25 +225,32 @@ void register_branch(py::module_& m) {
         run.level_count = static_cast<std::size_t>(levels.size());
         run.threads = threads;
         run.cancelled = bindings::python_cancel_check();
-        crandall::SplitOutcome out;
+        std::vector<crandall::SplitOutcome> outs;
         try {
-          out = bindings::without_gil([&] { return crandall::split_replica(grid, score, run); });
+          outs = bindings::without_gil([&] {
+            return crandall::split_replicas(grid, score, run, replicas.data(), replicas.size());
+          });
         } catch (const crandall::Cancelled&) {
           // The KeyboardInterrupt (or a signal handler's exception) set by PyErr_CheckSignals.
           if (PyErr_Occurred()) throw py::error_already_set();
           throw std::runtime_error("run cancelled: the interpreter is exiting");
         }
-        py::array_t<double> estimates(static_cast<py::ssize_t>(out.estimates.size()));
-        std::copy(out.estimates.begin(), out.estimates.end(), estimates.mutable_data());
-        return py::make_tuple(estimates, out.iterations, out.steps, out.log_weight, out.extinct,
-                              out.timed_out);
+        py::list result;
+        for (const auto& out : outs) {
+          py::array_t<double> estimates(static_cast<py::ssize_t>(out.estimates.size()));
+          std::copy(out.estimates.begin(), out.estimates.end(), estimates.mutable_data());
+          result.append(py::make_tuple(estimates, out.iterations, out.steps, out.log_weight,
+                                       out.extinct, out.timed_out));
+        }
+        return result;
       },
       py::arg("lengths"), py::arg("noises"), py::arg("drifts"), py::arg("key"),
-      py::arg("replica"), py::arg("particles"), py::arg("kill"), py::arg("max_iterations"),
+      py::arg("replicas"), py::arg("particles"), py::arg("kill"), py::arg("max_iterations"),
       py::arg("deadline"), py::arg("v0"), py::arg("u0"), py::arg("first"), py::arg("levels"),
       py::arg("thresholds"), py::arg("quantity"), py::arg("drift"), py::arg("horizon"),
       py::arg("coast"), py::arg("mass"), py::arg("remaining"), py::arg("uncoast"),
       py::arg("top"), py::arg("normaliser"), py::arg("threads") = 1,
-      "One replica of adaptive multilevel splitting on a white-noise grid (split.hpp): "
-      "(estimates, iterations, steps, log_weight, extinct, timed_out). The GIL is released.");
+      "Replicas of adaptive multilevel splitting on a white-noise grid, in step (split.hpp's "
+      "split_replicas: each the bits it has alone): a list, per replica, of (estimates, "
+      "iterations, steps, log_weight, extinct, timed_out). The GIL is released.");
 }

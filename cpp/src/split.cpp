@@ -7,6 +7,9 @@
 #include <numeric>
 #include <stdexcept>
 #include <string>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "crandall/dispatch.hpp"
 #include "crandall/rng.hpp"
@@ -15,6 +18,37 @@
 namespace crandall {
 
 namespace {
+// The points of a block of ranks whose maximum a replica keeps (Replica::branch_point).
+constexpr std::size_t kBlock = 16;
+
+// The maximum of x[0, count) (-infinity if empty); `nan` set if one of them is a NaN. Max is
+// exact: any order of comparisons gives the same number (but for the sign of a zero, which no
+// comparison of splitting's sees).
+inline double block_max(const double* x, std::size_t count, bool& nan) {
+  std::size_t k = 0;
+  double a = -std::numeric_limits<double>::infinity();
+#if defined(__SSE2__)
+  if (count >= 4) {
+    __m128d m0 = _mm_loadu_pd(x), m1 = _mm_loadu_pd(x + 2);
+    __m128d bad = _mm_or_pd(_mm_cmpunord_pd(m0, m0), _mm_cmpunord_pd(m1, m1));
+    for (k = 4; k + 4 <= count; k += 4) {
+      const __m128d y0 = _mm_loadu_pd(x + k), y1 = _mm_loadu_pd(x + k + 2);
+      bad = _mm_or_pd(bad, _mm_or_pd(_mm_cmpunord_pd(y0, y0), _mm_cmpunord_pd(y1, y1)));
+      m0 = _mm_max_pd(m0, y0);
+      m1 = _mm_max_pd(m1, y1);
+    }
+    nan |= _mm_movemask_pd(bad) != 0;
+    alignas(16) double two[2];
+    _mm_store_pd(two, _mm_max_pd(m0, m1));
+    a = std::max(two[0], two[1]);
+  }
+#endif
+  for (; k < count; ++k) {
+    nan |= std::isnan(x[k]);
+    a = std::max(a, x[k]);
+  }
+  return a;
+}
 // The paths' streams of replica r: r * 2^40 + 0, 1, ... (splitting.py's _REPLICA_STREAMS).
 constexpr std::uint64_t kReplicaStreams = std::uint64_t(1) << 40;
 // The parents' blocks use pairs from 2^63 on (split_parents).
@@ -141,7 +175,213 @@ void split_score_row(const SplitScore& sc, std::size_t steps, const double* row,
   }
 }
 
-SplitOutcome split_replica(const BranchGrid& grid, const SplitScore& given, const SplitRun& run) {
+namespace {
+
+// One replica's particles: their states (rows of the group's shared array, which the lanes
+// continue), the running maxima of their ranks and scores, and the replica's loop between two
+// continuations of its clones (split_replicas runs several such loops in step, their clones
+// continued together).
+class Replica {
+ public:
+  Replica(const SplitScore& score, const SplitRun& run, std::uint64_t replica, double* states,
+          std::int64_t row0, std::size_t steps)
+      : score_(score), run_(run), n_(run.particles), steps_(steps), points_(steps + 1),
+        peak_(score.quantity == SplitQuantity::peak_displacement_at_stop ||
+              score.quantity == SplitQuantity::peak_speed_at_stop),
+        states_(states), row0_(row0), base_(replica * kReplicaStreams), replica_(replica),
+        blocks_per_row_((points_ + kBlock - 1) / kBlock), ranks_(n_ * points_),
+        blocks_(n_ * blocks_per_row_), peaks_(peak_ ? n_ * points_ : 0), plain_(points_),
+        level_(n_), value_(n_), sorted_(n_), order_(run.level_count) {
+    out_.estimates.assign(run.level_count, std::numeric_limits<double>::quiet_NaN());
+    std::iota(order_.begin(), order_.end(), std::size_t(0));
+    std::stable_sort(order_.begin(), order_.end(),
+                     [&](std::size_t a, std::size_t b) { return run.levels[a] < run.levels[b]; });
+    killed_.reserve(n_);
+    survivors_.reserve(n_);
+    out_.steps = static_cast<std::int64_t>(n_ * steps_);
+  }
+
+  // Every particle from the start state, at the group's rows row0 + i.
+  void start(std::vector<std::int64_t>& rows, std::vector<std::int64_t>& starts,
+             std::vector<std::uint64_t>& streams) {
+    for (std::size_t i = 0; i < n_; ++i) {
+      double* row = this->row(i);
+      row[0] = run_.v0;
+      row[1] = run_.u0;
+      row[2] = 0.0;
+      rows.push_back(row0_ + static_cast<std::int64_t>(i));
+      starts.push_back(0);
+      streams.push_back(base_ + i);
+    }
+    branches_ = n_;
+  }
+
+  void scored_start() {
+    for (std::size_t i = 0; i < n_; ++i) rescore(i, 0);
+  }
+
+  // The replica's next iteration up to its clones' continuation: false when it has ended (its
+  // levels all reached, an extinction or a time-out), else its clones appended to the group's
+  // rows, starts and streams.
+  bool branch(std::vector<std::int64_t>& rows, std::vector<std::int64_t>& starts,
+              std::vector<std::uint64_t>& streams) {
+    if (run_.has_deadline) {
+      const double now =
+          std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+      if (now > run_.deadline) {
+        out_.timed_out = true;
+        return false;
+      }
+    }
+    std::copy(level_.begin(), level_.end(), sorted_.begin());
+    std::nth_element(sorted_.begin(), sorted_.begin() + static_cast<long>(run_.kill - 1),
+                     sorted_.end());
+    const double z = sorted_[run_.kill - 1];
+    while (done_ < order_.size() && run_.thresholds[order_[done_]] <= z) {
+      std::size_t above = 0;
+      for (std::size_t i = 0; i < n_; ++i) above += value_[i] > run_.levels[order_[done_]];
+      out_.estimates[order_[done_]] = std::exp(out_.log_weight) * (double(above) / double(n_));
+      ++done_;
+    }
+    if (done_ == order_.size()) return false;
+    killed_.clear();
+    survivors_.clear();
+    for (std::size_t i = 0; i < n_; ++i) {
+      if (level_[i] <= z) killed_.push_back(static_cast<std::int64_t>(i));
+      if (level_[i] > z) survivors_.push_back(static_cast<std::int64_t>(i));
+    }
+    if (killed_.size() == n_) {
+      for (std::size_t j = done_; j < order_.size(); ++j) out_.estimates[order_[j]] = 0.0;
+      out_.extinct = true;
+      return false;
+    }
+    if (out_.iterations >= run_.max_iterations)
+      throw std::runtime_error("splitting did not reach the level after " +
+                               std::to_string(out_.iterations) + " iterations");
+    out_.log_weight += std::log1p(-double(killed_.size()) / double(n_));
+    const std::size_t kc = killed_.size();
+    picks_.resize(kc);
+    from_.resize(kc);
+    split_parents(run_.key, replica_, static_cast<std::uint64_t>(out_.iterations),
+                  survivors_.size(), kc, picks_.data());
+    for (std::size_t j = 0; j < kc; ++j) {
+      const std::size_t parent =
+          static_cast<std::size_t>(survivors_[static_cast<std::size_t>(picks_[j])]);
+      const std::size_t child = static_cast<std::size_t>(killed_[j]);
+      // The first point from `first` on where the parent's rank exceeds z (it has one: its
+      // level is above z). The points before the parent's own branch point hold the ranks
+      // of the path it replaced, at most the level it was killed at, below z.
+      const std::size_t b = branch_point(parent, z);
+      from_[j] = b;
+      rows.push_back(row0_ + static_cast<std::int64_t>(child));
+      starts.push_back(static_cast<std::int64_t>(b));
+      streams.push_back(base_ + branches_ + j);
+      // What the child reads of its parent: the state it continues from, and for the peaks
+      // the running maximum before it. Its states and ranks before b are never read again
+      // (the ranks it keeps there, its killed path's, are at most z, and every later kill
+      // level is above z: no later branch point falls there, and its level is its ranks'
+      // maximum from b on, where the rank, the parent's, exceeds z).
+      std::copy_n(row(parent) + b * 3, 3, row(child) + b * 3);
+      if (peak_) std::copy_n(peaks_.data() + parent * points_, b, peaks_.data() + child * points_);
+      out_.steps += static_cast<std::int64_t>(steps_ - b);
+    }
+    return true;
+  }
+
+  // The scores of the clones continued since branch().
+  void scored_clones() {
+    for (std::size_t j = 0; j < killed_.size(); ++j)
+      rescore(static_cast<std::size_t>(killed_[j]), from_[j]);
+    branches_ += killed_.size();
+    ++out_.iterations;
+  }
+
+  SplitOutcome& outcome() { return out_; }
+
+ private:
+  double* row(std::size_t i) {
+    return states_ + (static_cast<std::size_t>(row0_) + i) * points_ * 3;
+  }
+
+  // The first point from `first` on where row i's rank exceeds z: in the block of `first`
+  // point by point, then the first later block whose maximum exceeds z, point by point.
+  std::size_t branch_point(std::size_t i, double z) const {
+    const double* r = ranks_.data() + i * points_;
+    const std::size_t block = run_.first / kBlock;
+    const std::size_t end = std::min(points_, (block + 1) * kBlock);
+    for (std::size_t k = run_.first; k < end; ++k)
+      if (r[k] > z) return k;
+    const double* m = blocks_.data() + i * blocks_per_row_;
+    std::size_t j = block + 1;
+    while (!(m[j] > z)) ++j;
+    std::size_t k = j * kBlock;
+    while (!(r[k] > z)) ++k;
+    return k;
+  }
+
+  // The scores of row i from point `from` on (the points before it are its parent's), the
+  // maxima of its blocks of ranks from `from`'s on, and its level: the maximum of its ranks
+  // from `first` on, which is their maximum from max(from, first) on (a clone's rank at its
+  // branch point exceeds every rank before it: they are at most an earlier kill level), so
+  // for a clone the maximum of its blocks from `from`'s on. Max is exact: the order of the
+  // reductions does not matter.
+  void rescore(std::size_t i, std::size_t from) {
+    const double* rank = ranks_.data() + i * points_;
+    split_score_row(score_, steps_, row(i), from, ranks_.data() + i * points_, plain_.data());
+    double* m = blocks_.data() + i * blocks_per_row_;
+    double top = -std::numeric_limits<double>::infinity();
+    bool nan = false;
+    for (std::size_t j = from / kBlock; j < blocks_per_row_; ++j) {
+      // The block's points from `first` on (the later blocks': all of them).
+      const std::size_t k1 = std::min(points_, (j + 1) * kBlock);
+      const std::size_t k0 = std::max(j * kBlock, run_.first);
+      const double a = block_max(rank + k0, k1 > k0 ? k1 - k0 : 0, nan);
+      m[j] = a;
+      top = std::max(top, a);
+    }
+    // The paths' states are finite (the exact step's range), so are their scores; a NaN would
+    // make the maxima meaningless.
+    if (nan) throw std::runtime_error("splitting: a path's score is not a number");
+    level_[i] = top;
+    if (peak_) {
+      double* m = peaks_.data() + i * points_;
+      double v = from > 0 ? m[from - 1] : -std::numeric_limits<double>::infinity();
+      for (std::size_t k = from; k <= steps_; ++k) {
+        v = std::max(v, plain_[k]);
+        m[k] = v;
+      }
+      value_[i] = v;
+    } else {
+      value_[i] = plain_[steps_];
+    }
+  }
+
+  const SplitScore& score_;
+  const SplitRun& run_;
+  const std::size_t n_, steps_, points_;
+  const bool peak_;
+  double* const states_;
+  const std::int64_t row0_;
+  const std::uint64_t base_, replica_;
+  // Per particle: its ranks (its branch point for a kill level z is the first point from
+  // `first` on above z), and for the peaks the running maximum of the quantity's score (the
+  // quantity is the last).
+  const std::size_t blocks_per_row_;
+  std::vector<double> ranks_, blocks_, peaks_;
+  std::vector<double> plain_;  // one row's quantity scores
+  std::vector<double> level_, value_, sorted_;
+  std::vector<std::size_t> order_, from_;
+  std::vector<std::int64_t> killed_, survivors_, picks_;
+  std::uint64_t branches_ = 0;
+  std::size_t done_ = 0;
+  SplitOutcome out_;
+};
+
+}  // namespace
+
+std::vector<SplitOutcome> split_replicas(const BranchGrid& grid, const SplitScore& given,
+                                         const SplitRun& run, const std::uint64_t* replicas,
+                                         std::size_t count) {
   SplitScore score = given;
   if (score.normalised && score.normalised_rank == nullptr)
     score.normalised_rank = active_kernel().normalised_rank;
@@ -155,144 +395,54 @@ SplitOutcome split_replica(const BranchGrid& grid, const SplitScore& given, cons
     throw std::invalid_argument("first must be a grid point, got " + std::to_string(run.first));
   if (!(std::isfinite(run.v0) && std::isfinite(run.u0)))
     throw std::invalid_argument("v0 and u0 must be finite");
-  const bool peak = score.quantity == SplitQuantity::peak_displacement_at_stop ||
-                    score.quantity == SplitQuantity::peak_speed_at_stop;
-  // Per particle: its states (only the point it continues from is read after it moved on),
-  // the running maximum of its rank from the first point on (`reach`: its path maximum is the
-  // last, and its branch point for a kill level z the first point above z), and for the peaks
-  // the running maximum of the quantity's score (the quantity is the last).
-  std::vector<double> states(n * points * 3), reach(n * points), peaks(peak ? n * points : 0);
-  std::vector<double> rank(points), plain(points);  // one row's scores
-  std::vector<double> level(n), value(n);
-  // The paths continue in the vector lanes of the kernel's variant (branch_lanes.inc): the
-  // scalar extend_paths' bits.
+  if (count < 1) throw std::invalid_argument("split_replicas: no replica");
+  // The replicas' particles in one array of states, continued together in the vector lanes of
+  // the kernel's variant (branch_lanes.inc: the scalar extend_paths' bits, whatever rows share
+  // the lanes): an iteration of one replica continues only a tenth of its particles, too few to
+  // keep the lanes busy, those of several replicas fill them.
+  std::vector<double> states(count * n * points * 3);
   const LaneGridData lanes(grid);
-  const std::uint64_t base = run.replica * kReplicaStreams;
-  constexpr double kLowest = -std::numeric_limits<double>::infinity();
-
-  // The scores of row i from point `from` on (the points before it are its parent's).
-  auto rescore = [&](std::size_t i, std::size_t from) {
-    split_score_row(score, steps, states.data() + i * points * 3, from, rank.data(), plain.data());
-    double* r = reach.data() + i * points;
-    const std::size_t k0 = std::max(from, run.first);
-    double top = k0 > run.first ? r[k0 - 1] : kLowest;
-    bool nan = false;
-    for (std::size_t k = k0; k <= steps; ++k) {
-      nan |= std::isnan(rank[k]);
-      top = std::max(top, rank[k]);
-      r[k] = top;
-    }
-    // The paths' states are finite (the exact step's range), so are their scores; a NaN would
-    // make the running maxima meaningless.
-    if (nan) throw std::runtime_error("splitting: a path's score is not a number");
-    level[i] = top;
-    if (peak) {
-      double* m = peaks.data() + i * points;
-      double v = from > 0 ? m[from - 1] : kLowest;
-      for (std::size_t k = from; k <= steps; ++k) {
-        v = std::max(v, plain[k]);
-        m[k] = v;
-      }
-      value[i] = v;
-    } else {
-      value[i] = plain[steps];
-    }
-  };
-
-  std::vector<std::int64_t> rows(n), starts(n, 0);
-  std::vector<std::uint64_t> streams(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    double* row = states.data() + i * points * 3;
-    row[0] = run.v0;
-    row[1] = run.u0;
-    row[2] = 0.0;
-    rows[i] = static_cast<std::int64_t>(i);
-    streams[i] = base + i;
+  std::vector<Replica> group;
+  group.reserve(count);
+  std::vector<std::int64_t> rows, starts;
+  std::vector<std::uint64_t> streams;
+  rows.reserve(count * n);
+  starts.reserve(count * n);
+  streams.reserve(count * n);
+  for (std::size_t r = 0; r < count; ++r) {
+    group.emplace_back(score, run, replicas[r], states.data(),
+                       static_cast<std::int64_t>(r * n), steps);
+    group.back().start(rows, starts, streams);
   }
-  extend_rows_in_lanes(states.data(), lanes, rows.data(), starts.data(), streams.data(), n,
-                       run.key, run.threads);
-  for (std::size_t i = 0; i < n; ++i) rescore(i, 0);
-
-  SplitOutcome out;
-  out.estimates.assign(run.level_count, std::numeric_limits<double>::quiet_NaN());
-  std::vector<std::size_t> order(run.level_count);
-  std::iota(order.begin(), order.end(), std::size_t(0));
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t a, std::size_t b) { return run.levels[a] < run.levels[b]; });
-  std::uint64_t branches = n;
-  out.steps = static_cast<std::int64_t>(n * steps);
-  std::size_t done = 0;
-  std::vector<double> sorted(n);
-  std::vector<std::int64_t> killed, survivors, picks;
-  killed.reserve(n);
-  survivors.reserve(n);
+  extend_rows_in_lanes(states.data(), lanes, rows.data(), starts.data(), streams.data(),
+                       rows.size(), run.key, run.threads);
+  for (auto& replica : group) replica.scored_start();
+  std::vector<char> active(count, 1);
   for (;;) {
     if (run.cancelled && run.cancelled()) throw Cancelled();
-    if (run.has_deadline) {
-      const double now =
-          std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-      if (now > run.deadline) {
-        out.timed_out = true;
-        return out;
-      }
+    rows.clear();
+    starts.clear();
+    streams.clear();
+    bool any = false;
+    for (std::size_t r = 0; r < count; ++r) {
+      if (active[r]) active[r] = group[r].branch(rows, starts, streams) ? 1 : 0;
+      any |= active[r] != 0;
     }
-    std::copy(level.begin(), level.end(), sorted.begin());
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(run.kill - 1), sorted.end());
-    const double z = sorted[run.kill - 1];
-    while (done < order.size() && run.thresholds[order[done]] <= z) {
-      std::size_t above = 0;
-      for (std::size_t i = 0; i < n; ++i) above += value[i] > run.levels[order[done]];
-      out.estimates[order[done]] = std::exp(out.log_weight) * (double(above) / double(n));
-      ++done;
-    }
-    if (done == order.size()) break;
-    killed.clear();
-    survivors.clear();
-    for (std::size_t i = 0; i < n; ++i) {
-      if (level[i] <= z) killed.push_back(static_cast<std::int64_t>(i));
-      if (level[i] > z) survivors.push_back(static_cast<std::int64_t>(i));
-    }
-    if (killed.size() == n) {
-      for (std::size_t j = done; j < order.size(); ++j) out.estimates[order[j]] = 0.0;
-      out.extinct = true;
-      break;
-    }
-    if (out.iterations >= run.max_iterations)
-      throw std::runtime_error("splitting did not reach the level after " +
-                               std::to_string(out.iterations) + " iterations");
-    out.log_weight += std::log1p(-double(killed.size()) / double(n));
-    const std::size_t kc = killed.size();
-    picks.resize(kc);
-    split_parents(run.key, run.replica, static_cast<std::uint64_t>(out.iterations),
-                  survivors.size(), kc, picks.data());
-    starts.resize(kc);
-    streams.resize(kc);
-    for (std::size_t j = 0; j < kc; ++j) {
-      const std::size_t parent = static_cast<std::size_t>(survivors[static_cast<std::size_t>(picks[j])]);
-      const std::size_t child = static_cast<std::size_t>(killed[j]);
-      // The first point from `first` on where the parent's score exceeds z (it has one: its
-      // level is above z).
-      const double* r = reach.data() + parent * points;
-      const std::size_t b =
-          static_cast<std::size_t>(std::upper_bound(r + run.first, r + points, z) - r);
-      starts[j] = static_cast<std::int64_t>(b);
-      streams[j] = base + branches + j;
-      // What the child reads of its parent: the state it continues from, and the scores before
-      // it (the path maxima; the branch points of later clones). The states before it are
-      // never read again.
-      std::copy_n(states.data() + (parent * points + b) * 3, 3, states.data() + (child * points + b) * 3);
-      std::copy_n(reach.data() + parent * points, b, reach.data() + child * points);
-      if (peak) std::copy_n(peaks.data() + parent * points, b, peaks.data() + child * points);
-      out.steps += static_cast<std::int64_t>(steps - b);
-    }
-    extend_rows_in_lanes(states.data(), lanes, killed.data(), starts.data(), streams.data(), kc,
-                         run.key, run.threads);
-    for (std::size_t j = 0; j < kc; ++j)
-      rescore(static_cast<std::size_t>(killed[j]), static_cast<std::size_t>(starts[j]));
-    branches += kc;
-    ++out.iterations;
+    if (!any) break;
+    extend_rows_in_lanes(states.data(), lanes, rows.data(), starts.data(), streams.data(),
+                         rows.size(), run.key, run.threads);
+    for (std::size_t r = 0; r < count; ++r)
+      if (active[r]) group[r].scored_clones();
   }
+  std::vector<SplitOutcome> out;
+  out.reserve(count);
+  for (auto& replica : group) out.push_back(std::move(replica.outcome()));
   return out;
+}
+
+SplitOutcome split_replica(const BranchGrid& grid, const SplitScore& score, const SplitRun& run) {
+  const std::uint64_t replica = run.replica;
+  return std::move(split_replicas(grid, score, run, &replica, 1).front());
 }
 
 }  // namespace crandall

@@ -211,7 +211,7 @@ def split_replica(
     noises: npt.NDArray[np.float64],
     drifts: npt.NDArray[np.float64],
     key: int,
-    replica: int,
+    replicas: Sequence[int],
     particles: int,
     kill: int,
     max_iterations: int,
@@ -231,9 +231,10 @@ def split_replica(
     top: Optional[float],
     normaliser: Optional[Tuple[Any, ...]],
     threads: int = 1,
-) -> Tuple[npt.NDArray[np.float64], int, int, float, bool, bool]:
-    """One replica of adaptive multilevel splitting on a white-noise grid: (estimates,
-    iterations, steps, log_weight, extinct, timed_out). The GIL is released."""
+) -> List[Tuple[npt.NDArray[np.float64], int, int, float, bool, bool]]:
+    """Replicas of adaptive multilevel splitting on a white-noise grid, in step (each the bits
+    it has alone): per replica (estimates, iterations, steps, log_weight, extinct, timed_out).
+    The GIL is released."""
 
 def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
     """Generate the kernel's noise for paths x steps with no physics (a throughput floor)."""

@@ -303,8 +303,18 @@ def piece_errors(scene, names, *, seed: int, paths: int = BIAS_PATHS,
     bias is the grid's."""
     if ENVELOPE not in scene.effects or paths < 2:
         return {}
-    spec = RunSpec.create(scene, paths=min(paths, BIAS_PATHS), seed=seed, method="richardson")
+    spec = RunSpec.create(scene, paths=min(paths, BIAS_PATHS), seed=seed,
+                          method=piece_method(scene))
     return _piece_errors(spec, names, threads)
+
+
+def piece_method(scene, method: str = "richardson") -> str:
+    """The method of the coupled runs that estimate a scene's piece error: ``method`` if it
+    has a refinement (REFINEMENT), else Richardson's; the exact one, on its coupled grids, for
+    a filtered excitation (the white-noise methods do not step it)."""
+    if FILTERED_EXCITATION in scene.effects:
+        return "exact"
+    return method if method in REFINEMENT else "richardson"
 
 
 def _coarse_on_fine(scene, fine):

@@ -129,12 +129,13 @@ LEVELS = Identity(
 #: Runs to an accuracy of a filtered excitation (crandall.adaptive): levels on the filtered
 #: core's exactly coupled grids (the same noise tree on every grid), no control variates and
 #: no exact or Ito targets (none holds there), the bias from the measured ratio of the finest
-#: levels' means, first order where it is not resolved (docs/methods/adaptive.md). Not for an
-#: envelope: its pieces' error is estimated on the white-noise levels only.
+#: levels' means, first order where it is not resolved (docs/methods/adaptive.md). An envelope's
+#: pieces are chosen and their error estimated by coupled runs of the filtered core (crandall.pieces,
+#: bias.piece_method), as for white noise.
 FILTERED_LEVELS = Identity(
     "filtered_levels", "runs to an accuracy: the multilevel estimator on the filtered core's "
     "coupled grids, its bias from the measured order of the finest levels",
-    frozenset({FILTERED_EXCITATION, STATIC_FRICTION, INITIAL_STATE, PIECEWISE_INTENSITY}))
+    frozenset({FILTERED_EXCITATION, STATIC_FRICTION, INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
 #: Tail probabilities (crandall.tail), the sign-drift parts: the velocity is a diffusion whose
 #: drift is -c sign(V), with its transition density (importance sampling's weights), the
 #: normalised splitting score and its formulas, and crandall.paths' white-noise steps.

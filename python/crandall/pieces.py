@@ -140,7 +140,7 @@ def choose(scene, names: Sequence[str], *, paths: int, seed: int, threads: int,
                 "(envelope.fixed())")
         current = with_pieces(scene, env.pieces * factor)
         spec = RunSpec.create(current, paths=pilot, seed=seed, dt=dt,
-                              method=method if method in bias.REFINEMENT else "richardson")
+                              method=bias.piece_method(scene, method))
         try:
             table, values = bias.piece_table_kept(spec, names, threads)
         except ValueError as exc:

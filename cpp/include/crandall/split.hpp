@@ -101,4 +101,12 @@ struct SplitRun {
 // iterations") past max_iterations, as the Python loop does.
 SplitOutcome split_replica(const BranchGrid& grid, const SplitScore& score, const SplitRun& run);
 
+// Replicas replicas[0, count) of one run (run.replica is not read) in step: their iterations
+// taken in turn, the clones of all of them continued together in the vector lanes, so that the
+// lanes are kept busy (an iteration continues a tenth of a replica's particles). Each outcome
+// is the one split_replica gives that replica alone, bit for bit.
+std::vector<SplitOutcome> split_replicas(const BranchGrid& grid, const SplitScore& score,
+                                         const SplitRun& run, const std::uint64_t* replicas,
+                                         std::size_t count);
+
 }  // namespace crandall

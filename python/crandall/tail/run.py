@@ -22,7 +22,7 @@ from ..scene import Scene
 from .importance import _importance_batch, _proposal, _TOP_WEIGHTS
 from .problem import _grid_for, _Problem
 from .result import _stats, StatisticsFailure
-from .splitting import _REPLICA_STREAMS, _splitting_replica
+from .splitting import _REPLICA_STREAMS, _splitting_replica, _splitting_replicas
 #: How many more samples than the pilot's variance asks for the run takes.
 SAFETY = 1.3
 #: ... or, if larger, as many as the 99 % upper confidence bound of the pilot's variance asks:
@@ -33,6 +33,10 @@ SAFETY = 1.3
 #: (bench/tails_pilot.py). The normal quantile of the bound; chi2 by Wilson & Hilferty's cube
 #: (plain float arithmetic, the same on every machine).
 UPPER_Z = 2.3263478740408408
+#: Splitting replicas of a white-noise scene a thread runs in step (_LocalReplicas): an
+#: iteration continues a tenth of a replica's particles (20 of the default 200), which leave
+#: about 40 % of the 16 vector lanes idle at the paper's stop time; four replicas fill them.
+GROUP = 4
 
 
 def variance_upper_factor(n: int) -> float:
@@ -60,18 +64,14 @@ def sample(job: Dict[str, Any], index: int, threads: int = 0,
     the client's, given to a Dask task (:func:`crandall.streams.check_random_stream`)."""
     if random_stream is not None:
         _streams.check_random_stream(random_stream)
-    problem = _Problem(Scene.from_dict(job["scene"]), job["quantity"], job["time"], job["dt"])
+    problem = _problem(job)
     lv = np.asarray(job["levels"], dtype=float)
     n, key = job["particles"], job["key"]
     if job["proposal"] is None:
         # A guard against a run that does not progress.
-        est, info = _splitting_replica(problem, lv, n, max(1, n // 10), key, index, threads,
-                                       _max_iterations(n), deadline=deadline)
-        if info.get("timed_out"):
-            return {"timed_out": True, "iterations": info["iterations"],
-                    "log_weight": info["log_weight"]}
-        return {"estimates": est.tolist(), "iterations": info["iterations"],
-                "steps": info["steps"], "extinct": info["extinct"]}
+        return _replica_output(*_splitting_replica(problem, lv, n, max(1, n // 10), key, index,
+                                                   threads, _max_iterations(n),
+                                                   deadline=deadline))
     window, drift, slow, full = job["proposal"]
     grid = _grid_for(problem, window)
     contrib = _importance_batch(grid, _proposal(grid, window, drift, slow, full), lv, n, key,
@@ -81,6 +81,33 @@ def sample(job: Dict[str, Any], index: int, threads: int = 0,
             "sum2": (contrib ** 2).sum(axis=0).tolist(),
             "hits": np.count_nonzero(contrib, axis=0).tolist(),
             "top": [np.sort(col[col > 0])[-_TOP_WEIGHTS:].tolist() for col in contrib.T]}
+
+
+def samples(job: Dict[str, Any], indices: Sequence[int], threads: int = 1,
+            deadline: Optional[float] = None) -> List[Dict[str, Any]]:
+    """``sample(job, i)`` for each i of ``indices``, bit for bit; a white-noise scene's
+    splitting replicas run in the core in step (their clones share the vector lanes)."""
+    if job["proposal"] is not None:
+        return [sample(job, i, threads, deadline) for i in indices]
+    problem = _problem(job)
+    n = job["particles"]
+    return [_replica_output(est, info) for est, info in _splitting_replicas(
+        problem, np.asarray(job["levels"], dtype=float), n, max(1, n // 10), job["key"],
+        list(indices), threads, _max_iterations(n), deadline=deadline)]
+
+
+def _problem(job: Dict[str, Any]) -> _Problem:
+    return _Problem(Scene.from_dict(job["scene"]), job["quantity"], job["time"], job["dt"])
+
+
+def _replica_output(est: np.ndarray, info: Dict[str, Any]) -> Dict[str, Any]:
+    """A splitting replica's sample: its estimates and counts, or, stopped by the deadline,
+    only ``timed_out`` and how far it got."""
+    if info.get("timed_out"):
+        return {"timed_out": True, "iterations": info["iterations"],
+                "log_weight": info["log_weight"]}
+    return {"estimates": est.tolist(), "iterations": info["iterations"],
+            "steps": info["steps"], "extinct": info["extinct"]}
 
 
 def _canonical(data) -> bytes:
@@ -212,9 +239,13 @@ class _TailRun(Estimator):
         self.job, self.spec, self.threads = job, spec, threads
         self.task_threads = task_threads
         self.splitting = job["proposal"] is None
-        #: Splitting replicas run at once here, one per thread (_LocalReplicas): replicas are
-        #: independent, and one replica's iterations are too short to share among threads.
-        self.local_width = max(1, threads) if self.splitting else 1
+        #: Splitting replicas run at once here (_LocalReplicas): replicas are independent, and
+        #: one replica's iterations are too short to share among threads, so each thread runs
+        #: its own; a white-noise scene's GROUP of them in step in the core, whose vector
+        #: lanes a tenth of one replica's particles would leave idle.
+        self.parallel = max(1, threads) if self.splitting else 1
+        white = self.splitting and _problem(job).white_noise
+        self.local_width = self.parallel * (GROUP if white else 1)
         self.levels = len(job["levels"])
         self.max_samples, self.rel_error = max_samples, rel_error
         self.max_seconds, self.started = max_seconds, started
@@ -255,6 +286,7 @@ class _TailRun(Estimator):
             room = available_memory() - self.threads * (16 << 20)
             self.local_width = int(max(1, min(self.local_width, room // (
                 4 * self.job["particles"] * self.path_bytes))))
+            self.parallel = min(self.parallel, self.local_width)
 
     def state(self):
         return json_state({"samples": self.samples, "checksum": self.digest.hexdigest()})
@@ -288,7 +320,7 @@ class _TailRun(Estimator):
         self.samples, self.digest = samples, digest
 
     def _tasks(self, first: int, last: int):
-        here = (_LocalReplicas(self.job, first, last, self.deadline, self.local_width)
+        here = (_LocalReplicas(self.job, first, last, self.deadline, self.parallel, self.threads)
                 if self.workers is None and self.local_width > 1 and last - first > 1 else None)
         return [Task(sample, (self.job, i, self.task_threads, self.deadline,
                              _streams.RANDOM_STREAM),
@@ -308,7 +340,7 @@ class _TailRun(Estimator):
             return seconds / done * count
         if not self.rate:
             return 0.0
-        parallel = max(1, min(count, self.local_width if self.workers is None else self.workers))
+        parallel = max(1, min(count, self.parallel if self.workers is None else self.workers))
         paths = self.job["particles"] * -(-count // parallel)
         return paths * self.steps / self.rate
 
@@ -343,7 +375,7 @@ class _TailRun(Estimator):
 
     def rounds(self):
         # On a cluster a batch of as many samples as it has threads (at least 8); here one, or
-        # for splitting as many replicas as threads (local_width).
+        # for splitting as many replicas as run at once (local_width).
         # A batch is not started when the time per sample measured so far (before any: its
         # least cost at the measured rate) says it would end past max_seconds; a replica
         # running then stops (sample's deadline). A pilot that cannot finish is refused.
@@ -417,32 +449,45 @@ class _TailRun(Estimator):
 
 
 class _LocalReplicas:
-    """Splitting replicas [first, last) of a batch run here at once, one per thread (each a
-    pure function of the job and its index, run with one thread: the same bits as one at a
-    time); the driver takes their outputs in order. They start when the first is asked for."""
+    """Splitting replicas [first, last) of a batch run here at once: cut into ``width``
+    consecutive groups, one per thread, each run by :func:`samples` with one thread (one group
+    alone: here, with the run's ``threads``); the same bits as one at a time. The driver takes
+    their outputs in order. They start when the first is asked for."""
 
-    def __init__(self, job, first: int, last: int, deadline, width: int) -> None:
+    def __init__(self, job, first: int, last: int, deadline, width: int, threads: int) -> None:
         self.job, self.first, self.last = job, first, last
-        self.deadline, self.width = deadline, width
+        self.deadline, self.threads = deadline, threads
+        count = last - first
+        width = max(1, min(width, count))
+        cuts = [first + count * g // width for g in range(width + 1)]
+        self.groups = [range(a, b) for a, b in zip(cuts, cuts[1:])]
         self.futures = None
+        self.outputs: Optional[List[Dict[str, Any]]] = None
 
     def _start(self) -> None:
         from concurrent.futures import ThreadPoolExecutor
 
-        pool = ThreadPoolExecutor(max_workers=min(self.width, self.last - self.first),
+        pool = ThreadPoolExecutor(max_workers=len(self.groups),
                                   thread_name_prefix="crandall-replica")
-        self.futures = [pool.submit(sample, self.job, i, 1, self.deadline)
-                        for i in range(self.first, self.last)]
+        self.futures = [pool.submit(samples, self.job, g, 1, self.deadline) for g in self.groups]
         pool.shutdown(wait=False)  # its threads end with their replicas
+
+    def _group(self, i: int) -> int:
+        return next(j for j, g in enumerate(self.groups) if i in g)
 
     def local(self, i: int):
         def run():
+            if len(self.groups) == 1:  # here, where Ctrl-C reaches the core
+                if self.outputs is None:
+                    self.outputs = samples(self.job, self.groups[0], self.threads, self.deadline)
+                return self.outputs[i - self.first]
             if self.futures is None:
                 self._start()
+            j = self._group(i)
             try:
-                return self.futures[i - self.first].result()
+                return self.futures[j].result()[i - self.groups[j].start]
             except BaseException:
-                for f in self.futures:  # an error or Ctrl-C: the replicas not yet started
+                for f in self.futures:  # an error or Ctrl-C: the groups not yet started
                     f.cancel()
                 raise
         return run

@@ -4,7 +4,7 @@ bits (tests/test_tail_split_core.py), at the core's speed."""
 
 from __future__ import annotations
 
-from typing import Optional
+from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -14,11 +14,13 @@ from .problem import TAIL_QUANTITIES, _Problem
 _QUANTITY_INDEX = {name: i for i, name in enumerate(TAIL_QUANTITIES)}
 
 
-def core_replica(problem: _Problem, levels: np.ndarray, particles: int, kill: int, key: int,
-                 replica: int, threads: int, max_iterations: int, top: Optional[float],
-                 first: int, thresholds: np.ndarray, uncoast: bool,
-                 deadline: Optional[float]):
-    """_splitting_replica's result (estimates, info) from the core's loop."""
+def core_replicas(problem: _Problem, levels: np.ndarray, particles: int, kill: int, key: int,
+                  replicas: Sequence[int], threads: int, max_iterations: int,
+                  top: Optional[float], first: int, thresholds: np.ndarray, uncoast: bool,
+                  deadline: Optional[float]) -> List[Tuple[np.ndarray, Dict[str, Any]]]:
+    """_splitting_replica's result (estimates, info) for each of ``replicas``, from the core's
+    loop, which runs them in step (their clones share the vector lanes; each replica's bits are
+    those it has alone)."""
     scene = problem.scene
     energy = problem.q.name == "dissipated_energy_at_stop"
     normaliser = None
@@ -26,16 +28,20 @@ def core_replica(problem: _Problem, levels: np.ndarray, particles: int, kill: in
         points, cum, stationary, step = problem._normaliser()
         normaliser = (points, cum[0], cum[1], cum[2], stationary, step, problem.floor2(),
                       problem._scale())
-    est, iterations, steps, log_weight, extinct, timed_out = _core.split_replica(
-        problem.lengths, problem.noises, problem.drifts, key, replica, particles, kill,
-        max_iterations, deadline, float(scene.v0), float(scene.u0), first,
+    outcomes = _core.split_replica(
+        problem.lengths, problem.noises, problem.drifts, key, [int(r) for r in replicas],
+        particles, kill, max_iterations, deadline, float(scene.v0), float(scene.u0), first,
         np.asarray(levels, dtype=np.float64), np.asarray(thresholds, dtype=np.float64),
         _QUANTITY_INDEX[problem.q.name], float(scene.drift), float(problem.horizon),
         float(problem.coast), float(scene.mass) if energy else 1.0, problem.remaining,
         bool(uncoast), top, normaliser, threads)
-    info = {"iterations": int(iterations), "steps": int(steps), "log_weight": float(log_weight)}
-    if timed_out:
-        info["timed_out"] = True
-    else:
-        info["extinct"] = float(log_weight) if extinct else None
-    return est, info
+    out = []
+    for est, iterations, steps, log_weight, extinct, timed_out in outcomes:
+        info: Dict[str, Any] = {"iterations": int(iterations), "steps": int(steps),
+                                "log_weight": float(log_weight)}
+        if timed_out:
+            info["timed_out"] = True
+        else:
+            info["extinct"] = float(log_weight) if extinct else None
+        out.append((est, info))
+    return out

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import math
 import time as _time
-from typing import Optional
+from typing import Optional, Sequence
 
 import numpy as np
 
 from .. import _core
 from .problem import _extend, _Problem
-from .split_core import core_replica
+from .split_core import core_replicas
 #: A replica's path streams: replica r uses streams r * 2^40 + 0, 1, ...
 _REPLICA_STREAMS = 1 << 40
 
@@ -21,6 +21,32 @@ def _normalised_top(problem: _Problem, levels: np.ndarray, schedule: bool = True
     of a NORMALISED quantity under one intensity (None: the plain score). ``schedule=False``
     drops the schedule's condition (bench/tails_score.py)."""
     return float(levels[0]) if len(levels) == 1 and problem.normalisable(schedule) else None
+
+
+def _splitting_replicas(problem: _Problem, levels: np.ndarray, particles: int, kill: int,
+                        key: int, replicas: Sequence[int], threads: int, max_iterations: int,
+                        deadline: Optional[float] = None):
+    """_splitting_replica's (estimates, info) for each of ``replicas``: a white-noise problem's
+    in the core at once, in step (the same bits as one by one: tests/test_tail_split_core.py),
+    others one by one."""
+    if not problem.white_noise:
+        return [_splitting_replica(problem, levels, particles, kill, key, r, threads,
+                                   max_iterations, deadline=deadline) for r in replicas]
+    top, first, thresholds, uncoast = _score_form(problem, levels, None)
+    return core_replicas(problem, levels, particles, kill, key, replicas, threads,
+                         max_iterations, top, first, thresholds, uncoast, deadline)
+
+
+def _score_form(problem: _Problem, levels: np.ndarray, normalise: Optional[bool]):
+    """What a replica ranks its paths by: the normalised score's level (or None), the first
+    point of the path maxima, the levels on the rank's scale, and whether the velocity is
+    ranked before the coast's clip."""
+    top = None if normalise is False else _normalised_top(problem, levels, normalise is None)
+    first = problem.first_random_point() if top is not None else 0
+    thresholds = (np.array([problem.split_threshold(float(x), top) for x in levels])
+                  if top is not None else levels)
+    uncoast = top is None and problem.coasts_to_rest(levels)
+    return top, first, thresholds, uncoast
 
 
 def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, kill: int,
@@ -52,14 +78,10 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     one, the reference the core's is tested against).
     """
     n = particles
-    top = None if normalise is False else _normalised_top(problem, levels, normalise is None)
-    first = problem.first_random_point() if top is not None else 0
-    thresholds = (np.array([problem.split_threshold(float(x), top) for x in levels])
-                  if top is not None else levels)
-    uncoast = top is None and problem.coasts_to_rest(levels)
+    top, first, thresholds, uncoast = _score_form(problem, levels, normalise)
     if core and problem.white_noise:
-        return core_replica(problem, levels, n, kill, key, replica, threads, max_iterations,
-                            top, first, thresholds, uncoast, deadline)
+        return core_replicas(problem, levels, n, kill, key, [replica], threads, max_iterations,
+                             top, first, thresholds, uncoast, deadline)[0]
     base = replica * _REPLICA_STREAMS
     states = problem.start_states(n)
     _extend(problem, states, np.arange(n), np.zeros(n), base + np.arange(n), key, threads)
