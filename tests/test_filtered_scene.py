@@ -61,10 +61,6 @@ def test_the_default_method_is_exact_and_the_white_noise_methods_are_refused():
         with pytest.raises(ParameterError, match="runs with 'exact'") as exc:
             crandall.simulate(sc, paths=100, seed=1, method=method)
         assert exc.value.name == "method"
-    with pytest.raises(ParameterError, match="'peaks' are not simulated") as exc:
-        Scene(mu=1.0, g=1.0, excitation=_kt(h=1.0), t0=1.0, times=[0.5],
-              observe=["velocity", "peaks"])
-    assert exc.value.name == "observe"
 
 
 def test_the_default_step_resolves_the_filter():

@@ -459,7 +459,6 @@ void validate_filter_options(const Options& o) {
           "event_depth must be at least " + std::to_string(o.grids() - 1) + " for method '" +
               method_name(o.method) + "' (its coarsest grid's steps are bisected at the finer grids' points first)");
   require(!o.quadratic_variation, "quadratic_variation is not available with excitation 'filtered'");
-  require(!o.peaks, "peaks are not available with excitation 'filtered' yet");
   require(o.paths <= (std::uint64_t{1} << 40), "paths must be <= 2^40 with excitation 'filtered'");
   if (o.stop) {
     require(o.drift > 0.0, "the stop needs drift > 0 with excitation 'filtered' (without friction "

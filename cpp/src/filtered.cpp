@@ -158,7 +158,19 @@ struct Body {
   double v = 0.0, u = 0.0, s = 0.0;
   double rest_since = 0.0;  // when it last came to rest
   bool done = false;        // at rest for good (after the switch-off, by the decay bound)
+  // Options::peaks: the running maxima of |V| and |U| over the points the walk computed (the
+  // grid's points, the ends of the event search's substeps, every arrival at rest).
+  double pv = 0.0, pu = 0.0;
+  void track_peaks() {
+    const double av = std::abs(v), au = std::abs(u);
+    pv = pv < av ? av : pv;
+    pu = pu < au ? au : pu;
+  }
 };
+
+// A grid's values at an output slot: (V, U, S, max |V|, max |U|); at the stop (the time of the
+// stop, U, S, max |V|, max |U|). The maxima are 0 without Options::peaks.
+using Values = std::array<double, 5>;
 
 // The walker of a filter of dimension N (m = N + 2): fixed-size arrays and loops the compiler
 // unrolls (Kanai-Tajimi N = 2, Clough-Penzien N = 4).
@@ -171,7 +183,7 @@ class Walker {
   Walker(const Plan& plan, int grids, Trajectory* trace)
       : plan_(plan), o_(plan.options()), fm_(*plan.filter()),
         grids_(grids), group_(1 << (grids - 1)), drift_(o_.drift), static_(fm_.static_drift),
-        margin_(event_margin.load()), trace_(trace) {
+        margin_(event_margin.load()), peaks_(o_.peaks), trace_(trace) {
     yield_ = {drift_, drift_, static_, static_};
     for (int i = 0; i < N; ++i) {
       c_[i] = fm_.filter.c[static_cast<std::size_t>(i)];
@@ -179,16 +191,18 @@ class Walker {
     }
   }
 
-  // Walks one path; outputs[g][slot] = (V, U, S) at output slot `slot` of grid g, and stops[g]
-  // = (time of the stop, U, S). Returns false when cancelled.
-  bool walk(std::uint64_t path, std::vector<std::vector<std::array<double, 3>>>& outputs,
-            std::vector<std::array<double, 3>>& stops, const std::function<bool()>& cancelled,
+  // Walks one path; outputs[g][slot] = (V, U, S, max |V|, max |U|) at output slot `slot` of
+  // grid g, and stops[g] = (time of the stop, U, S, max |V|, max |U|) (Values). Returns false
+  // when cancelled.
+  bool walk(std::uint64_t path, std::vector<std::vector<Values>>& outputs,
+            std::vector<Values>& stops, const std::function<bool()>& cancelled,
             std::uint64_t& poll) {
     begin(path, o_.seed);
     for (int g = 0; g < grids_; ++g) {
       bodies_[g] = Body{};
       bodies_[g].v = o_.start_velocity;
       bodies_[g].u = o_.start_displacement;
+      if (peaks_) bodies_[g].track_peaks();
     }
     for (int i = 0; i < N; ++i) z_[i] = fm_.start[static_cast<std::size_t>(i)];
     if (trace_) point(0.0, ground(z_), bodies_[0]);
@@ -198,7 +212,7 @@ class Walker {
     const auto at_slot = [&](long slot) {
       for (int g = 0; g < grids_; ++g)
         outputs[static_cast<std::size_t>(g)][static_cast<std::size_t>(slot)] = {
-            bodies_[g].v, bodies_[g].u, bodies_[g].s};
+            bodies_[g].v, bodies_[g].u, bodies_[g].s, bodies_[g].pv, bodies_[g].pu};
     };
     if (!segments(0, true, cancelled, poll, at_slot, [](std::uint64_t) {}, k, start, all_done))
       return false;
@@ -214,7 +228,8 @@ class Walker {
       all_done = check_done(k + 1);
     }
     for (int g = 0; g < grids_; ++g)
-      stops[static_cast<std::size_t>(g)] = {bodies_[g].rest_since, bodies_[g].u, bodies_[g].s};
+      stops[static_cast<std::size_t>(g)] = {bodies_[g].rest_since, bodies_[g].u, bodies_[g].s,
+                                            bodies_[g].pv, bodies_[g].pu};
     return true;
   }
 
@@ -474,6 +489,7 @@ class Walker {
         b.u += du;
         b.s += s * du;
         b.v = v1;
+        if (peaks_) b.track_peaks();
       }
       if (trace_grid_) point(iv.t0 + iv.len, ground(iv.zb), b);
       return;
@@ -576,6 +592,10 @@ class Walker {
         mo, aa, ab, iv.len, iv.t0, yield_, [](double, int) {},
         [&](double t) {
           b.rest_since = t;
+          if (peaks_) {  // (at rest: V = 0; U there counts)
+            const double au = std::abs(u0 - mo.d);
+            b.pu = b.pu < au ? au : b.pu;
+          }
           if (trace_grid_) {
             Body at{0.0, u0 - mo.d, s0 + dist, t, false};
             point(t, aa + (ab - aa) * ((t - iv.t0) / iv.len), at);
@@ -585,6 +605,7 @@ class Walker {
     b.v = mo.mode == 0 ? 0.0 : -mo.w;
     b.u = u0 - mo.d;
     b.s = s0 + dist;
+    if (peaks_) b.track_peaks();
     if (trace_grid_) point(iv.t0 + iv.len, ab, b);
   }
 
@@ -593,6 +614,7 @@ class Walker {
   const FilterModel& fm_;
   const int grids_, group_;
   const double drift_, static_, margin_;
+  const bool peaks_;
   Trajectory* trace_;
   bool trace_grid_ = false;
   newmark::Yield yield_{};
@@ -639,14 +661,26 @@ void filtered_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
   const int grids = o.grids();
   const std::size_t slots = o.times.size();
   Walker<N> walker(plan, grids, nullptr);
-  std::vector<std::vector<std::array<double, 3>>> outputs(
-      static_cast<std::size_t>(grids), std::vector<std::array<double, 3>>(slots));
-  std::vector<std::array<double, 3>> stops(static_cast<std::size_t>(grids));
-  // The walked grid's values of a group of kLanes paths, slot by slot, summed as the white
-  // kernel sums its lanes.
-  std::vector<double> lanes_out(slots * 3 * kLanes);
-  double ts[kLanes], us[kLanes], ss[kLanes], au[kLanes];
+  std::vector<std::vector<Values>> outputs(static_cast<std::size_t>(grids),
+                                           std::vector<Values>(slots));
+  std::vector<Values> stops(static_cast<std::size_t>(grids));
+  // The walked grid's values of a group of kLanes paths, slot by slot (V, U, S, max |V|,
+  // max |U|), summed as the white kernel sums its lanes.
+  constexpr std::size_t kValues = 5;
+  std::vector<double> lanes_out(slots * kValues * kLanes);
+  double ts[kLanes], us[kLanes], ss[kLanes], au[kLanes], sv[kLanes], su[kLanes];
   const double zero[kLanes] = {};
+  // run_samples' per-path peaks (Options::sample_slots): (max |V|, max |U|, 0) on every grid,
+  // in the slots after the stop's, one per output time and one for the stop.
+  const std::size_t peak_slot = slots + (o.stop ? 1 : 0);
+  const auto record_peaks = [&](std::size_t k, std::uint64_t path) {  // k == slots: the stop
+    for (int g = 0; g < grids; ++g) {
+      const Values& y = k < slots ? outputs[static_cast<std::size_t>(g)][k]
+                                  : stops[static_cast<std::size_t>(g)];
+      const double pu = o.displacement ? y[4] : 0.0;
+      ws.record(peak_slot + k, g, path, &y[3], &pu, &zero[0], 1);
+    }
+  };
   std::uint64_t poll = 0;
   for (std::uint64_t offset = 0; offset < count; offset += kLanes) {
     const int lanes = static_cast<int>(std::min<std::uint64_t>(kLanes, count - offset));
@@ -655,40 +689,53 @@ void filtered_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
       const std::uint64_t path = path0 + static_cast<std::uint64_t>(l);
       if (!walker.walk(path, outputs, stops, ws.cancelled, poll)) return;
       for (std::size_t k = 0; k < slots; ++k) {
-        for (int v = 0; v < 3; ++v) lanes_out[(k * 3 + static_cast<std::size_t>(v)) * kLanes + static_cast<std::size_t>(l)] = outputs[0][k][static_cast<std::size_t>(v)];
+        for (std::size_t v = 0; v < kValues; ++v)
+          lanes_out[(k * kValues + v) * kLanes + static_cast<std::size_t>(l)] = outputs[0][k][v];
         for (int g = 0; g < grids; ++g) {
           const auto& x = outputs[static_cast<std::size_t>(g)][k];
           ws.record(k, g, path, &x[0], &x[1], &x[2], 1);
         }
+        if (o.peaks) record_peaks(k, path);
       }
       if (o.stop) {
         ts[l] = stops[0][0] - o.switch_off;
         us[l] = stops[0][1];
         ss[l] = stops[0][2];
         au[l] = std::abs(us[l]);
+        sv[l] = stops[0][3];
+        su[l] = o.displacement ? stops[0][4] : 0.0;
         for (int g = 0; g < grids; ++g) {
           const double t = stops[static_cast<std::size_t>(g)][0] - o.switch_off;
           ws.record(slots, g, path, &t, &stops[static_cast<std::size_t>(g)][1],
                     &stops[static_cast<std::size_t>(g)][2], 1);
         }
+        if (o.peaks) record_peaks(slots, path);
       }
     }
     for (std::size_t k = 0; k < slots; ++k) {
-      const double* x = &lanes_out[(k * 3 + 0) * kLanes];
-      const double* u = &lanes_out[(k * 3 + 1) * kLanes];
-      const double* s = &lanes_out[(k * 3 + 2) * kLanes];
+      const double* x = &lanes_out[(k * kValues + 0) * kLanes];
+      const double* u = &lanes_out[(k * kValues + 1) * kLanes];
+      const double* s = &lanes_out[(k * kValues + 2) * kLanes];
+      const double* pv = &lanes_out[(k * kValues + 3) * kLanes];
+      const double* pu = o.displacement ? &lanes_out[(k * kValues + 4) * kLanes] : zero;
       ws.times.add(k, x, u, s, lanes, ws.active);
       ws.add_energy(k, x, lanes);
+      if (o.peaks) ws.peaks.add(k, pv, pu, zero, lanes, ws.peak_active);
       if (plan.histograms())
         bin_slot(plan, ws.histograms, k,
-                 {x, o.displacement ? u : nullptr, o.distance ? s : nullptr, nullptr, nullptr}, lanes);
+                 {x, o.displacement ? u : nullptr, o.distance ? s : nullptr,
+                  o.peaks ? pv : nullptr, o.peaks && o.displacement ? pu : nullptr},
+                 lanes);
     }
     if (o.stop) {
       ws.stop.add(0, ts, us, ss, lanes, ws.active);
       if (o.residual) ws.stop.add(1, au, zero, zero, lanes, ws.active);
+      if (o.peaks) ws.peaks_stop.add(0, sv, su, zero, lanes, ws.peak_active);
       if (plan.histograms())
         bin_slot(plan, ws.histograms, slots,
-                 {ts, o.displacement ? us : nullptr, o.distance ? ss : nullptr, nullptr, nullptr}, lanes);
+                 {ts, o.displacement ? us : nullptr, o.distance ? ss : nullptr,
+                  o.peaks ? sv : nullptr, o.peaks && o.displacement ? su : nullptr},
+                 lanes);
     }
   }
 }
@@ -697,8 +744,8 @@ template <int N>
 void trace(const Plan& plan, std::uint64_t path, Trajectory& out) {
   const Options& o = plan.options();
   Walker<N> walker(plan, 1, &out);
-  std::vector<std::vector<std::array<double, 3>>> outputs(1, std::vector<std::array<double, 3>>(o.times.size()));
-  std::vector<std::array<double, 3>> stops(1);
+  std::vector<std::vector<Values>> outputs(1, std::vector<Values>(o.times.size()));
+  std::vector<Values> stops(1);
   std::uint64_t poll = 0;
   walker.walk(path, outputs, stops, {}, poll);
 }

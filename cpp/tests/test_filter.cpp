@@ -421,9 +421,6 @@ TEST(FilterOptions, RefusedWithTheFieldNamed) {
   o.quadratic_variation = true;
   expect_refused(o, "quadratic_variation");
   o = filtered_options();
-  o.peaks = true;
-  expect_refused(o, "peaks");
-  o = filtered_options();
   o.stop = true;
   o.filter_a = crandall::kanai_tajimi(2.0, -0.1).a;
   expect_refused(o, "filter_a");

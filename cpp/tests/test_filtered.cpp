@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <iterator>
@@ -169,6 +170,40 @@ TEST(FilteredRun, BitwiseForThreadsAndChunking) {
   // And the stop is where the body last came to rest: at or after its last output time's
   // state is frozen, and the stop time comes out finite.
   for (std::size_t p = 0; p < 300; ++p) EXPECT_TRUE(std::isfinite(whole[p * size + 4 * 3]));
+}
+
+// (b'') The peaks (Options::peaks): run_samples' values get (max |V|, max |U|, 0) per output time
+// and at the stop, after the stop's slot, and they are the maxima over every point of the
+// path's trajectory up to each of them; the other values are the same bits as without peaks.
+TEST(FilteredRun, PeaksAreTheTrajectorysMaxima) {
+  auto o = stop_scene();
+  o.paths = 20;
+  const crandall::Plan plain(o);
+  o.peaks = true;
+  const crandall::Plan plan(o);
+  const std::size_t slots = o.times.size() + 1, size = crandall::sample_size(plan);
+  ASSERT_EQ(size, 2 * slots * 3);
+  ASSERT_EQ(crandall::sample_size(plain), slots * 3);
+  std::vector<double> with(20 * size), without(20 * slots * 3);
+  crandall::run_samples(plan, 0, 20, 1, with.data());
+  crandall::run_samples(plain, 0, 20, 1, without.data());
+  for (std::size_t p = 0; p < 20; ++p) {
+    for (std::size_t j = 0; j < slots * 3; ++j)
+      EXPECT_EQ(with[p * size + j], without[p * slots * 3 + j]) << p << " " << j;
+    const auto tr = crandall::filtered_trajectory(plan, p);
+    for (std::size_t k = 0; k < slots; ++k) {
+      const double until = k < o.times.size() ? o.times[k] : INFINITY;
+      double pv = 0.0, pu = 0.0;
+      for (std::size_t i = 0; i < tr.time.size() && tr.time[i] <= until; ++i) {
+        pv = std::max(pv, std::abs(tr.velocity[i]));
+        pu = std::max(pu, std::abs(tr.displacement[i]));
+      }
+      const double* x = with.data() + p * size + (slots + k) * 3;
+      EXPECT_EQ(x[0], pv) << p << " " << k;
+      EXPECT_EQ(x[1], pu) << p << " " << k;
+      EXPECT_EQ(x[2], 0.0);
+    }
+  }
 }
 
 // (b') Paths continued from stored states (extend_filtered_paths, crandall.tail's splitting):

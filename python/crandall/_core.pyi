@@ -285,7 +285,9 @@ def run_samples(plan: Plan, first: int, count: int, threads: int = 0,
                 controls: bool = False, out: Optional[npt.NDArray[np.float64]] = None,
                 controls_out: Optional[npt.NDArray[np.float64]] = None,
                 control_slots: List[int] = ...) -> Any:
-    """Per-path values, shape (count, slots, grids, 3); with controls, (values, controls)
+    """Per-path values, shape (count, slots, grids, 3) (slots: the output times, the stop, the
+    quadratic variation, and a filtered plan's peaks, (max |V|, max |U|, 0) per output time and
+    at the stop); with controls, (values, controls)
     with controls of shape (count, slots, CONTROLS), or (count, len(control_slots),
     CONTROLS) at the ascending slots control_slots only."""
 

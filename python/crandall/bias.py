@@ -22,8 +22,11 @@ than the run's is ever measured in its place:
   richardson2 keeps;
 - statistics exact in law at any step (every moment of the velocity, the kinetic energy, the
   stop time): 0;
-- "euler" and "refine", and the peaks (maxima over the grid, whose shortfall
-  bench/peaks.py measures): not estimated (NaN).
+- "euler" and "refine", and the peaks under white noise (maxima over the grid, whose
+  shortfall bench/peaks.py measures): not estimated (NaN). Under a filtered excitation the
+  coupled grids record each path's peaks on every grid (the running maxima over each grid's
+  points and event points), and their bias is estimated as the other statistics' (the
+  measured order below; docs/filtered.md, "Peaks").
 
 Where the difference is not resolved (below 2 standard errors) the estimate is its bound,
 |difference| + 2 standard errors. The separate run draws its own paths (a stream of its own,
@@ -58,7 +61,8 @@ from . import engine, results
 from ._resources import available_memory
 from .driver import Estimator, Progress, Task, drive
 from .errors import ParameterError
-from .model import ENVELOPE, FILTERED_EXCITATION, GRID_ORDERS, exact_in_law, holds, isometry_applies
+from .model import (ENVELOPE, FILTERED_EXCITATION, GRID_ORDERS, exact_in_law, holds,
+                    isometry_applies)
 from .quantities import VELOCITY, core_flags, quantity
 from .spec import RunSpec
 from .streams import bias_key
@@ -106,8 +110,11 @@ class _CoupledRun(Estimator):
         o.refinement = 0 if one_grid else REFINEMENT[spec.method]
         o.seed = bias_key(spec.seed)
         o.quadratic_variation = quadratic
-        # At most BIAS_BYTES of per-path values (3 grids x 3 variables per output slot).
+        # At most BIAS_BYTES of per-path values (3 grids x 3 variables per output slot; a
+        # filtered excitation's peaks take as many slots again).
         slots = len(scene.times) + (1 if "stop" in scene.observe else 0) + (1 if quadratic else 0)
+        if _peaks_recorded(scene):
+            slots += len(scene.times) + (1 if "stop" in scene.observe else 0)
         n = int(min(paths, BIAS_PATHS, max(2, BIAS_BYTES // (8 * 9 * slots))))
         o.paths = n
         self.plan = _core.Plan(o)
@@ -168,12 +175,25 @@ def _isometry_names(scene, names) -> set:
     return {n for n in names if isometry_applies(quantity(n), scene)}
 
 
+def _peaks_recorded(scene) -> bool:
+    """Whether the coupled grids record each path's peaks (in the slots after the stop's): the
+    filtered core does when the scene observes them (Options::sample_slots); the white-noise
+    kernel does not."""
+    return FILTERED_EXCITATION in scene.effects and bool(core_flags(scene.observe).get("peaks"))
+
+
+def _grid_estimated(name: str, scene) -> bool:
+    """Whether the coupled grids estimate the grid bias of ``name``: every statistic not
+    exact in law, the peaks only where the grids record them."""
+    return not exact_in_law(name, scene) and (not quantity(name).peak or _peaks_recorded(scene))
+
+
 def needs_run_for(result) -> bool:
     """Whether :func:`estimate` runs paths of its own for this result: coupled grids for a
-    statistic not exact in law (the peaks have none), or an envelope's pieces."""
+    statistic not exact in law (white noise's peaks have none), or an envelope's pieces."""
     coupled = result.paths >= 2 and result.method in ("exact", "richardson", "richardson2")
     return coupled and (ENVELOPE in result.scene.effects or any(
-        not exact_in_law(n, result.scene) and not quantity(n).peak for n in result.names))
+        _grid_estimated(n, result.scene) for n in result.names))
 
 
 def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray, bool]]:
@@ -185,7 +205,7 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
     envelope = ENVELOPE in result.scene.effects
     needs_run = needs_run_for(result)
     # The run's own grids (the envelope's piece error has coupled runs of its own).
-    grid_needed = any(not exact_in_law(n, result.scene) and not quantity(n).peak for n in names)
+    grid_needed = any(_grid_estimated(n, result.scene) for n in names)
     samples = (_samples(result.spec, result.paths, threads)
                if needs_run and grid_needed else None)
     if envelope and result.scene.envelope.function is None:
@@ -213,6 +233,8 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
     # r is not resolved, up to MAX_ORDER_FACTOR where no convergence is seen).
     measured = method == "exact" and not holds(result.scene, GRID_ORDERS)
     n_times = len(result.times)
+    # The peaks' slots follow the output times' and the stop's (Options::sample_slots).
+    peak_base = n_times + (1 if "stop" in result.scene.observe else 0)
     for name in names:
         q = quantity(name)
         slots = [n_times] if q.at_stop else list(range(n_times))
@@ -223,14 +245,15 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
                 out[(name, stat)] = _plus(np.zeros(len(slots)), False, pieces.get((name, stat)),
                                           scale)
                 continue
-            if samples is None or q.peak:
-                # The peaks' shortfall is measured by bench/peaks.py (docs/distributions.md),
-                # not estimated per run: the coupled grids' values hold no running maxima.
+            if samples is None or not _grid_estimated(name, result.scene):
+                # White noise's peaks: their shortfall is measured by bench/peaks.py
+                # (docs/distributions.md), not estimated per run: the white-noise kernel's
+                # coupled grids hold no running maxima.
                 out[(name, stat)] = (np.full(len(slots), math.nan), False)
                 continue
             values, bounds = [], []
             for slot in slots:
-                v = samples[:, slot, :, q.variable]
+                v = samples[:, peak_base + slot if q.peak else slot, :, q.variable]
                 v = np.abs(v) if q.magnitude else v ** q.power
                 v = v - _sum(v[:, 0], threads) / len(v)  # centred: the combinations sum to 1
                 if measured:
@@ -274,7 +297,7 @@ def piece_errors(scene, names, *, seed: int, paths: int = BIAS_PATHS,
     """Per (name, stat) of ``names``: the estimated error of simulating the envelope of
     ``scene`` by its pieces, in the core's units (multiply by the quantity's factor, squared
     for "var"; an array over the output times, or one value at the stop) and
-    whether it is a bound; NaN for the peaks; {} for a scene without an envelope. The coupled
+    whether it is a bound; NaN for white noise's peaks; {} for a scene without an envelope. The coupled
     run on the default grid (its finest grid: the default step), on both schedules (see the
     module's docstring), with at most ``paths`` paths; for runs to an accuracy, whose own
     bias is the grid's."""
@@ -328,7 +351,7 @@ MAX_ORDER_FACTOR = 11.0
 
 def piece_table(spec, names, threads: int, paths: Optional[int] = None):
     """Per (name, stat) of ``names``: the estimated error of the envelope's pieces at each
-    slot (core units; NaN for the peaks) and whether each is a bound; and per name the
+    slot (core units; NaN for white noise's peaks) and whether each is a bound; and per name the
     scene's per-path values (paths, slots). The coupled run (``spec``'s options, on coupled
     grids, at most ``paths`` or ``spec.paths`` paths) on three nested schedules laid on the
     finest one's grid: the scene's pieces (n), each halved (2n) and halved again (4n). The
@@ -368,15 +391,17 @@ def piece_table(spec, names, threads: int, paths: Optional[int] = None):
         d = _sum(phi, threads) / n
         return d, math.sqrt(_sum((phi - d) ** 2, threads) / max(n - 1, 1) / n)
 
+    peak_base = n_times + (1 if "stop" in scene.observe else 0)  # (Options::sample_slots)
     for name in names:
         q = quantity(name)
         slots = [n_times] if q.at_stop else list(range(n_times))
-        if q.peak:
+        if q.peak and not _peaks_recorded(scene):
             for stat in ("mean", "var"):
                 out[(name, stat)] = (np.full(len(slots), math.nan),
                                      np.zeros(len(slots), dtype=bool))
             continue
-        x = [moments(r[:, slots, 0, q.variable]) for r in runs]
+        columns = [peak_base + k for k in slots] if q.peak else slots
+        x = [moments(r[:, columns, 0, q.variable]) for r in runs]
         values[name] = x[0]
         for stat in ("mean", "var"):
             errors, bounds = [], []

@@ -218,9 +218,6 @@ class Scene:
             excitation=excitation,
             static_drift=(mu_static if mu_static is not None else mu) * g,
         )
-        if "peaks" in self.observe and excitation.effects:
-            raise ParameterError("observe", "observe: 'peaks' are not simulated under a "
-                                 "filtered excitation yet")
 
     @classmethod
     def scaled(

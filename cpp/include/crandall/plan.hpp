@@ -155,9 +155,12 @@ struct Options {
   // Slots of the stop's moments: none, the stop, and with residual |U(t_s)|.
   std::size_t stop_slots() const { return stop ? (residual ? 2 : 1) : 0; }
   bool integrals() const { return displacement || distance; }
-  // Slots of run_samples' per-path values: the output times, the stop, the quadratic variation.
+  // Slots of run_samples' per-path values: the output times, the stop, the quadratic variation;
+  // with peaks under the filtered excitation then (max |V|, max |U|, 0) per output time and at
+  // the stop (the white-noise kernel records no peaks per path).
   std::size_t sample_slots() const {
-    return times.size() + (stop ? 1 : 0) + (quadratic_variation ? 1 : 0);
+    return times.size() + (stop ? 1 : 0) + (quadratic_variation ? 1 : 0) +
+           (peaks && filtered() ? times.size() + (stop ? 1 : 0) : 0);
   }
   // The filtered excitation's velocity has a bias too (its events): its grids follow the method.
   int grids() const {

@@ -41,9 +41,15 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
     rel = check_positive("rel_error", rel_error) if rel_error is not None else None
     seed = check_int("seed", seed, 0, MAX_SEED)
     if "peaks" in scene.observe:
+        # A filtered scene's coupled grids record the peaks (Result.bias estimates their
+        # grid error), but the levels' bias from the measured ratio of the finest levels has
+        # not been calibrated for maxima, so no target could be claimed met for them.
         raise ParameterError("observe", "observe: 'peaks' is not available with error= or rel_error= (the "
                          "peaks are maxima over the grid, whose shortfall the levels do not "
-                         "estimate); run the peaks with paths=")
+                         "estimate: the white-noise levels have no per-path maxima, and the "
+                         "filtered levels' bias estimate is not calibrated for maxima); run "
+                         "the peaks with paths= (under a filtered excitation Result.bias "
+                         "estimates their grid error)")
     if scene.distributions:
         raise ParameterError("distributions", "distributions: a run to an accuracy estimates means and variances "
                          "and keeps no histograms; leave distributions out of the scene, or "

@@ -451,8 +451,9 @@ class Result(_Distributions, _Tables):
                    "a saved result, a checkpoint), so the error of its pieces is unknown; run "
                    "the envelope from envelopes.from_function(...) again"
                    if env is not None and env.function is None else
-                   "not estimated for the peaks (maxima over the grid: their shortfall is "
-                   "measured in docs/distributions.md)" if quantity(name).peak else
+                   "not estimated for the peaks under white noise (maxima over the grid: "
+                   "their shortfall is measured in docs/distributions.md)"
+                   if quantity(name).peak else
                    "a bias estimate needs at least 2 paths" if self.paths < 2 else
                    f"not estimated for method {self.method!r} (no coupled grids; "
                    "use 'exact' or 'richardson', or simulate(error=...))")
@@ -488,7 +489,8 @@ class Result(_Distributions, _Tables):
         65 536, of a stream of its own; run on the first call, then kept): see :mod:`crandall.bias` and
         docs/methods/adaptive.md. Where the grids' difference is not resolved the value is its
         bound. NaN, with a :class:`StatisticsWarning`, for "euler" and "refine" and for the
-        peaks.
+        peaks under white noise (a filtered excitation's coupled grids record the peaks, whose
+        grid error is then estimated like the other statistics').
         """
         return self._bias(name, stat, True)
 
