@@ -80,8 +80,8 @@ class _Problem:
             if self.q.peak:
                 raise ParameterError(
                     "quantity", f"quantity: {quantity} is not available for a filtered "
-                    "excitation (its peaks are not simulated: a fixed-step run refuses them "
-                    "too)")
+                    "excitation (a continued filtered path's state does not carry the running "
+                    "maxima of the path it branched from; a fixed-step run gives its law)")
         c = scene.drift
         end = scene.pieces[-1][0] if scene.pieces is not None else scene.t0
         if self.q.at_stop:
