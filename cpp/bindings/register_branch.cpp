@@ -10,7 +10,11 @@
 #include "crandall/run.hpp"
 #include "crandall/split.hpp"
 
-void register_branch(py::module_& m) {
+namespace {
+
+using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+void def_extend_paths(py::module_& m) {
   m.def(
       "extend_paths",
       [](py::array states, py::array_t<std::int64_t, py::array::c_style | py::array::forcecast> rows,
@@ -80,7 +84,9 @@ void register_branch(py::module_& m) {
       "receives whether each step a row takes touched 0 (1) or not (0; a coast step: 0). "
       "slow, slow_drifts (optional, one per step): a step that starts with |x| < slow[k] "
       "takes the drift slow_drifts[k] instead of drifts[k].");
+}
 
+void def_extend_filtered_paths(py::module_& m) {
   m.def(
       "extend_filtered_paths",
       [](const crandall::Plan& plan, py::array states,
@@ -119,7 +125,9 @@ void register_branch(py::module_& m) {
       "streams[i] (< 2^40) under `key` (default: the plan's seed, whose path p from point 0 is "
       "the fixed-step block's path p). In place; the GIL is released; the same bits for any "
       "thread count.");
+}
 
+void def_filtered_grid(py::module_& m) {
   m.def(
       "filtered_grid",
       [](const crandall::Plan& plan) {
@@ -140,8 +148,9 @@ void register_branch(py::module_& m) {
       py::arg("plan"),
       "(lengths, noises, z0) of a filtered plan's walked grid: every fine step's length and "
       "intensity in time order, and the filter's start state.");
+}
 
-  using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
+void def_split_parents(py::module_& m) {
   m.def(
       "split_parents",
       [](std::uint64_t key, std::uint64_t replica, std::uint64_t iteration,
@@ -154,6 +163,15 @@ void register_branch(py::module_& m) {
       py::arg("count"),
       "The parents of one splitting iteration's `count` clones: indices uniform on "
       "[0, survivors), drawn from Philox keyed by (key, replica, iteration) (split.hpp).");
+}
+
+}  // namespace
+
+void register_branch(py::module_& m) {
+  def_extend_paths(m);
+  def_extend_filtered_paths(m);
+  def_filtered_grid(m);
+  def_split_parents(m);
   m.def(
       "split_replica",
       [](Doubles lengths, Doubles noises, Doubles drifts, std::uint64_t key,
