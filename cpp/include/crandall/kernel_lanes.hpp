@@ -92,7 +92,7 @@ struct StepDraws {
 // state (velocity, displacement; distance 0).
 template <int kGrids>
 struct Group {
-  Group(const Options& o, std::uint64_t first, int n) : path0(first), lanes(n) {
+  [[gnu::always_inline]] Group(const Options& o, std::uint64_t first, int n) : path0(first), lanes(n) {
     for (int l = 0; l < kLanes; ++l) {
       x[l] = o.start_velocity;
       u[l] = o.start_displacement;
