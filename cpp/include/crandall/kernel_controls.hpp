@@ -1,5 +1,5 @@
 // The exact method's path loop with control variates (docs/methods/adaptive.md, "Control
-// variates"): the base level of a run to a requested accuracy. It is simulate_block<Method::exact>
+// variates"): the base level of a run to a requested accuracy. It is simulate_block<Exact, ...>
 // itself (the same draws and the same steps, so the same values, bit for bit) with ControlSums
 // observing its steps: per path and per output slot, kControls sums over the steps before that
 // slot's time of g_k(state at the step start) times dB, the step's Brownian increment
