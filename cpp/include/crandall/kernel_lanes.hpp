@@ -104,8 +104,15 @@ struct Group {
   }
   const std::uint64_t path0;
   const int lanes;
-  double x[kLanes], u[kLanes], s[kLanes] = {};
-  double xc[kGrids][kLanes], uc[kGrids][kLanes], sc[kGrids][kLanes] = {};
+  // Aligned to a cache line: at a known misalignment the vectoriser peels scalar iterations off
+  // the loops over the lanes to align them (the control sums' and the coarse grids' loops ran
+  // 6 of 16 lanes in scalar code, 17 % slower for a run to an accuracy).
+  alignas(64) double x[kLanes];
+  alignas(64) double u[kLanes];
+  alignas(64) double s[kLanes] = {};
+  alignas(64) double xc[kGrids][kLanes];
+  alignas(64) double uc[kGrids][kLanes];
+  alignas(64) double sc[kGrids][kLanes] = {};
 };
 
 CRANDALL_END_VARIANT
