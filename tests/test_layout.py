@@ -1,7 +1,9 @@
-"""The package's layout: no import cycles, no crandall import hidden inside a function."""
+"""The package's layout: no import cycles, no crandall import hidden inside a function, no
+C++ function longer than a screen."""
 
 import ast
 import pathlib
+import re
 
 import pytest
 
@@ -188,3 +190,101 @@ def test_type_checkers_see_the_lazy_subpackages_and_no_catch_all(tmp_path):
                            str(path)], capture_output=True, text=True, env=env, cwd=tmp_path)
     assert 'Revealed type is "crandall.envelopes.Envelope"' in done.stdout, done.stdout
     assert 'Module has no attribute "simulat"' in done.stdout, done.stdout
+
+
+CPP = PACKAGE.parents[1] / "cpp"
+# The longest a C++ function may be, from the line of its opening brace to the line of its
+# closing one (docs/architecture.md, "The path loop as small parts").
+MAX_FUNCTION_LINES = 120
+# Functions still longer, each with the reason; an entry that is gone or has come under the
+# limit fails the test, so the list can only shrink.
+LONG_FUNCTIONS: set = set()
+
+
+def _code_only(text: str) -> str:
+    """The text with comments, string and character literals blanked (newlines kept)."""
+    out, i, n = [], 0, len(text)
+    while i < n:
+        if text.startswith("//", i):
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+        elif text.startswith("/*", i):
+            j = text.index("*/", i) + 2
+            out.append("\n" * text.count("\n", i, j))
+            i = j
+        elif text.startswith('R"(', i):
+            j = text.index(')"', i) + 2
+            out.append("\n" * text.count("\n", i, j))
+            i = j
+        elif text[i] in "\"'":
+            quote, j = text[i], i + 1
+            while j < n and text[j] != quote:
+                j += 2 if text[j] == "\\" else 1
+            out.append(quote * 2)
+            i = j + 1
+        else:
+            out.append(text[i])
+            i += 1
+    return "".join(out)
+
+
+_CONTROL = re.compile(r"\b(if|for|while|switch|catch)\s*$")
+_TRAILER = re.compile(r"(\s*(const|noexcept|override|final|mutable|->\s*[\w:<>,\s*&]+"
+                      r"|\[\[[^\]]*\]\]))+$")
+
+
+def _function_name(code: str, open_brace: int):
+    """The name of the function whose body opens at `open_brace`, or None for any other brace
+    (a class, a namespace, an initialiser, a loop's or a branch's block, a lambda's)."""
+    head = _TRAILER.sub("", code[:open_brace].rstrip())
+    if not head.endswith(")"):
+        return None
+    depth, i = 0, len(head) - 1
+    while i >= 0:  # back to the parenthesis that opens the parameter list
+        depth += {")": 1, "(": -1}.get(head[i], 0)
+        if depth == 0:
+            break
+        i -= 1
+    before = head[:i].rstrip()
+    if _CONTROL.search(before) or before.endswith("]") or not before:
+        return None  # a control statement, a lambda
+    name = re.search(r"([~\w:]+)\s*$", before)
+    return name.group(1).split("::")[-1] if name else None
+
+
+def function_lengths(text: str):
+    """(name, first line, lines) of every function body not inside another one."""
+    code, stack, out = _code_only(text), [], []
+    for m in re.finditer(r"[{}]", code):
+        if m.group() == "{":
+            stack.append((m.start(), _function_name(code, m.start())))
+            continue
+        if not stack:
+            continue
+        start, name = stack.pop()
+        if name is not None and not any(n is not None for _, n in stack):
+            first = code.count("\n", 0, start) + 1
+            out.append((name, first, code.count("\n", 0, m.start()) + 2 - first))
+    return out
+
+
+def test_the_function_scan_measures_what_it_should():
+    # So that the test below can fail: a function's lines, its name, braces in strings,
+    # comments and lambdas, and control blocks that are not functions.
+    text = ('namespace a {\nstruct S {\n  int f() const {\n    return 1;\n  }\n};\n'
+            'void g(int x) {\n  // }\n  const char* s = "}{";\n  auto l = [](int y) {\n'
+            '    return y;\n  };\n  if (x) {\n    x = 2;\n  }\n}\n}  // namespace a\n')
+    assert function_lengths(text) == [("f", 3, 3), ("g", 7, 10)]
+
+
+def test_no_cpp_function_is_longer_than_120_lines():
+    long = {}
+    for path in sorted(CPP.rglob("*")):
+        if path.suffix not in (".cpp", ".hpp", ".inc"):
+            continue
+        rel = str(path.relative_to(CPP))
+        for name, first, lines in function_lengths(path.read_text()):
+            if lines > MAX_FUNCTION_LINES:
+                long[(rel, name)] = (first, lines)
+    assert set(long) - LONG_FUNCTIONS == set(), long
+    assert LONG_FUNCTIONS - set(long) == set(), "no longer long: remove from LONG_FUNCTIONS"

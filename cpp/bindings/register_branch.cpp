@@ -10,7 +10,11 @@
 #include "crandall/run.hpp"
 #include "crandall/split.hpp"
 
-void register_branch(py::module_& m) {
+namespace {
+
+using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+void def_extend_paths(py::module_& m) {
   m.def(
       "extend_paths",
       [](py::array states, py::array_t<std::int64_t, py::array::c_style | py::array::forcecast> rows,
@@ -80,7 +84,9 @@ void register_branch(py::module_& m) {
       "receives whether each step a row takes touched 0 (1) or not (0; a coast step: 0). "
       "slow, slow_drifts (optional, one per step): a step that starts with |x| < slow[k] "
       "takes the drift slow_drifts[k] instead of drifts[k].");
+}
 
+void def_extend_filtered_paths(py::module_& m) {
   m.def(
       "extend_filtered_paths",
       [](const crandall::Plan& plan, py::array states,
@@ -119,7 +125,9 @@ void register_branch(py::module_& m) {
       "streams[i] (< 2^40) under `key` (default: the plan's seed, whose path p from point 0 is "
       "the fixed-step block's path p). In place; the GIL is released; the same bits for any "
       "thread count.");
+}
 
+void def_filtered_grid(py::module_& m) {
   m.def(
       "filtered_grid",
       [](const crandall::Plan& plan) {
@@ -140,7 +148,9 @@ void register_branch(py::module_& m) {
       py::arg("plan"),
       "(lengths, noises, z0) of a filtered plan's walked grid: every fine step's length and "
       "intensity in time order, and the filter's start state.");
+}
 
+void def_tail_grid(py::module_& m) {
   m.def(
       "tail_grid",
       [](const crandall::Plan& plan, double dt, bool coarse, double max_steps) {
@@ -163,8 +173,9 @@ void register_branch(py::module_& m) {
   for (std::size_t i = 0; i < crandall::kSplitQuantityNames.size(); ++i)
     split_quantities[i] = py::str(crandall::kSplitQuantityNames[i]);
   m.attr("SPLIT_QUANTITIES") = split_quantities;
+}
 
-  using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
+void def_split_parents(py::module_& m) {
   m.def(
       "split_parents",
       [](std::uint64_t key, std::uint64_t replica, std::uint64_t iteration,
@@ -177,6 +188,9 @@ void register_branch(py::module_& m) {
       py::arg("count"),
       "The parents of one splitting iteration's `count` clones: indices uniform on "
       "[0, survivors), drawn from Philox keyed by (key, replica, iteration) (split.hpp).");
+}
+
+void def_split_replica(py::module_& m) {
   m.def(
       "split_replica",
       [](Doubles lengths, Doubles noises, Doubles drifts, std::uint64_t key,
@@ -276,4 +290,15 @@ void register_branch(py::module_& m) {
       "Replicas of adaptive multilevel splitting on a white-noise grid, in step (split.hpp's "
       "split_replicas: each the bits it has alone): a list, per replica, of (estimates, "
       "iterations, steps, log_weight, extinct, timed_out). The GIL is released.");
+}
+
+}  // namespace
+
+void register_branch(py::module_& m) {
+  def_extend_paths(m);
+  def_extend_filtered_paths(m);
+  def_filtered_grid(m);
+  def_tail_grid(m);
+  def_split_parents(m);
+  def_split_replica(m);
 }

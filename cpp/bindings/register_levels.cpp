@@ -5,7 +5,9 @@
 #include "common.hpp"
 #include "crandall/levels.hpp"
 
-void register_levels(py::module_& m) {
+namespace {
+
+void def_run_samples(py::module_& m) {
   m.def(
       "run_samples",
       [](const crandall::Plan& plan, std::uint64_t first, std::uint64_t count, int threads,
@@ -65,7 +67,9 @@ void register_levels(py::module_& m) {
       "ascending slots control_slots only, shape (count, len(control_slots), CONTROLS). out and "
       "controls_out: arrays of exactly those shapes to write into (reused between calls).");
   m.attr("CONTROLS") = crandall::control_count();
+}
 
+void def_FeatureColumns(py::module_& m) {
   py::class_<crandall::FeatureColumns>(
       m, "FeatureColumns",
       "The feature columns of a run to an accuracy, one entry per column (levels.hpp): slot, "
@@ -83,7 +87,9 @@ void register_levels(py::module_& m) {
       .def_readwrite("inexact", &crandall::FeatureColumns::inexact)
       .def_readwrite("control", &crandall::FeatureColumns::control)
       .def_readwrite("beta", &crandall::FeatureColumns::beta);
+}
 
+void def_form_features(py::module_& m) {
   m.def(
       "form_features",
       [](py::array_t<double, py::array::c_style> samples, const crandall::FeatureColumns& columns,
@@ -122,7 +128,9 @@ void register_levels(py::module_& m) {
       "Into out (rows, columns): each column's value on the fine grid minus its centre, to its "
       "power; on level 0 minus its controls' multiples (when controls are given), on a finer "
       "level minus the coarse grid's (0 for columns exact in law). Returns out.");
+}
 
+void def_sum_products(py::module_& m) {
   m.def(
       "sum_products",
       [](py::array_t<double, py::array::c_style | py::array::forcecast> values,
@@ -140,4 +148,13 @@ void register_levels(py::module_& m) {
       py::arg("values"), py::arg("widths"), py::arg("threads") = 0,
       "Per group of consecutive columns (widths 1 to 32): the column sums and the upper "
       "triangle of F_g^T F_g, summed in a fixed order (the same bits for any thread count).");
+}
+
+}  // namespace
+
+void register_levels(py::module_& m) {
+  def_run_samples(m);
+  def_FeatureColumns(m);
+  def_form_features(m);
+  def_sum_products(m);
 }

@@ -19,16 +19,7 @@ constexpr std::uint64_t kMaxMinSteps = std::uint64_t{1} << 30;
 
 }  // namespace
 
-const char* method_name(Method m) {
-  switch (m) {
-    case Method::exact: return "exact";
-    case Method::euler: return "euler";
-    case Method::richardson: return "richardson";
-    case Method::richardson2: return "richardson2";
-    case Method::refine: return "refine";
-  }
-  return "?";
-}
+const char* method_name(Method m) { return method_row(m).name; }
 
 const char* excitation_name(Excitation e) {
   return e == Excitation::filtered ? "filtered" : "white";
@@ -102,7 +93,7 @@ void Options::validate() const {
   require(!residual || (stop && displacement), "residual needs the stop and the displacement");
   require(!quadratic_variation ||
               (stop && integrals() && !peaks &&
-               (method == Method::exact || method == Method::richardson || method == Method::richardson2)),
+               skeleton(method)),
           "quadratic_variation needs the stop, an observed integral, no peaks and the exact or a "
           "Richardson method");
   require(std::isfinite(start_velocity), "start_velocity must be finite");

@@ -4,6 +4,7 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -117,3 +118,35 @@ TEST(Dispatch, RandomFloorIsTheSameInEveryVariant) {
 }
 
 }  // namespace
+
+// The dispatch table (kernel_variant.inc) holds a loop for every method of the methods' table
+// (plan.hpp) in every variant compiled in, with and without peaks, for every set of integrals;
+// the quadratic variation's for the exact skeleton's methods with an integral, the control
+// sums' for the exact method; and refuses, with std::logic_error, what no kind holds. A method
+// given a row but no type in KernelMethods fails here.
+TEST(Dispatch, TheTableHasALoopForEveryMethodAndKind) {
+  for (const auto* k : crandall::compiled_kernels()) {
+    for (crandall::Method m : crandall::kMethods)
+      for (bool disp : {false, true})
+        for (bool dist : {false, true}) {
+          const std::string what = std::string(k->name) + " " + crandall::method_name(m) +
+                                   (disp ? " disp" : "") + (dist ? " dist" : "");
+          EXPECT_NE(k->block_fn(m, disp, dist, false, false), nullptr) << what;
+          EXPECT_NE(k->block_fn(m, disp, dist, true, false), nullptr) << what;
+          EXPECT_NE(k->block_fn(m, disp, dist, false, false), k->block_fn(m, disp, dist, true, false)) << what;
+          if (crandall::skeleton(m) && (disp || dist))
+            EXPECT_NE(k->block_fn(m, disp, dist, false, true), nullptr) << what;
+          else
+            EXPECT_THROW(k->block_fn(m, disp, dist, false, true), std::logic_error) << what;
+          EXPECT_THROW(k->block_fn(m, disp, dist, true, true), std::logic_error) << what;
+        }
+    for (bool disp : {false, true})
+      for (bool dist : {false, true}) {
+        EXPECT_NE(k->controls_fn(disp, dist, false), nullptr) << k->name;
+        if (disp || dist)
+          EXPECT_NE(k->controls_fn(disp, dist, true), nullptr) << k->name;
+        else
+          EXPECT_THROW(k->controls_fn(disp, dist, true), std::logic_error) << k->name;
+      }
+  }
+}

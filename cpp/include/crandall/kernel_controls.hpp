@@ -1,5 +1,5 @@
 // The exact method's path loop with control variates (docs/methods/adaptive.md, "Control
-// variates"): the base level of a run to a requested accuracy. It is simulate_block<Method::exact>
+// variates"): the base level of a run to a requested accuracy. It is simulate_block<Exact, ...>
 // itself (the same draws and the same steps, so the same values, bit for bit) with ControlSums
 // observing its steps: per path and per output slot, kControls sums over the steps before that
 // slot's time of g_k(state at the step start) times dB, the step's Brownian increment
@@ -8,6 +8,7 @@
 #pragma once
 
 #include "crandall/kernel.hpp"
+#include "crandall/kernel_observers.hpp"
 
 namespace crandall {
 
@@ -23,12 +24,12 @@ constexpr int kControls = 15;
 CRANDALL_BEGIN_VARIANT
 
 // The control sums of paths into ws.controls at the slots ws.control_slots (both set by the
-// caller), as an observer of simulate_block's steps (NoObserver, kernel.hpp). Each chosen slot's
+// caller), as an observer of simulate_block's steps (kernel_observers.hpp). Each chosen slot's
 // sums are updated by every step before its time, so the cost per step grows with the number
 // of chosen slots, not with the output times.
-class ControlSums {
+class ControlSums : public Unobserving {
  public:
-  static constexpr bool kActive = true;
+  static constexpr bool kWatchesSteps = true;
 
   ControlSums(const Plan& plan, Workspace& ws)
       : ws_(ws),
@@ -46,12 +47,16 @@ class ControlSums {
     acc_.assign(slots_ * kControls * kLanes, 0.0);
   }
 
-  void begin_paths() {
+  void begin(const Options&) {
     std::fill(acc_.begin(), acc_.end(), 0.0);
     pending_ = 0;
   }
 
-  void step(const double* x, const double* u, const double* s, const double* db, double time) {
+  // db = root_step normal, the step's Brownian increment.
+  void before_step(const double* x, const double* u, const double* s, const double* normal,
+                   double root_step, double time) {
+    alignas(64) double db[kLanes];
+    for (int l = 0; l < kLanes; ++l) db[l] = root_step * normal[l];
     alignas(64) double a[kLanes], sb[kLanes];
     for (int l = 0; l < kLanes; ++l) {
       a[l] = std::abs(x[l]);

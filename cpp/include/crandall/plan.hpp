@@ -2,6 +2,8 @@
 // kernel walks. Options are validated here once; the kernel trusts them.
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <memory>
@@ -21,16 +23,44 @@ namespace crandall {
 // refine: exact skeleton; a step that starts near 0 is taken as kRefineSubsteps exact substeps
 //   (docs/methods/refine.md).
 enum class Method { exact, euler, richardson, richardson2, refine };
-// Every method, in the order of the enum (parse_method's list; the tests loop over it).
-constexpr Method kMethods[] = {Method::exact, Method::euler, Method::richardson,
-                               Method::richardson2, Method::refine};
 
-// Number of coupled grids a method walks on one path (steps dt, 2 dt, 4 dt, ...: the grid of
-// step 2^j dt is every 2^j-th point of the finest): 1 for a method without extrapolation. The one
-// place this is decided; the plan, the kernel and the run all ask here.
-constexpr int grids(Method m) {
-  return m == Method::richardson ? 3 : m == Method::richardson2 ? 2 : 1;
+// The methods' table, one row per method in the order of the enum: its name as the Python layer
+// spells it (method_name, parse_method), the number of coupled grids it walks on one path
+// (steps dt, 2 dt, 4 dt, ...: the grid of step 2^j dt is every 2^j-th point of the finest; 1 for
+// a method without extrapolation) and whether its steps are the exact skeleton's (the quadratic
+// variation is integrated on those only). The one place these are decided: the plan, the
+// kernel's method types (methods/*.hpp), the run and Python (_core.METHOD_GRIDS) ask here.
+struct MethodRow {
+  Method method;
+  const char* name;
+  int grids;
+  bool skeleton;
+};
+constexpr MethodRow kMethodTable[] = {
+    {Method::exact, "exact", 1, true},
+    {Method::euler, "euler", 1, false},
+    {Method::richardson, "richardson", 3, true},
+    {Method::richardson2, "richardson2", 2, true},
+    {Method::refine, "refine", 1, false},
+};
+constexpr std::size_t kMethodCount = sizeof(kMethodTable) / sizeof(kMethodTable[0]);
+
+constexpr const MethodRow& method_row(Method m) {
+  for (const MethodRow& r : kMethodTable)
+    if (r.method == m) return r;
+  return kMethodTable[0];
 }
+
+// Every method, in the order of the table (parse_method's list; the tests loop over it).
+constexpr std::array<Method, kMethodCount> method_list() {
+  std::array<Method, kMethodCount> a{};
+  for (std::size_t i = 0; i < kMethodCount; ++i) a[i] = kMethodTable[i].method;
+  return a;
+}
+constexpr std::array<Method, kMethodCount> kMethods = method_list();
+
+constexpr int grids(Method m) { return method_row(m).grids; }
+constexpr bool skeleton(Method m) { return method_row(m).skeleton; }
 
 // The grids a run keeps: with no time integral observed there is nothing to extrapolate (the
 // velocity step is exact at any length, and the plan does not even refine the grid), so one.
