@@ -13,14 +13,13 @@ its message.
 
 from __future__ import annotations
 
-import json
 import pathlib
-import sys
 import warnings
 
 import numpy as np
 
 import crandall
+from snapshot_files import assert_same_bits, regenerate
 
 DATA = pathlib.Path(__file__).parent / "data" / "filtered_snapshot.json"
 
@@ -70,18 +69,8 @@ def snapshot():
 
 
 def test_every_filtered_statistic_has_its_stored_bits():
-    stored = json.loads(DATA.read_text())
-    now = snapshot()
-    assert sorted(now) == sorted(stored)
-    for label in stored:
-        diff = [k for k in stored[label] if stored[label][k] != now[label].get(k)]
-        assert not diff and sorted(now[label]) == sorted(stored[label]), (
-            f"{label}: {len(diff)} statistics changed bits, e.g. {diff[:5]}")
+    assert_same_bits(DATA, snapshot())
 
 
 if __name__ == "__main__":
-    if sys.argv[1:] != ["--regenerate"]:
-        sys.exit("usage: python tests/test_filtered_snapshot.py --regenerate")
-    DATA.parent.mkdir(exist_ok=True)
-    DATA.write_text(json.dumps(snapshot(), indent=1, sort_keys=True) + "\n")
-    print(f"wrote {DATA}")
+    regenerate(DATA, snapshot, pathlib.Path(__file__).name)

@@ -10,12 +10,11 @@ commit, and say why in its message.
 
 from __future__ import annotations
 
-import json
 import pathlib
-import sys
 import warnings
 
 import crandall
+from snapshot_files import assert_same_bits, regenerate
 
 DATA = pathlib.Path(__file__).parent / "data" / "tail_snapshot.json"
 
@@ -56,16 +55,8 @@ def snapshot():
 
 
 def test_every_tail_run_has_its_stored_bits():
-    stored = json.loads(DATA.read_text())
-    now = snapshot()
-    assert sorted(now) == sorted(stored)
-    for label in stored:
-        assert now[label] == stored[label], (label, now[label], stored[label])
+    assert_same_bits(DATA, snapshot())
 
 
 if __name__ == "__main__":
-    if sys.argv[1:] != ["--regenerate"]:
-        sys.exit("usage: python tests/test_tail_snapshot.py --regenerate")
-    DATA.parent.mkdir(exist_ok=True)
-    DATA.write_text(json.dumps(snapshot(), indent=1, sort_keys=True) + "\n")
-    print(f"wrote {DATA}")
+    regenerate(DATA, snapshot, pathlib.Path(__file__).name)
