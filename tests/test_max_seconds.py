@@ -64,14 +64,15 @@ def test_a_tail_pilot_that_cannot_finish_is_refused_before_it_starts():
 
 
 def test_a_replica_that_does_not_reach_the_level_stops_at_max_seconds():
-    # P(t_s > 100 s) for mu = 0.3, h = 1, t0 = 5 s is far below anything splitting resolves
+    # P(t_s > 100 s) for mu = 0.3, h = 1, t0 = 20 s is far below anything splitting resolves
     # in seconds: the pilot's first replicas (a group of tail.run.GROUP = 4, run in step)
-    # iterate on (1274 iterations, 12 s on one loaded thread, until their particles tie).
-    # They stop at max_seconds, saying how far the first got, or, on a machine fast enough to
-    # finish them, the rest of the pilot (16 replicas) is refused saying that the replicas'
-    # particles died tied below the level. Either way the level is called out of reach, and
-    # more particles (which would not help) are not advised.
-    scene = crandall.Scene(mu=0.3, h=1.0, t0=5.0, times=[5.0])
+    # iterate on until their particles tie (2.3 s a replica on an idle 2-core machine, so
+    # about 9 s for the group; at t0 = 5 s the whole pilot of 20 took 3.9 s, which a faster
+    # machine finishes within max_seconds). They stop at max_seconds, saying how far the first
+    # got, or, on a machine fast enough to finish them, the rest of the pilot (16 replicas) is
+    # refused saying that the replicas' particles died tied below the level. Either way the
+    # level is called out of reach, and more particles (which would not help) are not advised.
+    scene = crandall.Scene(mu=0.3, h=1.0, t0=20.0, times=[20.0])
     with bounded(3) as elapsed:
         with pytest.raises(ParameterError, match=r"^max_seconds: the pilot's (replica 0 had not "
                            r"reached level 100 when max_seconds=3 ran out|16 remaining "
