@@ -74,12 +74,9 @@ void extend_one(double* row, std::uint8_t* touched, const BranchGrid& g, std::si
 
 }  // namespace
 
-void extend_paths(double* states, std::size_t rows_total, const BranchGrid& grid,
-                  const std::int64_t* rows, const std::int64_t* starts,
-                  const std::uint64_t* streams, std::size_t count, std::uint64_t key,
-                  int threads, std::uint8_t* touched) {
-  validate_branch_grid(grid);
-  const std::size_t points = grid.steps + 1;
+void validate_continued_rows(const double* states, std::size_t rows_total, std::size_t points,
+                             std::size_t cols, const std::int64_t* rows,
+                             const std::int64_t* starts, std::size_t count) {
   std::vector<char> seen(rows_total, 0);
   for (std::size_t i = 0; i < count; ++i) {
     if (rows[i] < 0 || static_cast<std::size_t>(rows[i]) >= rows_total)
@@ -88,11 +85,22 @@ void extend_paths(double* states, std::size_t rows_total, const BranchGrid& grid
       throw std::invalid_argument("rows: row " + std::to_string(rows[i]) + " is listed twice");
     if (starts[i] < 0 || static_cast<std::size_t>(starts[i]) >= points)
       throw std::invalid_argument("starts: " + std::to_string(starts[i]) + " is not a grid point");
-    const double* p = states + (static_cast<std::size_t>(rows[i]) * points + static_cast<std::size_t>(starts[i])) * 3;
-    if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])))
-      throw std::invalid_argument("states: the start state of row " + std::to_string(rows[i]) +
-                                  " is not finite");
+    const double* p = states + (static_cast<std::size_t>(rows[i]) * points +
+                                static_cast<std::size_t>(starts[i])) * cols;
+    for (std::size_t c = 0; c < cols; ++c)
+      if (!std::isfinite(p[c]))
+        throw std::invalid_argument("states: the start state of row " + std::to_string(rows[i]) +
+                                    " is not finite");
   }
+}
+
+void extend_paths(double* states, std::size_t rows_total, const BranchGrid& grid,
+                  const std::int64_t* rows, const std::int64_t* starts,
+                  const std::uint64_t* streams, std::size_t count, std::uint64_t key,
+                  int threads, std::uint8_t* touched) {
+  validate_branch_grid(grid);
+  const std::size_t points = grid.steps + 1;
+  validate_continued_rows(states, rows_total, points, 3, rows, starts, count);
   extend_rows(states, grid, rows, starts, streams, count, key, threads, touched);
 }
 

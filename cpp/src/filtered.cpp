@@ -50,6 +50,7 @@
 #include <string>
 #include <type_traits>
 
+#include "crandall/branch.hpp"
 #include "crandall/filter.hpp"
 #include "crandall/kernel.hpp"
 #include "crandall/newmark.hpp"
@@ -801,24 +802,11 @@ void extend_filtered_paths(const Plan& plan, double* states, std::size_t rows_to
     throw std::invalid_argument("extend_filtered_paths needs a plan with excitation 'filtered'");
   const std::size_t points = filtered_grid_points(plan);
   const std::size_t cols = filtered_state_columns(plan);
-  std::vector<char> seen(rows_total, 0);
-  for (std::size_t i = 0; i < count; ++i) {
-    if (rows[i] < 0 || static_cast<std::size_t>(rows[i]) >= rows_total)
-      throw std::invalid_argument("rows: " + std::to_string(rows[i]) + " is not a row of states");
-    if (seen[static_cast<std::size_t>(rows[i])]++)
-      throw std::invalid_argument("rows: row " + std::to_string(rows[i]) + " is listed twice");
-    if (starts[i] < 0 || static_cast<std::size_t>(starts[i]) >= points)
-      throw std::invalid_argument("starts: " + std::to_string(starts[i]) + " is not a grid point");
+  validate_continued_rows(states, rows_total, points, cols, rows, starts, count);
+  for (std::size_t i = 0; i < count; ++i)
     if (streams[i] >= (std::uint64_t{1} << kPathBits))
       throw std::invalid_argument("streams: " + std::to_string(streams[i]) +
                                   " is not below 2^40 (a filtered path's number)");
-    const double* p = states + (static_cast<std::size_t>(rows[i]) * points +
-                                static_cast<std::size_t>(starts[i])) * cols;
-    for (std::size_t c = 0; c < cols; ++c)
-      if (!std::isfinite(p[c]))
-        throw std::invalid_argument("states: the start state of row " + std::to_string(rows[i]) +
-                                    " is not finite");
-  }
   double work = 0.0;  // the steps to take (each with its event search)
   for (std::size_t i = 0; i < count; ++i)
     work += double(points - 1 - static_cast<std::size_t>(starts[i]));

@@ -35,6 +35,13 @@ struct BranchGrid {
 // the exact step's range. Throws std::invalid_argument naming the array.
 void validate_branch_grid(const BranchGrid& grid);
 
+// Checks the rows a continuation is asked for (extend_paths, extend_filtered_paths): each a row
+// of `states` (rows_total x points x cols) listed once, its start a grid point, its start state
+// finite. Throws std::invalid_argument naming rows, starts or states.
+void validate_continued_rows(const double* states, std::size_t rows_total, std::size_t points,
+                             std::size_t cols, const std::int64_t* rows,
+                             const std::int64_t* starts, std::size_t count);
+
 // states: rows x (grid.steps + 1) x 3 doubles, (velocity, displacement, distance) at every
 // grid point of every row. For each i < count, row rows[i] is continued from its state at grid
 // point starts[i] to the end of the grid, overwriting the points after it; its noise is the
