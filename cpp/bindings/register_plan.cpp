@@ -8,11 +8,18 @@ void register_plan(py::module_& m) {
   m.attr("BLOCK_PATHS") = crandall::kBlockPaths;
   m.attr("LANES") = crandall::kLanes;
   m.attr("HISTOGRAM_VARIABLES") = crandall::kHistogramVariables;
-  // The methods, in the core's order, with the number of grids each walks (plan.hpp's
-  // grids()): the Python layer reads both from here instead of keeping a copy.
+  // The methods' table (plan.hpp's kMethodTable), one row (name, grids, skeleton, order) per
+  // method in the core's order, the order NaN where it is not known: the Python layer
+  // (crandall.methods) reads it from here instead of keeping a copy. METHOD_GRIDS is its
+  // name -> grids view.
+  py::list method_table;
   py::dict method_grids;
-  for (crandall::Method method : crandall::kMethods)
+  for (crandall::Method method : crandall::kMethods) {
+    method_table.append(py::make_tuple(crandall::method_name(method), crandall::grids(method),
+                                       crandall::skeleton(method), crandall::method_order(method)));
     method_grids[crandall::method_name(method)] = crandall::grids(method);
+  }
+  m.attr("METHOD_TABLE") = py::tuple(method_table);
   m.attr("METHOD_GRIDS") = method_grids;
   m.def(
       "richardson_weights",

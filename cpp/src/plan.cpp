@@ -42,14 +42,16 @@ Method parse_method(const std::string& name) {
 
 std::vector<double> richardson_weights(Method m) {
   // Solve sum_j w_j = 1 and sum_j w_j (2^j)^p = 0 for each bias exponent p (Cramer's rule on
-  // at most 3 unknowns); the bias exponents are derived in docs/methods/richardson.md.
+  // at most 3 unknowns); the bias exponents (kSkeletonExponents) are derived in
+  // docs/methods/richardson.md.
+  static_assert(kSkeletonExponentCount == 2, "richardson_weights solves for at most 3 grids");
   const int levels = grids(m);
   if (levels == 1) return {1.0};
   if (levels == 2) {
-    const double r = std::pow(2.0, 1.5);
+    const double r = std::pow(2.0, kSkeletonExponents[0]);
     return {r / (r - 1.0), -1.0 / (r - 1.0)};
   }
-  const double p[2] = {1.5, 2.0};
+  const double* p = kSkeletonExponents;
   double a[3][3], b[3] = {1.0, 0.0, 0.0};
   for (int j = 0; j < 3; ++j) {
     a[0][j] = 1.0;

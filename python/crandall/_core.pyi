@@ -11,6 +11,10 @@ CHUNK_PATHS: int
 BLOCK_PATHS: int
 #: SIMD lanes of the path loop.
 LANES: int
+#: The methods' table (plan.hpp, kMethodTable): per method, in the core's order, (name, number
+#: of coupled grids, whether its steps are the exact skeleton's, order of its bias; NaN: unknown).
+METHOD_TABLE: Tuple[Tuple[str, int, bool, float], ...]
+#: Name -> number of coupled grids, from METHOD_TABLE.
 METHOD_GRIDS: dict[str, int]
 #: Histogram variables per slot, in the order of Options.histogram_axes.
 HISTOGRAM_VARIABLES: int

@@ -22,28 +22,67 @@ namespace crandall {
 // richardson2: the same with the grid and every 2nd point only, assuming c dt^1.5.
 // refine: exact skeleton; a step that starts near 0 is taken as kRefineSubsteps exact substeps
 //   (docs/methods/refine.md).
+// Each value has its row in kMethodTable below (name, grids, skeleton, order), in the same
+// order. The values stay an enum rather than the rows' indices: the plan's checks, the levels,
+// the filtered core and the tests name a method by its value (Method::exact), which an index
+// would need as a named constant per method all the same.
 enum class Method { exact, euler, richardson, richardson2, refine };
+
+// The exponents of the exact skeleton's trapezoid bias, c1 h^1.5 + c2 h^2 + ...
+// (docs/methods/richardson.md): the sqrt(t) start of E|X(t)| gives h^1.5 (Navot's expansion of
+// the trapezoid rule), the h^2 term follows; the second moments are assumed to expand with the
+// same two. What follows them is not known: after both are removed the variance of the distance
+// still has a term of unknown exponent (measured to fall about 4 per halving of h,
+// richardson.md, "What limits the variance of the distance"). richardson_weights cancels these.
+constexpr double kSkeletonExponents[] = {1.5, 2.0};
+constexpr std::size_t kSkeletonExponentCount = sizeof(kSkeletonExponents) / sizeof(kSkeletonExponents[0]);
+// A method's order where no document states it and none is derived.
+constexpr double kUnknownOrder = std::numeric_limits<double>::quiet_NaN();
 
 // The methods' table, one row per method in the order of the enum: its name as the Python layer
 // spells it (method_name, parse_method), the number of coupled grids it walks on one path
 // (steps dt, 2 dt, 4 dt, ...: the grid of step 2^j dt is every 2^j-th point of the finest; 1 for
-// a method without extrapolation) and whether its steps are the exact skeleton's (the quadratic
-// variation is integrated on those only). The one place these are decided: the plan, the
-// kernel's method types (methods/*.hpp), the run and Python (_core.METHOD_GRIDS) ask here.
+// a method without extrapolation), whether its steps are the exact skeleton's (the quadratic
+// variation is integrated on those only) and its order: the exponent p of the leading term
+// c dt^p of the bias of the moments it reports (the time integrals'; the velocity's and the
+// stop's are exact in law with every method but euler), kUnknownOrder (NaN) where it is not
+// known. The one place these are decided: the plan, the kernel's method types (methods/*.hpp),
+// the run and Python (_core.METHOD_TABLE, _core.METHOD_GRIDS) ask here.
+//   exact        1.5: the trapezoid rule's leading exponent on the skeleton (kSkeletonExponents).
+//   euler        1: Euler-Maruyama's weak order (docs/methods/richardson.md), also of its
+//                velocity and stop time; measured, the biases of the mean distance, the
+//                velocity's variance and the mean stop time fall in proportion to dt
+//                (bench/results/work_precision.json, dt = 0.1 to 0.01).
+//   richardson   unknown: both exponents removed, the means would be left with Navot's h^2.5,
+//                but the second moments keep a term whose exponent is not known (above).
+//   richardson2  2: h^1.5 removed, the h^2 term is left.
+//   refine       unknown: docs/methods/refine.md states none, and none follows from the
+//                exact method's: its threshold 2 sigma sqrt(h) chooses the refined steps by the
+//                path, so its mean is no longer the trapezoid rule of E|X(t)| whose expansion
+//                gives 1.5; bench/results/work_precision.json has no step below 0.2 for it.
 struct MethodRow {
   Method method;
   const char* name;
   int grids;
   bool skeleton;
+  double order;
 };
 constexpr MethodRow kMethodTable[] = {
-    {Method::exact, "exact", 1, true},
-    {Method::euler, "euler", 1, false},
-    {Method::richardson, "richardson", 3, true},
-    {Method::richardson2, "richardson2", 2, true},
-    {Method::refine, "refine", 1, false},
+    {Method::exact, "exact", 1, true, kSkeletonExponents[0]},
+    {Method::euler, "euler", 1, false, 1.0},
+    {Method::richardson, "richardson", 3, true, kUnknownOrder},
+    {Method::richardson2, "richardson2", 2, true, kSkeletonExponents[1]},
+    {Method::refine, "refine", 1, false, kUnknownOrder},
 };
 constexpr std::size_t kMethodCount = sizeof(kMethodTable) / sizeof(kMethodTable[0]);
+
+// A row for every value of the enum, in its order (so that a method is its value and one row).
+constexpr bool table_follows_enum() {
+  for (std::size_t i = 0; i < kMethodCount; ++i)
+    if (static_cast<std::size_t>(kMethodTable[i].method) != i) return false;
+  return true;
+}
+static_assert(table_follows_enum(), "kMethodTable: one row per Method, in the enum's order");
 
 constexpr const MethodRow& method_row(Method m) {
   for (const MethodRow& r : kMethodTable)
@@ -61,6 +100,8 @@ constexpr std::array<Method, kMethodCount> kMethods = method_list();
 
 constexpr int grids(Method m) { return method_row(m).grids; }
 constexpr bool skeleton(Method m) { return method_row(m).skeleton; }
+// The method's order (the row's; NaN: unknown).
+constexpr double method_order(Method m) { return method_row(m).order; }
 
 // The grids a run keeps: with no time integral observed there is nothing to extrapolate (the
 // velocity step is exact at any length, and the plan does not even refine the grid), so one.

@@ -2,10 +2,12 @@
 // the integrals by the trapezoid rule on it (docs/integrals.md).
 //
 // A method is a small type the path loop (simulate_block, kernel.hpp) is instantiated with:
-//   kMethod    its Method (plan.hpp; its row in kMethodTable names it, counts its grids and
-//              says whether its steps are the exact skeleton's),
+//   kMethod    its Method (plan.hpp; its row in kMethodTable names it, counts its grids,
+//              says whether its steps are the exact skeleton's and states its order),
 //   kSkeleton  that row's answer (an observer of the Brownian increments and the quadratic
 //              variation need the exact skeleton's steps),
+//   kOrder     that row's order: the exponent p of its moments' leading bias term c dt^p
+//              (NaN: not known); Python reads it as crandall.methods.ORDERS,
 //   segment(g) its own constants of a segment's steps (SegmentSteps; most have none),
 //   step<kDisp, kDist>(g, draws, k, group, observers)
 //              the step of index k of a group of paths, the integrals asked for added, the
@@ -66,6 +68,7 @@ template <bool kDisp, bool kDist>
 struct Exact {
   static constexpr Method kMethod = Method::exact;
   static constexpr bool kSkeleton = skeleton(kMethod);
+  static constexpr double kOrder = method_order(kMethod);
   static void segment(SegmentSteps&) {}
   template <bool kDisp, bool kDist, int G, class Obs>
   [[gnu::always_inline]] static void step(const SegmentSteps& g, const StepDraws& z,

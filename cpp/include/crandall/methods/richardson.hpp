@@ -13,6 +13,7 @@ template <Method M>
 struct RichardsonSteps {
   static constexpr Method kMethod = M;
   static constexpr bool kSkeleton = skeleton(kMethod);
+  static constexpr double kOrder = method_order(kMethod);
   static void segment(SegmentSteps&) {}
   template <bool kDisp, bool kDist, int G, class Obs>
   [[gnu::always_inline]] static void step(const SegmentSteps& g, const StepDraws& z,
