@@ -148,41 +148,76 @@ def test_a_file_whose_spec_disagrees_with_its_attributes_is_refused(tmp_path):
 
 
 def test_a_new_core_method_reaches_python_with_no_python_change(tmp_path):
-    # docs/architecture.md, "... a method": the core's list (_core.METHOD_GRIDS) is the only
-    # one; simulate, the scene file, the CLI's --method and the memory estimate follow it.
-    # Followed here by giving the core a method it does not step ("midpoint", one grid)
-    # before crandall is imported, in a fresh interpreter: every Python layer accepts it by
-    # name, and the core's plan, which has no such step, refuses it naming the method.
+    # docs/architecture.md, "... a method": the core's table (_core.METHOD_TABLE: name, grids,
+    # skeleton, order) is the only one; simulate, simulate_many, the scene file, the CLI's
+    # --method, a Dask task's spec and the memory estimate follow it, and so do the choices
+    # made from its rows: the bias estimate's coupled refinement (skeleton methods only) and
+    # the bias exponent a run to an accuracy assumes (the exact method's order). Followed here
+    # by giving the core two methods it does not step ("midpoint" on the skeleton, "leapfrog"
+    # off it) and the exact method another order, before crandall is imported, in a fresh
+    # interpreter: every Python layer takes them from the rows, and the core's plan, which has
+    # no such step, refuses them naming the method. A run to an accuracy chooses its grids
+    # itself and refuses any method= (naming it).
     core = next(pathlib.Path(crandall.__file__).parent.glob("_core*.so"))
     script = f"""
-import importlib.util, sys
+import importlib.util, json, sys, types
 spec = importlib.util.spec_from_file_location("crandall._core", {str(core)!r})
 core = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(core)
-core.METHOD_GRIDS = dict(core.METHOD_GRIDS, midpoint=1)
+rows = tuple((n, g, s, 1.25 if n == "exact" else o) for n, g, s, o in core.METHOD_TABLE)
+core.METHOD_TABLE = rows + (("midpoint", 1, True, 2.0), ("leapfrog", 1, False, 1.0))
+core.METHOD_GRIDS = dict(core.METHOD_GRIDS, midpoint=1, leapfrog=1)
 sys.modules["crandall._core"] = core
 import crandall
-from crandall import cli, methods, spec
+from crandall import bias, cli, engine, methods, spec
+from crandall.adaptive import schedule
 run_module = sys.modules["crandall.simulate"]  # crandall.simulate is the function
-assert "midpoint" in crandall.METHODS and methods.GRIDS["midpoint"] == 1
+scene = crandall.Scene.scaled(tau0=1.0, times=[1.0], observe=["velocity", "distance"])
+assert crandall.METHODS[-2:] == ("midpoint", "leapfrog") and methods.GRIDS["midpoint"] == 1
+assert methods.ORDERS["midpoint"] == 2.0 and methods.SKELETON["midpoint"]
+assert not methods.SKELETON["leapfrog"] and methods.ORDERS["exact"] == 1.25
+# The bias estimate: coupled grids 2^(3 - 1) times the run's for the skeleton's method, none
+# for the other (its bias NaN, no run); the envelope's pieces follow the same rows.
+assert bias.REFINEMENT == dict(exact=2, richardson=0, richardson2=1, midpoint=2), bias.REFINEMENT
+for name, coupled in (("midpoint", True), ("leapfrog", False)):
+    result = types.SimpleNamespace(paths=10, method=name, scene=scene, names=("distance",))
+    assert bias.needs_run_for(result) is coupled, name
+    assert bias.piece_method(scene, name) == (name if coupled else "richardson")
+# A run to an accuracy: the bias exponent where the levels do not resolve one.
+assert schedule.ALPHA == 1.25
+got = schedule._Schedule._bias([1.0, 0.4, 0.1], [1.0, 1.0, 1.0])
+assert got == max(0.1, 0.4 * 2.0 ** -1.25) / (2.0 ** 1.25 - 1.0), got
+try:
+    crandall.simulate(scene, error=0.1, seed=1, method="midpoint")
+except crandall.ParameterError as exc:
+    assert exc.name == "method", exc
+else:
+    raise AssertionError("a run to an accuracy took a method")
 assert spec.check_method("midpoint") == "midpoint"
-assert run_module._memory_need(crandall.Scene.scaled(tau0=1.0, times=[1.0]), 1, "midpoint") > 0
+assert run_module._memory_need(scene, 1, "midpoint") > 0
 path = {str(tmp_path / "s.toml")!r}
 open(path, "w").write('[scene]\\nunits = "scaled"\\ntau0 = 1.0\\ntimes = [1.0]\\n'
                       '[run]\\nmethod = "midpoint"\\n')
 assert crandall.Scene.from_toml(path).run_settings["method"] == "midpoint"
 args = cli._parser().parse_args(["run", path, "--method", "midpoint"])
 assert args.method == "midpoint"
-try:
-    crandall.simulate(crandall.Scene.scaled(tau0=1.0, times=[1.0]), paths=10, seed=1,
-                      method="midpoint")
-except ValueError as exc:
-    assert "method" in str(exc), exc
-    print("refused:", exc)
-else:
-    raise AssertionError("the core stepped a method it does not have")
+# A Dask task's argument: the spec as plain data, and the task refusing it where it runs.
+run = spec.RunSpec.create(scene, paths=10, seed=1, method="midpoint")
+plain = json.loads(json.dumps(run.to_dict()))
+assert spec.RunSpec.from_dict(plain) == run
+calls = (lambda: crandall.simulate(scene, paths=10, seed=1, method="midpoint"),
+         lambda: crandall.simulate_many([scene], paths=10, seed=1, method="leapfrog"),
+         lambda: engine.run_chunks(plain, 0, 1, 1))
+for call in calls:
+    try:
+        call()
+    except ValueError as exc:
+        assert "method" in str(exc), exc
+        print("refused:", exc)
+    else:
+        raise AssertionError("the core stepped a method it does not have")
 """
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
                          timeout=120)
     assert out.returncode == 0, out.stderr
-    assert "refused:" in out.stdout
+    assert out.stdout.count("refused:") == 3, out.stdout

@@ -2,6 +2,7 @@
 // every method and observable set.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <stdexcept>
@@ -123,8 +124,15 @@ TEST(Dispatch, RandomFloorIsTheSameInEveryVariant) {
 // (plan.hpp) in every variant compiled in, with and without peaks, for every set of integrals;
 // the quadratic variation's for the exact skeleton's methods with an integral, the control
 // sums' for the exact method; and refuses, with std::logic_error, what no kind holds. A method
-// given a row but no type in KernelMethods fails here.
+// given a row but no type in KernelMethods fails to compile (kernel_variant.inc's
+// static_assert), and one whose type has no loop of a kind fails here. Every row states an
+// order, positive or unknown (NaN): Python's bias estimate and runs to an accuracy read it
+// (crandall.methods.ORDERS; tests/test_spec.py follows a new row there).
 TEST(Dispatch, TheTableHasALoopForEveryMethodAndKind) {
+  for (crandall::Method m : crandall::kMethods) {
+    const double order = crandall::method_order(m);
+    EXPECT_TRUE(std::isnan(order) || (std::isfinite(order) && order > 0.0)) << crandall::method_name(m);
+  }
   for (const auto* k : crandall::compiled_kernels()) {
     for (crandall::Method m : crandall::kMethods)
       for (bool disp : {false, true})

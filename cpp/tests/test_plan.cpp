@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "crandall/plan.hpp"
@@ -190,6 +191,36 @@ TEST(Methods, RichardsonWeightsCancelTheBiasExponents) {
   const auto w2 = crandall::richardson_weights(crandall::Method::richardson2);
   EXPECT_NEAR(w2[0] + w2[1] * std::pow(2.0, 1.5), 0.0, 1e-14);
   EXPECT_EQ(crandall::richardson_weights(crandall::Method::exact), std::vector<double>{1.0});
+}
+
+TEST(Methods, AKnownOrderIsTheFirstExponentTheWeightsLeave) {
+  // A method on the exact skeleton (with the trapezoid integrals) has the skeleton's bias
+  // exponents (kSkeletonExponents); its Richardson weights cancel the first grids() - 1 of
+  // them, so its order is the next one, and unknown (NaN) where the known exponents end. Every
+  // other method's order is positive or unknown.
+  for (auto m : crandall::kMethods) {
+    const std::string name = crandall::method_name(m);
+    const double p = crandall::method_order(m);
+    EXPECT_TRUE(std::isnan(p) || p > 0.0) << name;
+    if (!crandall::skeleton(m)) continue;
+    const auto w = crandall::richardson_weights(m);
+    const auto left = [&w](double q) {
+      double r = 0.0;
+      for (std::size_t j = 0; j < w.size(); ++j) r += w[j] * std::pow(2.0, static_cast<double>(j) * q);
+      return r;
+    };
+    const std::size_t cancelled = w.size() - 1;
+    for (std::size_t i = 0; i < cancelled; ++i)
+      EXPECT_NEAR(left(crandall::kSkeletonExponents[i]), 0.0, 1e-13) << name;
+    if (cancelled < crandall::kSkeletonExponentCount) {
+      EXPECT_EQ(p, crandall::kSkeletonExponents[cancelled]) << name;
+      EXPECT_GT(std::abs(left(p)), 0.1) << name;
+    } else {
+      EXPECT_TRUE(std::isnan(p)) << name;
+    }
+  }
+  static_assert(crandall::method_order(crandall::Method::exact) == 1.5);
+  static_assert(crandall::method_order(crandall::Method::richardson2) == 2.0);
 }
 
 TEST(Methods, RichardsonGridsNestSegmentBySegment) {

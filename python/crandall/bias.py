@@ -61,6 +61,7 @@ from . import engine, results
 from ._resources import available_memory
 from .driver import Estimator, Progress, Task, drive
 from .errors import ParameterError
+from .methods import GRIDS, METHODS, SKELETON
 from .model import (ENVELOPE, FILTERED_EXCITATION, GRID_ORDERS, exact_in_law, holds,
                     isometry_applies)
 from .quantities import VELOCITY, core_flags, quantity
@@ -76,10 +77,19 @@ BIAS_PATHS = 65536
 BIAS_BYTES = 256 << 20
 #: Paths per batch of the coupled run (the progress bar's and Ctrl-C's unit).
 BATCH_PATHS = 8192
+#: The coupled run's method: its grids (h, 2h, 4h of the refined grid) are the coupled grids,
+#: its weights the better estimator every difference is taken against.
+COUPLED_METHOD = "richardson"
 #: Per method, the refinement of the coupled run over the run's grid (2^r times its steps),
-#: so that the run's grid is the coarsest of the coupled grids ("exact"), the middle one
-#: ("richardson2") or the finest ("richardson").
-REFINEMENT = {"exact": 2, "richardson2": 1, "richardson": 0}
+#: so that the run's grids are the coarsest of the coupled grids: the run's grid is the
+#: coarsest ("exact", r = 2), its two grids the coarser ones ("richardson2", r = 1) or its
+#: three grids all of them ("richardson", r = 0). Read from the core's table
+#: (crandall.methods): every method whose steps are the exact skeleton's (SKELETON: its
+#: integrals are the trapezoid rule on its grids, which the coupled grids reproduce) with at
+#: most the coupled run's grids, r = the coupled run's grids minus its own. The others
+#: ("euler", "refine") have no coupled refinement: their bias is not estimated.
+REFINEMENT = {m: GRIDS[COUPLED_METHOD] - GRIDS[m] for m in METHODS
+              if SKELETON[m] and GRIDS[m] <= GRIDS[COUPLED_METHOD]}
 
 
 #: The error of n pieces over the difference between n and 2n pieces (first order).
@@ -106,7 +116,7 @@ class _CoupledRun(Estimator):
         o = engine.plan_options(spec, histograms=False)
         # One grid, the run's (the envelope's piece error compares schedules on one grid);
         # else the three coupled grids of the grid's bias.
-        o.method = "exact" if one_grid else "richardson"
+        o.method = "exact" if one_grid else COUPLED_METHOD
         o.refinement = 0 if one_grid else REFINEMENT[spec.method]
         o.seed = bias_key(spec.seed)
         o.quadratic_variation = quadratic
@@ -191,7 +201,7 @@ def _grid_estimated(name: str, scene) -> bool:
 def needs_run_for(result) -> bool:
     """Whether :func:`estimate` runs paths of its own for this result: coupled grids for a
     statistic not exact in law (white noise's peaks have none), or an envelope's pieces."""
-    coupled = result.paths >= 2 and result.method in ("exact", "richardson", "richardson2")
+    coupled = result.paths >= 2 and result.method in REFINEMENT
     return coupled and (ENVELOPE in result.scene.effects or any(
         _grid_estimated(n, result.scene) for n in result.names))
 
@@ -218,15 +228,7 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
     else:
         pieces = (_piece_errors(result.spec, result.names, threads, result.paths)
                   if needs_run and envelope else {})
-    w3 = np.array(_core.richardson_weights("richardson"))
-    w2 = np.array(list(_core.richardson_weights("richardson2")))
-    # a: the run's estimator on the coupled grids (finest first); b: a better one.
-    if method == "exact":
-        a, b = np.array([0.0, 0.0, 1.0]), w3
-    elif method == "richardson2":
-        a, b = np.concatenate([[0.0], w2]), w3
-    else:
-        a, b = np.concatenate([w2, [0.0]]), w3
+    a, b = _estimators(method)
     # Without the white-noise skeleton's expansion (model.GRID_ORDERS: a filtered excitation)
     # the bias of the run's grid h is e(h) = |P_h - P_h/2| r / (r - 1), with r the measured
     # ratio of the differences (h, h/2) and (h/2, h/4) (_order_factor: 2, first order, where
@@ -272,6 +274,24 @@ def estimate(result, threads: int = 1) -> Dict[Tuple[str, str], Tuple[np.ndarray
     return out
 
 
+def _estimators(method: str):
+    """The weights (finest coupled grid first) of the run's estimator on the coupled grids and
+    of a better one, or (None, None) for a method with no coupled refinement. The run's
+    estimator is its own weights on the coarsest of the coupled grids (REFINEMENT), the better
+    one the coupled run's method on all of them: for "exact" (0, 0, 1) against richardson,
+    for "richardson2" (0, w2) against richardson. The coupled run's method itself is compared
+    from the method of one grid fewer on the finest grids (richardson2's (w2, 0)), which
+    estimates that method's bias and so bounds its own."""
+    r = REFINEMENT.get(method)
+    if r is None:
+        return None, None
+    better = np.array(_core.richardson_weights(COUPLED_METHOD))
+    if r > 0:
+        return np.concatenate([np.zeros(r), _core.richardson_weights(method)]), better
+    lower = next(m for m, rm in REFINEMENT.items() if rm == 1)
+    return np.concatenate([_core.richardson_weights(lower), [0.0]]), better
+
+
 #: The coupled grids' estimates (finest first): the run's grid h, h/2 and h/4 alone.
 _GRID_H = np.array([0.0, 0.0, 1.0])
 _GRID_H2 = np.array([0.0, 1.0, 0.0])
@@ -310,11 +330,11 @@ def piece_errors(scene, names, *, seed: int, paths: int = BIAS_PATHS,
 
 def piece_method(scene, method: str = "richardson") -> str:
     """The method of the coupled runs that estimate a scene's piece error: ``method`` if it
-    has a refinement (REFINEMENT), else Richardson's; the exact one, on its coupled grids, for
-    a filtered excitation (the white-noise methods do not step it)."""
+    has a refinement (REFINEMENT), else the coupled run's; the exact one, on its coupled grids,
+    for a filtered excitation (the white-noise methods do not step it)."""
     if FILTERED_EXCITATION in scene.effects:
         return "exact"
-    return method if method in REFINEMENT else "richardson"
+    return method if method in REFINEMENT else COUPLED_METHOD
 
 
 def _coarse_on_fine(scene, fine):

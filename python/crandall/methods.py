@@ -1,9 +1,31 @@
 """The simulation methods the engine offers, the default one, and the default step."""
 
+from typing import NamedTuple
+
 from . import _core
 
-__all__ = ["METHODS", "GRIDS", "EXTRAPOLATING_METHODS", "DEFAULT_METHOD", "DEFAULT_DT_TAU",
-           "DEFAULT_MIN_STEPS", "DEFAULT_STEPS_FREE", "DEFAULT_DT_FILTER", "DEFAULT_DT_TAU_FILTER"]
+__all__ = ["METHODS", "GRIDS", "SKELETON", "ORDERS", "MethodRow", "TABLE",
+           "EXTRAPOLATING_METHODS", "DEFAULT_METHOD", "DEFAULT_DT_TAU", "DEFAULT_MIN_STEPS",
+           "DEFAULT_STEPS_FREE", "DEFAULT_DT_FILTER", "DEFAULT_DT_TAU_FILTER"]
+
+
+class MethodRow(NamedTuple):
+    """A row of the core's methods' table (plan.hpp, ``kMethodTable``)."""
+
+    #: The name ``simulate(method=...)`` takes.
+    name: str
+    #: Coupled grids it integrates on (steps h, 2h, 4h, ...; 1 without extrapolation).
+    grids: int
+    #: Whether its steps are the exact skeleton's (and its integrals the trapezoid rule on its
+    #: grids, which the bias estimate's coupled grids reproduce).
+    skeleton: bool
+    #: The exponent p of the leading term c dt^p of its moments' bias; NaN where not known.
+    order: float
+
+
+#: The core's methods' table, one row per method in the core's order. The core decides it
+#: (plan.hpp; _core.METHOD_TABLE): every name, grid count and order here is read from it.
+TABLE = tuple(MethodRow(*row) for row in _core.METHOD_TABLE)
 
 #: Method names accepted by ``simulate(method=...)``:
 #: "exact": velocity exact in law for any step; displacement and distance by the trapezoid
@@ -14,12 +36,25 @@ __all__ = ["METHODS", "GRIDS", "EXTRAPOLATING_METHODS", "DEFAULT_METHOD", "DEFAU
 #: assuming c h^1.5. "refine": the exact skeleton, with steps that start within 2 standard
 #: deviations of 0 taken as 8 exact substeps (docs/methods/refine.md).
 #: The core decides the list ("exact", "euler", "richardson", "richardson2", "refine").
-METHODS = tuple(_core.METHOD_GRIDS)
+METHODS = tuple(row.name for row in TABLE)
 
 #: Grids each method integrates on (the core's Richardson levels): the fine one, and for the
 #: extrapolating methods every 2nd (and 4th) point of it. Sizes the accumulators in memory.
 #: Decided in the core (plan.hpp, grids()); read from it here.
-GRIDS = dict(_core.METHOD_GRIDS)
+GRIDS = {row.name: row.grids for row in TABLE}
+
+#: Whether a method's steps are the exact skeleton's (the core's table): the methods whose bias
+#: the coupled grids estimate (crandall.bias.REFINEMENT).
+SKELETON = {row.name: row.skeleton for row in TABLE}
+
+#: Each method's order, the exponent p of the leading term c dt^p of the bias of the moments it
+#: reports (the time integrals'; the velocity's and the stop's are exact in law with every
+#: method but "euler"), as the core's table states it (plan.hpp, with where each comes from):
+#: "exact" 1.5 (the trapezoid rule's leading exponent on the skeleton; a run to an accuracy's
+#: levels assume it, crandall.adaptive), "euler" 1, "richardson2" 2 (h^1.5 removed); NaN, not
+#: known, for "richardson" (its second moments keep a term of unknown exponent,
+#: docs/methods/richardson.md) and "refine" (no order stated or derived, docs/methods/refine.md).
+ORDERS = {row.name: float(row.order) for row in TABLE}
 
 #: Methods whose accumulators are a signed combination of several grids (Richardson
 #: extrapolation): their even central sums may be negative for a handful of paths.

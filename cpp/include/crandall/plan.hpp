@@ -42,8 +42,9 @@ constexpr double kUnknownOrder = std::numeric_limits<double>::quiet_NaN();
 // The methods' table, one row per method in the order of the enum: its name as the Python layer
 // spells it (method_name, parse_method), the number of coupled grids it walks on one path
 // (steps dt, 2 dt, 4 dt, ...: the grid of step 2^j dt is every 2^j-th point of the finest; 1 for
-// a method without extrapolation), whether its steps are the exact skeleton's (the quadratic
-// variation is integrated on those only) and its order: the exponent p of the leading term
+// a method without extrapolation), whether its steps are the exact skeleton's with the
+// trapezoid integrals on its grids (the quadratic variation is integrated on those only, and
+// the bias estimate's coupled grids reproduce them) and its order: the exponent p of the leading term
 // c dt^p of the bias of the moments it reports (the time integrals'; the velocity's and the
 // stop's are exact in law with every method but euler), kUnknownOrder (NaN) where it is not
 // known. The one place these are decided: the plan, the kernel's method types (methods/*.hpp),

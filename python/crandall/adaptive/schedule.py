@@ -17,6 +17,7 @@ from .. import _core, bias, pieces
 from ..checkpoint import json_state, read_json_state
 from ..driver import Progress
 from ..errors import ParameterError
+from ..methods import ORDERS
 from ..quantities import quantity
 from .levels import _Level, _Sums, PILOT_PATHS
 #: Levels beyond the base (the finest grid is 2^MAX_LEVELS times finer than the base).
@@ -458,8 +459,10 @@ REL_FLOOR = 0.01
 
 
 #: The exponent of the level means' decay assumed by the bias estimate where it is not
-#: resolved, and the range a measured one is kept in (docs/methods/adaptive.md).
-ALPHA = 1.5
+#: resolved, and the range a measured one is kept in (docs/methods/adaptive.md). The levels
+#: are the exact method's grids (adaptive.levels), so it is that method's order in the core's
+#: table (crandall.methods.ORDERS: 1.5, the trapezoid rule's leading exponent).
+ALPHA = ORDERS["exact"]
 ALPHA_MIN, ALPHA_MAX = 1.0, 3.0
 #: The smallest ratio of successive level means a filtered excitation's bias estimate takes
 #: (_Schedule._measured_bias).
