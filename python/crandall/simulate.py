@@ -526,6 +526,7 @@ def simulate_many(
     client: Any = None,
     progress: Optional[bool] = None,
     dataset: bool = False,
+    event_depth: Optional[int] = None,
 ) -> Any:
     """Simulate several scenes (a parameter sweep); one :class:`Result` per scene, in order.
 
@@ -537,8 +538,9 @@ def simulate_many(
     ----------
     scenes : sequence of Scene
         The scenes, e.g. ``[Scene(mu=m, h=1, t0=2, times=ts) for m in (0.1, 0.2, 0.3)]``.
-    paths, method, threads, client, progress
-        As for :func:`simulate`.
+    paths, method, threads, client, progress, event_depth
+        As for :func:`simulate` (event_depth for every scene: each must then have a filtered
+        excitation).
     seed : int, optional
         One seed for every scene (common random numbers: the sweep's curves are smooth in the
         parameter); None draws one, recorded on every result.
@@ -587,7 +589,7 @@ def simulate_many(
         if not isinstance(scene, Scene):
             raise ParameterError("scenes", f"scenes[{i}] must be a crandall.Scene, got {type(scene).__name__}")
         spec, t = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
-                           threads=threads)
+                           threads=threads, event_depth=event_depth)
         seed = spec.seed  # a drawn seed is shared by the following scenes
         runs.append(FixedStep(spec, threads=t, task_threads=resolve_threads(threads)[1]))
     results = drive(runs, checkpoints=files, client=client, progress=progress)
