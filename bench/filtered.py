@@ -17,8 +17,8 @@ kinetic friction, the shaking ending at t0; the body's time scale t* = 2 h^2 / (
      grids each bisect to the same depth below their own step, so it sees the depth's error)
      and the time per path at the default step (the fastest of --repeats runs, alternating
      the depths; the same seed gives the same numbers, only the time differs). Per (statistic,
-     eps) the depth is the one whose own estimated bias is at most eps |value| / 2 at the
-     least time: the paths needed for a standard error of eps |value| / 2 times its time per
+     eps) the depth is the shallowest whose own estimated bias is at most eps |value| / 2 (the
+     cheapest: time per path falls with every bisection removed, bench/event_depth.py): the paths needed for a standard error of eps |value| / 2 times its time per
      path. No outside reference enters the choice. The default depth's time and ratio are
      kept beside it (the script says when even that bias is above eps |value| / 2);
    - Euler: its step bias from the same paths at dt and 2 dt (dt = 4, 2, 1 ms; their paired
@@ -146,8 +146,8 @@ def crandall_time(pilot, stat: str, half: float):
 
 
 def cost(wt, runs, euler_runs):
-    """Per (statistic, eps): crandall at the cheapest depth whose own estimated bias is
-    within eps |value| / 2 (the default depth's numbers beside it), against Euler."""
+    """Per (statistic, eps): crandall at the shallowest (cheapest) depth whose own estimated
+    bias is within eps |value| / 2 (the default depth's numbers beside it), against Euler."""
     rows = []
     rate = sum(e["seconds"] for e in euler_runs) / sum(e["path_steps"] for e in euler_runs)
     default = runs[DEFAULT_DEPTH]
@@ -164,8 +164,11 @@ def cost(wt, runs, euler_runs):
             half = eps * value / 2
             each = [crandall_time(runs[d], stat, half) for d in DEPTHS]
             within = [x for x in each if x["bias_within"] and math.isfinite(x["seconds"])]
-            # None within: the default depth, flagged (crandall_bias_within False).
-            chosen = min(within, key=lambda x: x["seconds"]) if within else each[0]
+            # The shallowest depth within: every bisection removed saves time per path
+            # (bench/event_depth.py), and taking the least of the measured times instead
+            # would pick whichever run the machine's load happened to spare. None within:
+            # the default depth, flagged (crandall_bias_within False).
+            chosen = min(within, key=lambda x: x["event_depth"]) if within else each[0]
             base = each[0]
             dt_e = min(half / abs(c), EULER_DT[0]) if resolved else math.nan
             n_e = math.ceil((e_spread / half) ** 2)
