@@ -17,8 +17,9 @@ kinetic friction, the shaking ending at t0; the body's time scale t* = 2 h^2 / (
      grids each bisect to the same depth below their own step, so it sees the depth's error)
      and the time per path at the default step (the fastest of --repeats runs, alternating
      the depths; the same seed gives the same numbers, only the time differs). Per (statistic,
-     eps) the depth is the shallowest whose own estimated bias is at most eps |value| / 2 (the
-     cheapest: time per path falls with every bisection removed, bench/event_depth.py): the paths needed for a standard error of eps |value| / 2 times its time per
+     eps) the depth is the shallowest whose own estimated bias is at most eps |value| / 2
+     (the cheapest: time per path falls with every bisection removed, bench/event_depth.py),
+     its time the paths needed for a standard error of eps |value| / 2 times its time per
      path. No outside reference enters the choice. The default depth's time and ratio are
      kept beside it (the script says when even that bias is above eps |value| / 2);
    - Euler: its step bias from the same paths at dt and 2 dt (dt = 4, 2, 1 ms; their paired
