@@ -364,7 +364,8 @@ def simulate(
         bisected by exact bridges down to steps of dt / 2^event_depth, 2 to 20; default (None)
         8. Fewer bisections cost less per path and move the statistics by an error that
         ``Result.bias`` estimates (docs/filtered.md, "The event depth"). Not for white noise
-        (no event search), nor with ``error`` or ``rel_error`` (their levels keep 8).
+        (no event search), nor with ``error`` or ``rel_error`` (their levels keep 8, the depth
+        their filtered calibration was measured at).
     threads : int, optional
         OpenMP threads; default: all cores (with ``client``: threads per task, default 1, as
         Dask runs one task per worker thread).
