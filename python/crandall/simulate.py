@@ -478,11 +478,14 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
     """simulate's work, for one scene as given (checked by the spec, or by the run to an
     accuracy: :func:`crandall.spec.check_scene`)."""
     if error is not None or rel_error is not None:
-        for name, value in (("paths", paths), ("dt", dt), ("method", method),
-                            ("event_depth", event_depth)):
+        for name, value in (("paths", paths), ("dt", dt), ("method", method)):
             if value is not None:
                 raise ParameterError(name, f"{name}: not with error= or rel_error= (the run chooses its "
                                  "grids and paths itself)")
+        if event_depth is not None:
+            raise ParameterError("event_depth", "event_depth: not with error= or rel_error= (their "
+                                 "levels keep the default depth 8, at which their coverage "
+                                 "was calibrated)")
         check_client(client)
         if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
             raise ParameterError("checkpoint", f"checkpoint must be a path, got {checkpoint!r}")
