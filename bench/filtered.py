@@ -11,20 +11,27 @@ kinetic friction, the shaking ending at t0; the body's time scale t* = 2 h^2 / (
    inverse of this ratio; it tends to 1 as omega grows.
 2. Time to a relative error eps (1e-2, 1e-3) in the mean distance at the stop and in its
    variance, at omega t* = 1, 4, 16, one thread each, as ratios measured in one run:
-   - crandall: a pilot run (--pilot paths) gives the per-path spread, the estimated bias and
-     the time per path at the default step; the paths needed for a standard error of
-     eps |value| / 2 times the time per path (the bias must be below eps |value| / 2: the
-     script says when it is not);
+   - crandall: a pilot run (--pilot paths) at each event depth of DEPTHS (the bisections of a
+     step where a stop or an onset may happen, ``simulate(event_depth=...)``; 8 is the
+     default) gives the per-path spread, the estimated bias (``Result.bias``: its coupled
+     grids each bisect to the same depth below their own step, so it sees the depth's error)
+     and the time per path at the default step (the fastest of --repeats runs, alternating
+     the depths; the same seed gives the same numbers, only the time differs). Per (statistic,
+     eps) the depth is the shallowest whose own estimated bias is at most eps |value| / 2
+     (the cheapest: time per path falls with every bisection removed, bench/event_depth.py),
+     its time the paths needed for a standard error of eps |value| / 2 times its time per
+     path. No outside reference enters the choice. The default depth's time and ratio are
+     kept beside it (the script says when even that bias is above eps |value| / 2);
    - Euler: its step bias from the same paths at dt and 2 dt (dt = 4, 2, 1 ms; their paired
      difference is c dt for a first-order bias), c fitted where resolved; the dt that brings
      it to eps |value| / 2, the paths for the standard error, and its measured time per path
      step.
    Both times are extrapolated from measured rates (a run of 1e-3 would take hours for the
-   peer); the JSON holds every input.
+   peer); the JSON holds every input, the pilots of every depth included.
 
 Writes bench/out/filtered.{json,png} (bench/results/ with --publish).
 
-    .venv/bin/python bench/filtered.py [--paths 20000] [--pilot 20000] [--publish]
+    .venv/bin/python bench/filtered.py [--paths 20000] [--pilot 20000] [--repeats 2] [--publish]
 """
 
 from __future__ import annotations
@@ -53,6 +60,9 @@ RATIOS = (1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0)
 COST_AT = (1.0, 4.0, 16.0)
 EULER_DT = (4e-3, 2e-3, 1e-3)
 EPS = (1e-2, 1e-3)
+#: The event depths the time to eps chooses from (8: the default, kDefaultEventDepth).
+DEPTHS = (8, 6, 5, 4, 3)
+DEFAULT_DEPTH = 8
 
 
 def scene(wt: float) -> crandall.Scene:
@@ -61,15 +71,21 @@ def scene(wt: float) -> crandall.Scene:
                           observe=["distance", "stop"])
 
 
-def crandall_run(wt: float, paths: int, seed: int):
+def crandall_run(wt: float, paths: int, seed: int, depth: int = DEFAULT_DEPTH,
+                 repeats: int = 1):
+    """A run's statistics, bias estimates and time (the fastest of ``repeats`` runs, which
+    give the same numbers). The default depth runs as ``event_depth=None``."""
     sc = scene(wt)
-    start = time.perf_counter()
-    r = crandall.simulate(sc, paths=paths, seed=seed, threads=1)
-    seconds = time.perf_counter() - start
+    seconds = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        r = crandall.simulate(sc, paths=paths, seed=seed, threads=1,
+                              event_depth=None if depth == DEFAULT_DEPTH else depth)
+        seconds.append(time.perf_counter() - start)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", crandall.StatisticsWarning)
-        out = {"dt": r.dt, "paths": paths, "seconds": seconds,
-               "steps_per_path": int(r.steps_per_path)}
+        out = {"dt": r.dt, "paths": paths, "seconds": min(seconds), "all_seconds": seconds,
+               "event_depth": depth, "steps_per_path": int(r.steps_per_path)}
         for stat in ("mean", "var"):
             value = r.mean("distance_at_stop") if stat == "mean" else r.var("distance_at_stop")
             se = (r.stderr("distance_at_stop") if stat == "mean"
@@ -107,14 +123,37 @@ def euler_run(wt: float, dt: float, paths: int, seed: int):
     return out
 
 
-def cost(wt, pilot, euler_runs):
+def pilots(wt: float, paths: int, seed: int, repeats: int):
+    """One pilot per depth of DEPTHS (the same seed), each timed as the fastest of
+    ``repeats`` runs taken in turn over the depths (so the machine's load falls alike on
+    them); the statistics and bias estimates are those of one run."""
+    runs = {d: crandall_run(wt, paths, seed, d) for d in DEPTHS}
+    for _ in range(repeats - 1):
+        for d in DEPTHS:
+            again = crandall_run(wt, paths, seed, d)
+            runs[d]["all_seconds"] += again["all_seconds"]
+            runs[d]["seconds"] = min(runs[d]["all_seconds"])
+    return runs
+
+
+def crandall_time(pilot, stat: str, half: float):
+    """Paths and seconds to a standard error of ``half`` at a pilot's spread and rate."""
+    ref = pilot[stat]
+    spread = ref["stderr"] * math.sqrt(pilot["paths"])  # NaN: too few carrying paths
+    paths = math.ceil((spread / half) ** 2) if math.isfinite(spread) else math.nan
+    return {"event_depth": pilot["event_depth"], "paths": paths,
+            "seconds": paths * pilot["seconds"] / pilot["paths"], "bias": ref["bias"],
+            "bias_is_bound": ref["bias_is_bound"], "bias_within": ref["bias"] <= half}
+
+
+def cost(wt, runs, euler_runs):
+    """Per (statistic, eps): crandall at the shallowest (cheapest) depth whose own estimated
+    bias is within eps |value| / 2 (the default depth's numbers beside it), against Euler."""
     rows = []
     rate = sum(e["seconds"] for e in euler_runs) / sum(e["path_steps"] for e in euler_runs)
+    default = runs[DEFAULT_DEPTH]
     for stat in ("mean", "var"):
-        ref = pilot[stat]
-        value = abs(ref["value"])
-        spread = ref["stderr"] * math.sqrt(pilot["paths"])
-        per_path = pilot["seconds"] / pilot["paths"]
+        value = abs(default[stat]["value"])
         points = [{"dt": e["dt"], "bias": e[stat]["difference"], "stderr": e[stat]["stderr"],
                    "resolved": abs(e[stat]["difference"]) > 2 * e[stat]["stderr"]}
                   for e in euler_runs]
@@ -124,18 +163,36 @@ def cost(wt, pilot, euler_runs):
         e_spread = euler_runs[-1][stat]["spread"]
         for eps in EPS:
             half = eps * value / 2
-            n_c = math.ceil((spread / half) ** 2)
-            t_c = n_c * per_path
+            each = [crandall_time(runs[d], stat, half) for d in DEPTHS]
+            within = [x for x in each if x["bias_within"] and math.isfinite(x["seconds"])]
+            # The shallowest depth within: every bisection removed saves time per path
+            # (bench/event_depth.py), and taking the least of the measured times instead
+            # would pick whichever run the machine's load happened to spare. None within:
+            # the default depth, flagged (crandall_bias_within False).
+            chosen = min(within, key=lambda x: x["event_depth"]) if within else each[0]
+            base = each[0]
             dt_e = min(half / abs(c), EULER_DT[0]) if resolved else math.nan
             n_e = math.ceil((e_spread / half) ** 2)
             t_e = n_e * (T0 / dt_e) * rate if resolved else math.nan
-            rows.append({"omega_t_star": wt, "stat": stat, "eps": eps, "value": ref["value"],
-                         "crandall_dt": pilot["dt"], "crandall_paths": n_c,
-                         "crandall_seconds": t_c, "crandall_bias": ref["bias"],
-                         "crandall_bias_within": ref["bias"] <= half,
+            rows.append({"omega_t_star": wt, "stat": stat, "eps": eps,
+                         "value": default[stat]["value"], "crandall_dt": default["dt"],
+                         "crandall_depth": chosen["event_depth"],
+                         "crandall_paths": chosen["paths"],
+                         "crandall_seconds": chosen["seconds"],
+                         "crandall_bias": chosen["bias"],
+                         "crandall_bias_within": chosen["bias_within"],
+                         "default_depth": {"event_depth": DEFAULT_DEPTH,
+                                           "crandall_paths": base["paths"],
+                                           "crandall_seconds": base["seconds"],
+                                           "crandall_bias": base["bias"],
+                                           "crandall_bias_within": base["bias_within"],
+                                           "ratio": t_e / base["seconds"] if resolved
+                                           else math.nan},
+                         "depths": each,
                          "euler_bias_per_dt": c, "euler_dt": dt_e, "euler_paths": n_e,
                          "euler_seconds": t_e, "euler_seconds_per_step": rate,
-                         "ratio": t_e / t_c if resolved else math.nan, "euler_points": points})
+                         "ratio": t_e / chosen["seconds"] if resolved else math.nan,
+                         "euler_points": points})
     return rows
 
 
@@ -156,13 +213,18 @@ def plot(data, path):
     a.set_title(f"zeta = {ZETA}, t0 = {T0:g} s = {T0 / T_STAR:g} t*")
     a.legend()
     rows = data["cost"]
-    labels, ratios = [], []
+    labels, ratios, defaults = [], [], []
     for r in rows:
-        labels.append(f"{r['stat']} eps={r['eps']:g}\nwt*={r['omega_t_star']:g}")
+        labels.append(f"{r['stat']} eps={r['eps']:g}\nwt*={r['omega_t_star']:g} "
+                      f"d={r.get('crandall_depth', DEFAULT_DEPTH)}")
         ratios.append(r["ratio"])
-    b.bar(range(len(rows)), ratios)
+        defaults.append(r.get("default_depth", {}).get("ratio", r["ratio"]))
+    x = np.arange(len(rows))
+    b.bar(x - 0.2, defaults, width=0.4, label=f"event depth {DEFAULT_DEPTH} (default)")
+    b.bar(x + 0.2, ratios, width=0.4, label="chosen depth (d)")
+    b.legend(fontsize=7)
     b.set_yscale("log")
-    b.set_xticks(range(len(rows)))
+    b.set_xticks(x)
     b.set_xticklabels(labels, fontsize=6, rotation=90)
     b.set_ylabel("Euler time / crandall time (one thread)")
     b.axhline(10.0, color="r", lw=0.8, ls="--")
@@ -175,6 +237,8 @@ def main():
     ap.add_argument("--paths", type=int, default=20000)
     ap.add_argument("--pilot", type=int, default=20000)
     ap.add_argument("--euler-paths", type=int, default=20000)
+    ap.add_argument("--repeats", type=int, default=2,
+                    help="timed runs per pilot depth (the fastest counts)")
     ap.add_argument("--publish", action="store_true")
     args = ap.parse_args()
     numba_kt.warm_up()
@@ -189,19 +253,29 @@ def main():
               f"{r['seconds']:.1f} s", flush=True)
     rows = []
     for i, wt in enumerate(COST_AT):
-        pilot = crandall_run(wt, args.pilot, 200 + i)
+        runs = pilots(wt, args.pilot, 200 + i, args.repeats)
+        for d, run in runs.items():
+            print(f"omega t* = {wt:4g} depth {d}: {run['seconds'] / run['paths'] * 1e6:.1f} us "
+                  f"per path, mean {run['mean']['value']:.5f} (bias {run['mean']['bias']:.2e}), "
+                  f"var {run['var']['value']:.4f} (bias {run['var']['bias']:.2e})", flush=True)
         euler = [euler_run(wt, dt, args.euler_paths, 300 + 10 * i + j)
                  for j, dt in enumerate(EULER_DT)]
-        for row in cost(wt, pilot, euler):
+        for row in cost(wt, runs, euler):
             rows.append(row)
+            base = row["default_depth"]
             print(f"omega t* = {wt:4g} {row['stat']:4s} eps {row['eps']:g}: crandall "
-                  f"{row['crandall_seconds']:.3g} s ({row['crandall_paths']} paths"
-                  f"{'' if row['crandall_bias_within'] else ', bias above eps/2'}), Euler "
+                  f"{row['crandall_seconds']:.3g} s at depth {row['crandall_depth']} "
+                  f"({row['crandall_paths']} paths"
+                  f"{'' if row['crandall_bias_within'] else ', bias above eps/2'}; depth "
+                  f"{DEFAULT_DEPTH} {base['crandall_seconds']:.3g} s), Euler "
                   f"{row['euler_seconds']:.3g} s (dt {row['euler_dt']:.2g}, "
-                  f"{row['euler_paths']} paths): ratio {row['ratio']:.3g}", flush=True)
+                  f"{row['euler_paths']} paths): ratio {row['ratio']:.3g} (depth "
+                  f"{DEFAULT_DEPTH}: {base['ratio']:.3g})", flush=True)
     data = {"machine": platform.machine(), "python": platform.python_version(),
             "crandall": crandall.__version__, "zeta": ZETA, "mu_g": MU_G, "h": H, "t0": T0,
-            "t_star": T_STAR, "white": WHITE, "ratio": ratio, "cost": rows}
+            "t_star": T_STAR, "white": WHITE, "depths": list(DEPTHS),
+            "command": " ".join(["bench/filtered.py"] + sys.argv[1:]),
+            "ratio": ratio, "cost": rows}
     print(write("filtered", data, plot, publish=args.publish))
 
 

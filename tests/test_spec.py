@@ -30,6 +30,7 @@ def test_create_fills_the_defaults_of_simulate():
     ("paths", 0, "paths must be >= 1"), ("seed", -1, "seed must be >= 0"),
     ("dt", float("nan"), "dt must be finite"), ("method", "rk4", "method must be one of"),
     ("min_steps", -1, "min_steps must be >= 0"), ("scene", "x", "scene must be a"),
+    ("event_depth", 5, "only a filtered excitation"),
 ])
 def test_every_field_is_checked(field, value, match):
     good = RunSpec(SCENE, 10, 1, 0.1, "exact")
@@ -94,7 +95,12 @@ def test_result_gives_its_spec():
 #: A value other than the default for every field of RunSpec but the scene. A new run option
 #: (docs/architecture.md, "... a run option") adds its own here, and the test below then
 #: checks that it reaches every place a run's options must reach.
-OTHER = {"paths": 600, "seed": 2**64 - 3, "dt": 0.05, "method": "exact", "min_steps": 3}
+OTHER = {"paths": 600, "seed": 2**64 - 3, "dt": 0.05, "method": "exact", "min_steps": 3,
+         "event_depth": 5}
+#: A scene every field of OTHER applies to (event_depth needs a filtered excitation).
+FILTERED_SCENE = crandall.Scene(mu=1.0, g=1.0, t0=1.0, times=[0.5, 1.0],
+                                excitation=crandall.KanaiTajimi(omega=2.0, zeta=0.6, h=1.0),
+                                observe=["velocity", "distance", "stop"])
 
 
 def test_every_field_of_the_spec_travels(tmp_path, monkeypatch):
@@ -102,7 +108,7 @@ def test_every_field_of_the_spec_travels(tmp_path, monkeypatch):
     simulate = importlib.import_module("crandall.simulate")  # the module, not the function
     fields = [f.name for f in dataclasses.fields(RunSpec) if f.name != "scene"]
     assert sorted(fields) == sorted(OTHER), "give the new field a value in OTHER"
-    spec = RunSpec(SCENE, **OTHER)
+    spec = RunSpec(FILTERED_SCENE, **OTHER)
     want = spec.to_dict()
     # The plan and the checkpoint's identity.
     ckpt = tmp_path / "run.ckpt"

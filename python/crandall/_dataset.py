@@ -95,7 +95,9 @@ def fixed_step_contents(result):
         # for netCDF tools.
         "run_spec": json.dumps({k: v for k, v in spec.to_dict().items() if k != "scene"}),
         "history": (f"crandall {__version__}: simulate(scene, paths={spec.paths}, "
-                    f"seed={spec.seed}, method={spec.method!r}, dt={spec.dt!r})"),
+                    f"seed={spec.seed}, method={spec.method!r}, dt={spec.dt!r}"
+                    + ("" if spec.event_depth is None else
+                       f", event_depth={spec.event_depth}") + ")"),
     }
     if result.cost["wall_time"] is not None:
         attrs["wall_time"] = float(result.cost["wall_time"])

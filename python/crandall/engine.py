@@ -112,6 +112,8 @@ def plan_options(spec: RunSpec, axes: Optional[Sequence[Axis]] = None, *,
     o.dt = spec.dt
     o.min_steps = spec.min_steps
     o.method = spec.method
+    if spec.event_depth is not None:  # None: the core's default
+        o.event_depth = spec.event_depth
     recorded = histogram_axes(spec, axes) if histograms else []
     if recorded:
         # Only a scene that asks sets the option: one that does not runs as before.

@@ -78,11 +78,12 @@ def _check_memory(scene: Scene, threads: int, method: str = DEFAULT_METHOD) -> N
         )
 
 
-def run_spec(scene, *, paths, seed, dt, method, threads):
+def run_spec(scene, *, paths, seed, dt, method, threads, event_depth=None):
     """simulate's arguments checked: the run's spec, and the thread count (not part of it:
     results do not depend on it; the driver checks it against the memory the accumulators
     need, :meth:`FixedStep.check_memory`)."""
-    spec = RunSpec.create(scene, paths=paths, seed=seed, dt=dt, method=method)
+    spec = RunSpec.create(scene, paths=paths, seed=seed, dt=dt, method=method,
+                          event_depth=event_depth)
     cores = resolve_threads(threads)[0]
     if spec.scene.envelope is not None:
         engine.make_plan(spec)  # the run's own grid first (UnresolvableGrid: simulate's)
@@ -95,7 +96,7 @@ def run_spec(scene, *, paths, seed, dt, method, threads):
                                   step_length=spec.dt, dt=dt, method=spec.method)
         if chosen is not spec.scene:
             spec = RunSpec.create(chosen, paths=spec.paths, seed=spec.seed, dt=dt,
-                                  method=spec.method)
+                                  method=spec.method, event_depth=spec.event_depth)
     return spec, cores
 
 
@@ -294,6 +295,7 @@ def simulate(
     rel_error: Optional[float] = None,
     statistics: Optional[Sequence] = None,
     max_seconds: Optional[float] = None,
+    event_depth: Optional[int] = None,
 ) -> Result:
     """Simulate a scene and return its statistics: ``paths`` paths on a fixed grid, or as
     many as a requested accuracy needs (``error=`` or ``rel_error=``).
@@ -357,6 +359,13 @@ def simulate(
     method : str
         One of ``crandall.METHODS`` (see ``crandall.methods``); default ``DEFAULT_METHOD``
         ("exact" for a filtered excitation: :func:`crandall.spec.default_method`).
+    event_depth : int, optional
+        A filtered excitation's event search: a step in which a stop or an onset may happen is
+        bisected by exact bridges down to steps of dt / 2^event_depth, 2 to 20; default (None)
+        8. Fewer bisections cost less per path and move the statistics by an error that
+        ``Result.bias`` estimates (docs/filtered.md, "The event depth"). Not for white noise
+        (no event search), nor with ``error`` or ``rel_error`` (their levels keep 8, the depth
+        their filtered calibration was measured at).
     threads : int, optional
         OpenMP threads; default: all cores (with ``client``: threads per task, default 1, as
         Dask runs one task per worker thread).
@@ -404,7 +413,8 @@ def simulate(
     seed = as_seed(seed)
     given = dict(paths=paths, seed=seed, dt=dt, method=method, threads=threads,
                  checkpoint=checkpoint, client=client, progress=progress, error=error,
-                 rel_error=rel_error, statistics=statistics, max_seconds=max_seconds)
+                 rel_error=rel_error, statistics=statistics, max_seconds=max_seconds,
+                 event_depth=event_depth)
     try:
         return _simulate(scene, **given)
     except UnresolvableGrid as exc:
@@ -464,7 +474,7 @@ def _exact_part(scene: Scene, statistics) -> Optional[Scene]:
 
 
 def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, client, progress,
-              error, rel_error, statistics, max_seconds):
+              error, rel_error, statistics, max_seconds, event_depth=None):
     """simulate's work, for one scene as given (checked by the spec, or by the run to an
     accuracy: :func:`crandall.spec.check_scene`)."""
     if error is not None or rel_error is not None:
@@ -472,6 +482,10 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
             if value is not None:
                 raise ParameterError(name, f"{name}: not with error= or rel_error= (the run chooses its "
                                  "grids and paths itself)")
+        if event_depth is not None:
+            raise ParameterError("event_depth", "event_depth: not with error= or rel_error= (their "
+                                 "levels keep the default depth 8, at which their coverage "
+                                 "was calibrated)")
         check_client(client)
         if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
             raise ParameterError("checkpoint", f"checkpoint must be a path, got {checkpoint!r}")
@@ -499,7 +513,7 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
             seed = _ckpt.stored_seed(checkpoint)
     check_client(client)
     spec, cores = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
-                           threads=threads)
+                           threads=threads, event_depth=event_depth)
     run = FixedStep(spec, threads=cores, task_threads=resolve_threads(threads)[1])
     return drive(run, checkpoints=checkpoint, client=client, progress=progress)[0]
 
@@ -516,6 +530,7 @@ def simulate_many(
     client: Any = None,
     progress: Optional[bool] = None,
     dataset: bool = False,
+    event_depth: Optional[int] = None,
 ) -> Any:
     """Simulate several scenes (a parameter sweep); one :class:`Result` per scene, in order.
 
@@ -527,8 +542,9 @@ def simulate_many(
     ----------
     scenes : sequence of Scene
         The scenes, e.g. ``[Scene(mu=m, h=1, t0=2, times=ts) for m in (0.1, 0.2, 0.3)]``.
-    paths, method, threads, client, progress
-        As for :func:`simulate`.
+    paths, method, threads, client, progress, event_depth
+        As for :func:`simulate` (event_depth for every scene: each must then have a filtered
+        excitation).
     seed : int, optional
         One seed for every scene (common random numbers: the sweep's curves are smooth in the
         parameter); None draws one, recorded on every result.
@@ -577,7 +593,7 @@ def simulate_many(
         if not isinstance(scene, Scene):
             raise ParameterError("scenes", f"scenes[{i}] must be a crandall.Scene, got {type(scene).__name__}")
         spec, t = run_spec(scene, paths=paths, seed=seed, dt=dt, method=method,
-                           threads=threads)
+                           threads=threads, event_depth=event_depth)
         seed = spec.seed  # a drawn seed is shared by the following scenes
         runs.append(FixedStep(spec, threads=t, task_threads=resolve_threads(threads)[1]))
     results = drive(runs, checkpoints=files, client=client, progress=progress)

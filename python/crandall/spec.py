@@ -1,7 +1,7 @@
 """A run's specification: what makes two runs the same run.
 
-A :class:`RunSpec` (scene, paths, seed, dt, method, min_steps) is checked once, when it is
-made; everything downstream (the core's plan, the checkpoint's identity, a saved file's
+A :class:`RunSpec` (scene, paths, seed, dt, method, min_steps, event_depth) is checked once,
+when it is made; everything downstream (the core's plan, the checkpoint's identity, a saved file's
 attributes, a Dask task) takes a spec and trusts it. The result of a run is a pure function of
 its spec (and the crandall version): the thread count, the chunking and the machine do not
 enter it. A new run option is a new field here (docs/architecture.md).
@@ -17,18 +17,26 @@ from typing import Any, Dict, Optional
 
 import numpy as np
 
-from .methods import DEFAULT_DT_FILTER, DEFAULT_DT_TAU, DEFAULT_DT_TAU_FILTER, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, METHODS
+from .methods import DEFAULT_DT_FILTER, DEFAULT_DT_TAU, DEFAULT_DT_TAU_FILTER, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, GRIDS, METHODS
 from .errors import ParameterError, UnresolvableGrid
-from .model import GRID_ORDERS, Identity, check_simulated, holds, require
+from .model import FILTERED_EXCITATION, GRID_ORDERS, Identity, check_simulated, holds, require
 from .scene import Scene
 
-__all__ = ["RunSpec", "default_dt", "default_method", "MAX_PATHS", "check_int", "check_scene", "check_positive",
+__all__ = ["RunSpec", "default_dt", "default_method", "MAX_PATHS", "MIN_EVENT_DEPTH",
+           "MAX_EVENT_DEPTH", "check_int", "check_scene", "check_positive",
            "draw_seed", "is_real"]
 
 #: Most paths one run may have: path indices and chunk counts stay well inside 64 bits.
 MAX_PATHS = 1 << 63
 #: Seeds are 64-bit.
 MAX_SEED = (1 << 64) - 1
+#: The range of a filtered excitation's ``event_depth`` (bisections of a step in which a stop or
+#: an onset may happen; docs/filtered.md). At most the core's kMaxEventDepth (plan.hpp); at
+#: least what every plan of a run needs: the bias estimate's coupled run walks the most grids
+#: (``methods.GRIDS``), and the core bisects its coarsest grid's steps at the finer grids'
+#: points first, so it needs ``grids - 1`` bisections.
+MIN_EVENT_DEPTH = max(GRIDS.values()) - 1
+MAX_EVENT_DEPTH = 20
 
 
 def check_int(name: str, value, minimum: int, maximum: Optional[int] = None) -> int:
@@ -149,6 +157,19 @@ def check_method(method, scene: Optional[Scene] = None) -> str:
     return method
 
 
+def check_event_depth(event_depth, scene: Scene) -> Optional[int]:
+    """``event_depth`` if it is None (the core's default) or an int in [``MIN_EVENT_DEPTH``,
+    ``MAX_EVENT_DEPTH``] for a scene with a filtered excitation; else a ParameterError naming
+    ``event_depth``."""
+    if event_depth is None:
+        return None
+    if FILTERED_EXCITATION not in scene.effects:
+        raise ParameterError("event_depth", "event_depth: only a filtered excitation "
+                             "(crandall.KanaiTajimi, crandall.CloughPenzien) searches its steps "
+                             "for events; this scene's white noise has no event search")
+    return check_int("event_depth", event_depth, MIN_EVENT_DEPTH, MAX_EVENT_DEPTH)
+
+
 def default_method(scene: Scene) -> str:
     """The method ``simulate`` uses for ``scene`` when none is given: ``DEFAULT_METHOD``, or
     "exact" for a scene whose grid bias does not expand as the Richardson methods assume
@@ -177,6 +198,13 @@ class RunSpec:
     min_steps : int
         The graded grid's resolution: the step before an output time or the switch-off t is
         at most t / min_steps (0: steps of dt only).
+    event_depth : int or None
+        A filtered excitation's event search: a step in which a stop or an onset may happen
+        is bisected down to steps of dt / 2^event_depth (docs/filtered.md, "The event
+        depth"). ``MIN_EVENT_DEPTH`` (2) to ``MAX_EVENT_DEPTH`` (20); None (the default):
+        the core's, 8. Refused for white noise, which has no event search. None is left out
+        of :meth:`to_dict`, so that the specs, checkpoints and files of runs that do not set
+        it are what they were.
     """
 
     scene: Scene
@@ -185,6 +213,7 @@ class RunSpec:
     dt: float
     method: str
     min_steps: int = 0
+    event_depth: Optional[int] = None
 
     def __post_init__(self) -> None:
         check_scene(self.scene)
@@ -192,14 +221,17 @@ class RunSpec:
                   "seed": check_int("seed", self.seed, 0, MAX_SEED),
                   "dt": check_positive("dt", self.dt),
                   "method": check_method(self.method, self.scene),
-                  "min_steps": check_int("min_steps", self.min_steps, 0)}
+                  "min_steps": check_int("min_steps", self.min_steps, 0),
+                  "event_depth": check_event_depth(self.event_depth, self.scene)}
         for name, value in fields.items():
             object.__setattr__(self, name, value)
 
     @classmethod
     def create(cls, scene: Scene, *, paths: int, seed: Optional[int] = None,
-               dt: Optional[float] = None, method: Optional[str] = None) -> "RunSpec":
-        """The spec of ``simulate(scene, paths=..., seed=..., dt=..., method=...)``.
+               dt: Optional[float] = None, method: Optional[str] = None,
+               event_depth: Optional[int] = None) -> "RunSpec":
+        """The spec of ``simulate(scene, paths=..., seed=..., dt=..., method=...,
+        event_depth=...)``.
 
         ``seed=None`` draws one from the operating system (recorded in the spec, so the run
         can be repeated); ``method=None`` takes :func:`default_method`; ``dt=None`` takes :func:`default_dt` on the graded grid
@@ -208,7 +240,8 @@ class RunSpec:
         Raises
         ------
         ValueError
-            Naming the first bad argument, in the order scene, paths, seed, dt, method.
+            Naming the first bad argument, in the order scene, paths, seed, dt, method,
+            event_depth.
         """
         check_scene(scene)
         check_int("paths", paths, 1, MAX_PATHS)  # before any default is worked out
@@ -224,7 +257,7 @@ class RunSpec:
                                  "(times or t0 out of range); give dt")
         if method is None:
             method = default_method(scene)
-        return cls(scene, paths, seed, dt, method, min_steps)
+        return cls(scene, paths, seed, dt, method, min_steps, event_depth)
 
     # -- plain data: checkpoints, saved files, Dask tasks -----------------------------------
 
@@ -232,9 +265,12 @@ class RunSpec:
         """The spec as plain data (JSON-able); :meth:`from_dict` rebuilds an equal spec.
 
         The identity of a checkpoint (``crandall.checkpoint.identity``), the run attributes
-        of a saved result and the argument of a Dask task are this dictionary.
+        of a saved result and the argument of a Dask task are this dictionary. An
+        ``event_depth`` of None (the core's default) is left out: the dictionary of a run that
+        does not set it is what it was before the field existed.
         """
-        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+               if not (f.name == "event_depth" and self.event_depth is None)}
         out["scene"] = self.scene.to_dict()
         return out
 

@@ -1,0 +1,80 @@
+"""A filtered excitation's event depth as a run option (RunSpec.event_depth; docs/filtered.md,
+"The event depth"): its range is the core's, the default runs as before, and the bias estimate
+of a run at a coarse depth covers what the depth moves."""
+
+import math
+
+import numpy as np
+import pytest
+
+import crandall
+from crandall import KanaiTajimi, Scene, _core, engine
+from crandall.spec import MAX_EVENT_DEPTH, MIN_EVENT_DEPTH, RunSpec
+from conftest import same_result
+
+# bench/filtered.py's scene at omega t* = 4: zeta = 0.6, h = 1, mu g = 1, t0 = 10 s (t* = 2 s).
+SCENE = Scene(mu=1.0, g=1.0, excitation=KanaiTajimi(omega=2.0, zeta=0.6, h=1.0), t0=10.0,
+              times=[10.0], observe=["distance", "stop"])
+
+
+def _plan(spec, **options):
+    o = engine.plan_options(spec, histograms=False)
+    for name, value in options.items():
+        setattr(o, name, value)
+    return _core.Plan(o)
+
+
+def test_the_range_is_the_cores():
+    spec = RunSpec.create(SCENE, paths=10, seed=1, event_depth=MAX_EVENT_DEPTH)
+    _plan(spec)
+    with pytest.raises(ValueError, match="event_depth"):
+        _plan(spec, event_depth=MAX_EVENT_DEPTH + 1)
+    # The bias estimate's coupled run (three grids) needs MIN_EVENT_DEPTH, not one less.
+    low = RunSpec.create(SCENE, paths=10, seed=1, event_depth=MIN_EVENT_DEPTH)
+    _plan(low, method="richardson")
+    with pytest.raises(ValueError, match="event_depth must be at least"):
+        _plan(low, method="richardson", event_depth=MIN_EVENT_DEPTH - 1)
+    for bad, match in ((MIN_EVENT_DEPTH - 1, ">= 2"), (MAX_EVENT_DEPTH + 1, "<= 20"),
+                       (4.0, "an integer"), (True, "an integer")):
+        with pytest.raises(crandall.ParameterError, match="event_depth must be") as info:
+            crandall.simulate(SCENE, paths=10, seed=1, event_depth=bad)
+        assert match in str(info.value)
+    with pytest.raises(crandall.ParameterError, match="event_depth: not with"):
+        crandall.simulate(SCENE, rel_error=0.1, event_depth=4)
+
+
+def test_the_default_depth_is_the_cores_and_leaves_the_spec_as_it_was():
+    default = crandall.simulate(SCENE, paths=300, seed=3, threads=1)
+    assert "event_depth" not in default.spec.to_dict()
+    eight = crandall.simulate(SCENE, paths=300, seed=3, threads=1, event_depth=8)
+    assert eight.spec.to_dict()["event_depth"] == 8
+    assert same_result(default, eight)
+
+
+def test_the_bias_estimate_covers_what_a_coarse_depth_moves():
+    # Paired: the same seed at depths 4 and 8 walks the same skeleton and the same bridges
+    # (a node's random numbers depend on its place in the bisection tree only), so the
+    # per-path difference of the distance at the stop resolves the depth's shift.
+    n = 2000
+    spec8 = RunSpec.create(SCENE, paths=n, seed=1)
+    spec4 = RunSpec.create(SCENE, paths=n, seed=1, event_depth=4)
+    s8, s4 = (np.asarray(_core.run_samples(_plan(s), 0, n, 1))[:, 1, 0, 2]
+              for s in (spec8, spec4))
+    diff = s4 - s8
+    shift, se = float(diff.mean()), float(diff.std(ddof=1)) / math.sqrt(n)
+    # Measured: shift -4.7e-4 (of a mean 3.85), se 6.3e-5.
+    assert abs(shift) > 4 * se, "the depth moves the mean"
+    r4 = crandall.simulate(SCENE, paths=n, seed=1, threads=1, event_depth=4)
+    bias = float(r4.bias("distance_at_stop", "mean"))  # measured 5.1e-4
+    # Depth 8's own error is far below depth 4's (its estimate here: 9e-6), so the shift is
+    # depth 4's error, which the bias estimate (other paths, each grid bisected 4 times below
+    # its own step) must cover within the shift's 3 standard errors...
+    assert abs(shift) <= bias + 3 * se
+    # ... and not only as a loose bound: an estimate (a resolved difference of the coupled
+    # grids times the measured order's factor r / (r - 1), at most 2 where the error falls at
+    # least twofold per halving) within twice the shift's upper end.
+    assert not r4.bias_is_bound("distance_at_stop", "mean")
+    assert bias <= 2 * (abs(shift) + 3 * se)
+    # At the default depth the estimate is far smaller than the shift.
+    r8 = crandall.simulate(SCENE, paths=n, seed=1, threads=1)
+    assert float(r8.bias("distance_at_stop", "mean")) < (abs(shift) - 3 * se) / 10
