@@ -71,17 +71,11 @@ class _Problem:
             raise ParameterError("scene", f"scene: crandall.tail continues the paths of the "
                                  f"sign-drift diffusion or of a filtered excitation, not those "
                                  f"of a scene with {missing}")
-        if self.filtered:
-            if getattr(scene.excitation, "ring_down", False):
-                raise ParameterError(
-                    "scene", "scene: crandall.tail needs the shaking to end at t0 (ring_down="
-                    "False): with ring_down=True the filter rings on after it, and the coast "
-                    "after the grid is no longer the deceleration mu g")
-            if self.q.peak:
-                raise ParameterError(
-                    "quantity", f"quantity: {quantity} is not available for a filtered "
-                    "excitation (a continued filtered path's state does not carry the running "
-                    "maxima of the path it branched from; a fixed-step run gives its law)")
+        if self.filtered and self.q.peak:
+            raise ParameterError(
+                "quantity", f"quantity: {quantity} is not available for a filtered "
+                "excitation (a continued filtered path's state does not carry the running "
+                "maxima of the path it branched from; a fixed-step run gives its law)")
         c = scene.drift
         end = scene.pieces[-1][0] if scene.pieces is not None else scene.t0
         if self.q.at_stop:
