@@ -25,7 +25,9 @@ An excitation names the model effects it adds (:attr:`Excitation.effects`, see
 :mod:`crandall.model`): every identity that rests on white noise (the exact velocity step,
 the Ito identity of the mean distance, the isometry, the closed forms, the scaling, the
 tails' sign-drift model) declines a filtered scene, so no number is labelled exact or taken
-from a white-noise formula for it.
+from a white-noise formula for it. A filter that rings down after t0 (``ring_down=True``) adds
+the effect ``ring_down``, which what rests on the shaking ending at t0 declines (a tail's
+splitting).
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ import numpy as np
 
 from .errors import ParameterError
 from .model import FILTERED_EXCITATION as FILTERED
+from .model import RING_DOWN
 
 __all__ = ["Excitation", "WhiteNoise", "Filtered", "KanaiTajimi", "CloughPenzien",
            "FILTERED", "from_dict", "psd_intensity"]
@@ -110,7 +113,9 @@ class Filtered(Excitation):
 
     @property
     def effects(self) -> FrozenSet[str]:
-        return frozenset({FILTERED})
+        # The ring-down is an effect of its own: the estimators that rest on the shaking
+        # ending at t0 (tails' splitting, model.TAIL_SPLITTING) refuse it through the model.
+        return frozenset({FILTERED, RING_DOWN} if self.ring_down else {FILTERED})
 
     def matrices(self) -> Tuple[Tuple[Tuple[float, ...], ...], Tuple[float, ...], Tuple[float, ...]]:
         """(A, b, c): dz = A z dt + b h(t) dW, a_g = c . z."""

@@ -26,7 +26,7 @@ from .errors import ParameterError
 from .quantities import DISTANCE, VELOCITY, quantity
 
 __all__ = ["Identity", "INITIAL_STATE", "PIECEWISE_INTENSITY", "ENVELOPE", "SCHEDULE", "exact", "ito_constant", "noise_energy", "EXACT_STEP", "ITO_DISTANCE", "ISOMETRY", "ZERO_FRICTION", "ANALYTIC", "SCALING", "SIMULATED",
-           "FILTERED_EXCITATION", "STATIC_FRICTION", "LEVELS", "FILTERED_LEVELS", "TAIL_MODEL", "TAIL_SPLITTING", "MOVING_AT_SWITCH_OFF", "GRID_ORDERS", "require", "holds", "isometry_applies", "check_simulated", "exact_in_law"]
+           "FILTERED_EXCITATION", "STATIC_FRICTION", "RING_DOWN", "LEVELS", "FILTERED_LEVELS", "TAIL_MODEL", "TAIL_SPLITTING", "MOVING_AT_SWITCH_OFF", "GRID_ORDERS", "require", "holds", "isometry_applies", "check_simulated", "exact_in_law"]
 
 
 #: The body starts with a velocity v0 or a displacement u0 (Scene(v0=, u0=)).
@@ -43,6 +43,10 @@ FILTERED_EXCITATION = "filtered_excitation"
 #: Static friction above the kinetic (Scene(mu_static=)): a body at rest stays at rest while
 #: the ground's acceleration is at most mu_static g (with a filtered excitation only).
 STATIC_FRICTION = "static_friction"
+#: The switch-off ends only a filtered excitation's driving noise (KanaiTajimi(...,
+#: ring_down=True)): the filter rings on after t0, so the ground keeps moving, ever less, and
+#: the stop is the last time the body comes to rest. Without it a_g = 0 from t0 on.
+RING_DOWN = "ring_down"
 
 
 @dataclass(frozen=True)
@@ -85,15 +89,16 @@ ISOMETRY = Identity(
 ZERO_FRICTION = Identity(
     "zero_friction", "without friction (mu = 0) the dissipated energy is 0 on every path",
     frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE, FILTERED_EXCITATION,
-               STATIC_FRICTION}))
+               STATIC_FRICTION, RING_DOWN}))
 #: The simulated schedule is the scene's intensity. Not for an envelope: its pieces keep the
 #: envelope's mean h^2 on each piece but not its law, so a statistic of the pieces (even one
 #: exact in law for them) differs from the envelope's by the piece error, which
-#: crandall.bias estimates by halving the pieces and reports in the bias.
+#: crandall.bias estimates by halving the pieces and reports in the bias. A ring-down changes
+#: what happens after the pieces, not the pieces.
 SCHEDULE = Identity(
     "schedule", "the simulated pieces are the scene's intensity (not an envelope's "
     "approximation)", frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, FILTERED_EXCITATION,
-                                 STATIC_FRICTION}))
+                                 STATIC_FRICTION, RING_DOWN}))
 #: The analytic layer's closed forms (crandall.analytic): the paper's scene only.
 ANALYTIC = Identity("analytic", "the closed forms of crandall.analytic (the paper's scene)")
 
@@ -131,11 +136,14 @@ LEVELS = Identity(
 #: no exact or Ito targets (none holds there), the bias from the measured ratio of the finest
 #: levels' means, first order where it is not resolved (docs/methods/adaptive.md). An envelope's
 #: pieces are chosen and their error estimated by coupled runs of the filtered core (crandall.pieces,
-#: bias.piece_method), as for white noise.
+#: bias.piece_method), as for white noise. A ring-down is walked by the same coupled grids (the
+#: stop located with its decay bound on each), and nothing of the estimator assumes a_g = 0
+#: after t0.
 FILTERED_LEVELS = Identity(
     "filtered_levels", "runs to an accuracy: the multilevel estimator on the filtered core's "
     "coupled grids, its bias from the measured order of the finest levels",
-    frozenset({FILTERED_EXCITATION, STATIC_FRICTION, INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE}))
+    frozenset({FILTERED_EXCITATION, STATIC_FRICTION, INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE,
+               RING_DOWN}))
 #: Tail probabilities (crandall.tail), the sign-drift parts: the velocity is a diffusion whose
 #: drift is -c sign(V), with its transition density (importance sampling's weights), the
 #: normalised splitting score and its formulas, and crandall.paths' white-noise steps.
@@ -146,18 +154,22 @@ TAIL_MODEL = Identity(
 #: Tail probabilities by splitting (crandall.tail): the body's state on the grid, with the
 #: filter's under a filtered excitation, is Markov, so a path can be continued from any grid
 #: point with fresh noise; the shaking ends at t0 (a_g = 0 after it), so the coast after the
-#: grid is the deceleration c as under white noise.
+#: grid is the deceleration c as under white noise. Not with a ring-down (RING_DOWN): the
+#: filter's acceleration after t0 would move the body on, and the tail's scores (the stop
+#: time, the velocity after the grid, where the body stops) would no longer end at the
+#: quantity.
 TAIL_SPLITTING = Identity(
-    "tail_splitting", "tail probabilities by splitting: the state on the grid is Markov and "
-    "the coast after t0 is the deceleration mu g",
+    "tail_splitting", "tail probabilities by splitting: the state on the grid is Markov, and "
+    "the shaking ends at t0 (no filter ringing on after it), so the coast after the grid is "
+    "the deceleration mu g",
     frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE, FILTERED_EXCITATION,
                STATIC_FRICTION}))
 
 #: The effects the core simulates: a start from any state, a piecewise intensity (no step
 #: straddles a piece's end), also as an envelope's pieces, and a filtered excitation with
-#: static friction (its exact Gaussian skeleton, cpp/src/filtered.cpp).
+#: static friction and its ring-down (its exact Gaussian skeleton, cpp/src/filtered.cpp).
 SIMULATED: FrozenSet[str] = frozenset({INITIAL_STATE, PIECEWISE_INTENSITY, ENVELOPE,
-                                       FILTERED_EXCITATION, STATIC_FRICTION})
+                                       FILTERED_EXCITATION, STATIC_FRICTION, RING_DOWN})
 
 
 def isometry_applies(q, scene) -> bool:

@@ -378,8 +378,9 @@ class Scene:
         intensities (or pauses between them), ``"envelope"`` when it is given as a smooth
         envelope (``Scene(envelope=...)``, however few pieces remain shaken),
         ``"filtered_excitation"`` when the ground acceleration is a filter of the noise
-        (``Scene(excitation=KanaiTajimi(...))``), ``"static_friction"`` when ``mu_static``
-        exceeds ``mu``. Each identity or closed form that crandall uses lists the effects it
+        (``Scene(excitation=KanaiTajimi(...))``), with ``"ring_down"`` when its filter rings
+        on after t0 (``ring_down=True``), ``"static_friction"`` when ``mu_static`` exceeds
+        ``mu``. Each identity or closed form that crandall uses lists the effects it
         still holds under (:mod:`crandall.model`) and is used only for scenes whose effects it
         supports."""
         out = set()

@@ -29,9 +29,10 @@ up where its module uses it, so a test replaces it there (``crandall.tail.run.sa
 
 from .entry import (MAX_PARETO_SHAPE, MIN_EFFECTIVE_SAMPLES, MIN_REL_ERROR, MIN_SPLITTING_STEPS,
                     TAIL_METHODS, _advice, _levels, tail)
-from .importance import (DEFENSIVE, SIGN_QUANTITIES, _choose_proposal, _excursions,
-                         _importance_batch, _proposal, pareto_shape)
-from .problem import TAIL_QUANTITIES, _extend, _grid_for, _Problem, log_transition_density
+from .importance import (DEFENSIVE, _choose_proposal, _excursions, _importance_batch, _proposal,
+                         pareto_shape)
+from .problem import (SCORES, TAIL_QUANTITIES, TailScore, _extend, _grid_for, _Problem,
+                      log_transition_density)
 from .result import StatisticsFailure, TailResult
 from .run import _check_samples, _digest, _TailRun, sample, variance_upper_factor
 from .splitting import _normalised_top, _splitting_replica

@@ -20,7 +20,7 @@ from ..model import EXACT_STEP, TAIL_MODEL, holds
 from ..results import StatisticsWarning
 from ..scene import Scene
 from ..spec import MAX_SEED, as_seed, check_int, draw_seed, is_real
-from .importance import _choose_proposal, _TOP_WEIGHTS, pareto_shape, SIGN_QUANTITIES
+from .importance import _choose_proposal, _TOP_WEIGHTS, pareto_shape, SIGN_PILOT
 from .problem import _extend, _grid_for, _Problem
 from .result import _stats, StatisticsFailure, TailResult
 from .run import _check_memory, _TailRun
@@ -294,9 +294,10 @@ def tail(scene: Scene, quantity: str, levels: Union[float, Sequence[float]], *,
                            score=("plain" if _normalised_top(problem, lv) is None
                                   else "normalised"))
     else:
-        # The displacement's proposals hit less often in their pilot (a few per cent at 1e-9):
-        # more pilot paths, so that the best of them shows its 20 hits.
-        pilot = max(1024 if quantity in SIGN_QUANTITIES else 256, particles)
+        # The displacement's proposals (its score re-draws the signs) hit less often in their
+        # pilot (a few per cent at 1e-9): more pilot paths, so that the best of them shows its
+        # 20 hits.
+        pilot = max(SIGN_PILOT if problem.tail_score.signs is not None else 256, particles)
         # The proposal pilot's paths are allocated too: checked before it, as the run's are.
         grid = _grid_for(problem, problem.horizon)
         _check_memory(pilot, 8 * 3 * (grid.steps + 1), threads, "dt",

@@ -84,7 +84,7 @@ def _importance_batch(problem, law, levels, paths, key, first, threads):
     """Per path and level: the path's weight if it passes the level, else 0."""
     states = problem.start_states(paths)
     rows = np.arange(paths)
-    if problem.q.name in SIGN_QUANTITIES:
+    if problem.tail_score.signs is not None:
         # A defensive mixture (Hesterberg 1995): the first DEFENSIVE of the paths under the
         # scene's own law, the others under the proposal; each weighed against the mixture,
         # which bounds the speeds' part of the weight by 1 / DEFENSIVE.
@@ -121,9 +121,10 @@ def _importance_batch(problem, law, levels, paths, key, first, threads):
 
 # -- importance sampling of the displacement: the signs re-drawn ----------------------------
 
-#: The quantities whose importance sampling re-draws the signs of the velocity's excursions
-#: (a friction change alone pushes the distance, not the displacement, one way).
-SIGN_QUANTITIES = ("displacement_at_stop", "residual_displacement")
+# The quantities whose importance sampling re-draws the signs of the velocity's excursions (a
+# friction change alone pushes the distance, not the displacement, one way) are those whose
+# tail score declares ``signs`` (problem.SCORES: the displacement at the stop and its
+# magnitude); the constants below are theirs.
 #: The share of their paths simulated under the scene's own law, and of their signs drawn as
 #: fair coins (defensive mixtures); for the velocity quantities, of the paths under the
 #: full-horizon component of a window's proposal (_proposal). On the stop time at tau0 = 20
@@ -133,6 +134,11 @@ SIGN_QUANTITIES = ("displacement_at_stop", "residual_displacement")
 DEFENSIVE = 0.1
 #: Their proposals' speed thresholds, in units of the stationary mean speed sigma^2 / (2 c).
 SLOW_FACTORS = (0.0, 1.0)
+#: Their proposals' frictions, in units of c (see _choose_proposal).
+SIGN_DRIFTS = (1.0, 0.5, 0.0, -0.25, -0.5)
+#: Their proposal pilot's least paths per proposal (the others': 256): their proposals hit
+#: less often in it (a few per cent at 1e-9), so that the best of them shows its 20 hits.
+SIGN_PILOT = 1024
 #: Tilts are solved for in t = theta max_j B_j, in [0, _MAX_TILT] (tanh(40) is 1 in doubles).
 _MAX_TILT = 40.0
 
@@ -188,7 +194,8 @@ def _tilt(fixed: np.ndarray, parts: np.ndarray, top: np.ndarray, target: float,
 def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray,
               levels: np.ndarray, key: int, first: int):
     """The displacement's quantity with the excursions' signs re-drawn, and log dP/dQ of the
-    signs.
+    signs (``levels`` in the quantity's units; the value too: the score times the row's
+    factor).
 
     Under the scene's law the sign after each touch of 0 is a fair coin, independent of the
     speeds. So the displacement at the stop is U = U_fixed + sum_j s_j B_j: B_j the distance
@@ -206,10 +213,11 @@ def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray,
     rng = np.random.Generator(np.random.PCG64(np.random.SeedSequence([key, first, 1 << 40])))
     pick, draws = rng.random(n), rng.random(free.shape)
     # The components: (theta per path, direction); the fair coin first.
+    magnitude = problem.tail_score.signs == "magnitude"
     parts = [(np.zeros(n), 1.0)]
-    for level in np.asarray(levels, dtype=float):
+    for level in problem.in_score_units(np.asarray(levels, dtype=float)):
         parts.append((_tilt(fixed, free, top, level, 1.0), 1.0))
-        if problem.q.name == "residual_displacement":
+        if magnitude:
             parts.append((_tilt(fixed, free, top, -level, -1.0), -1.0))
     # The fair coin takes DEFENSIVE of the paths, the tilts share the rest equally.
     share = np.array([DEFENSIVE] + [(1.0 - DEFENSIVE) / (len(parts) - 1)] * (len(parts) - 1))
@@ -226,9 +234,9 @@ def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray,
                       for w, (th, d) in zip(share, parts)])
     log_q = np.logaddexp.reduce(log_q, axis=0)
     value = fixed + total
-    if problem.q.name == "residual_displacement":
+    if magnitude:
         value = np.abs(value)
-    return value, -log_q
+    return problem._times_factor(value), -log_q
 
 
 def _excursions(problem: _Problem, states: np.ndarray, touched: np.ndarray):
@@ -256,16 +264,14 @@ def _excursions(problem: _Problem, states: np.ndarray, touched: np.ndarray):
 
 
 def _ld_windows(problem: _Problem, top: float) -> List[float]:
-    """Windows from the large-deviation path of the velocity quantities: |V| climbs to a level
-    a at the rate c of the reversed friction over its last a / c (the time reversal of the
-    relaxation), so the proposal reverses the friction over that window."""
-    c, name = problem.scene.drift, problem.q.name
-    if name == "stop_time":
-        a = (top - problem.horizon) * c
-    elif name in ("speed", "velocity", "peak_speed_at_stop"):
-        a = abs(top) + c * problem.coast
-    else:
+    """Windows from the large-deviation path of the velocity quantities (the tail scores that
+    declare ``ld_speed``): |V| climbs to a level a at the rate c of the reversed friction over
+    its last a / c (the time reversal of the relaxation), so the proposal reverses the
+    friction over that window."""
+    c, speed = problem.scene.drift, problem.tail_score.ld_speed
+    if speed is None:
         return []
+    a = speed(problem, problem.in_score_units(top))
     if not (c > 0 and a > 0):
         return []
     return [min(problem.horizon, a / c)]
@@ -290,16 +296,17 @@ def _choose_proposal(problem, levels, key, threads, pilot, budget=None):
     windows = sorted({problem.horizon * f for f in (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0)}
                      | set(_ld_windows(problem, top)))
     drifts = [c * f for f in (1.0, 0.5, 0.0, -0.5, -1.0, -1.5, -2.0)]
-    if problem.q.name in SIGN_QUANTITIES:
+    signs = problem.tail_score.signs is not None
+    if signs:
         # The signs are tilted already; the speeds need a lower friction, at most half
         # reversed: on the paper's scene (dt = 0.05, 20000 paths per proposal) a friction of
         # -c/2 over the whole horizon had the smallest relative variance per path at 5e-7 and
         # 1e-9 (62 and 79, Pareto shapes 0.55 and 0.42), a reversed -c a heavy tail at 5e-7
         # (shape 0.90).
-        drifts = [c * f for f in (1.0, 0.5, 0.0, -0.25, -0.5)]
+        drifts = [c * f for f in SIGN_DRIFTS]
     # The displacement's proposals may also change the friction only while the body slides
     # faster than the stationary mean speed (SLOW_FACTORS; 0: whatever its speed).
-    slows = SLOW_FACTORS if problem.q.name in SIGN_QUANTITIES else (0.0,)
+    slows = SLOW_FACTORS if signs else (0.0,)
     # The velocity quantities' windows shorter than the horizon draw DEFENSIVE of their paths
     # with the friction over the whole horizon that did best on its own (_proposal: their
     # weights are bounded then). The whole horizon's proposals are tried first, to know it.

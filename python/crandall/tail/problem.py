@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any, Dict, Iterator, NamedTuple, Optional, Sequence
+from typing import Any, Callable, Dict, Iterator, NamedTuple, Optional, Sequence
 
 import numpy as np
 
@@ -71,17 +71,11 @@ class _Problem:
             raise ParameterError("scene", f"scene: crandall.tail continues the paths of the "
                                  f"sign-drift diffusion or of a filtered excitation, not those "
                                  f"of a scene with {missing}")
-        if self.filtered:
-            if getattr(scene.excitation, "ring_down", False):
-                raise ParameterError(
-                    "scene", "scene: crandall.tail needs the shaking to end at t0 (ring_down="
-                    "False): with ring_down=True the filter rings on after it, and the coast "
-                    "after the grid is no longer the deceleration mu g")
-            if self.q.peak:
-                raise ParameterError(
-                    "quantity", f"quantity: {quantity} is not available for a filtered "
-                    "excitation (a continued filtered path's state does not carry the running "
-                    "maxima of the path it branched from; a fixed-step run gives its law)")
+        if self.filtered and self.q.peak:
+            raise ParameterError(
+                "quantity", f"quantity: {quantity} is not available for a filtered "
+                "excitation (a continued filtered path's state does not carry the running "
+                "maxima of the path it branched from; a fixed-step run gives its law)")
         c = scene.drift
         end = scene.pieces[-1][0] if scene.pieces is not None else scene.t0
         if self.q.at_stop:
@@ -151,11 +145,11 @@ class _Problem:
                 self._normal = (points, cum, stationary, step)
         return self._normal
 
-    #: The scores (Quantity.tail) normalised by the spread still to come in splitting (when a
-    #: run asks for one level): the distance at the stop (and the energy, its multiple) and the
-    #: displacement where the body would stop, whose martingale parts all grow at the rate
-    #: sigma^2 V^2 / c^2 (the sign-drift diffusion: model.TAIL_MODEL).
-    NORMALISED = ("distance_at_stop", "displacement_at_stop", "residual_displacement")
+    @property
+    def tail_score(self) -> "TailScore":
+        """The quantity's tail score (its row's ``tail``, a key of SCORES) and what the tail's
+        methods know of it."""
+        return SCORES[self.q.tail]
 
     def first_random_point(self) -> int:
         """The first grid point that differs between paths: the end of the first noisy step."""
@@ -163,7 +157,7 @@ class _Problem:
 
     def split_score(self, states: np.ndarray, top: Optional[float], uncoast: bool = False):
         """(the score splitting ranks paths by, the quantity's score), both of shape
-        states.shape[:2]. With ``top`` (a run of one level, for the NORMALISED quantities) the
+        states.shape[:2]. With ``top`` (a run of one level, for a score declared ``normalised``) the
         first is (m - top) / sd, m the quantity's score (its conditional mean, or where the body
         would stop now) and sd^2 an estimate of the variance still to come: sigma^2 (|V| / c -
         r)^2 integrated while the speed would decay to zero, plus the stationary speed's share
@@ -194,11 +188,11 @@ class _Problem:
         return self.q.factor(self.scene)
 
     def normalisable(self, schedule: bool = True) -> bool:
-        """Whether split_score's normalisation serves: a NORMALISED quantity, one intensity
+        """Whether split_score's normalisation serves: a ``normalised`` score, one intensity
         (unless ``schedule`` is False: bench/tails_score.py measures the others), its
         sums finite and its floor eps^2 positive (an intensity far outside a physical range can
         overflow sigma^6 or underflow it to 0; such a run keeps the plain score)."""
-        if (not holds(self.scene, TAIL_MODEL) or self.q.tail not in self.NORMALISED
+        if (not holds(self.scene, TAIL_MODEL) or not self.tail_score.normalised
                 or (schedule and not self.one_intensity())):
             return False
         points, cum, stationary, step = self._normaliser()
@@ -229,12 +223,21 @@ class _Problem:
         return (level - top) / (self._scale() * np.sqrt(0.0 + self.floor2()))
 
     @property
+    def core_quantity(self) -> Optional[int]:
+        """The quantity's index in the core's splitting loop (split_core.py), or None where
+        splitting.py's Python loop, the reference, runs it: the paths are the filtered walk's,
+        or the core has no score of the quantity. The core names the quantities it scores
+        (_core.SPLIT_QUANTITIES, split.hpp's kSplitQuantityNames): its own table of the rows
+        it computes, which the row's name is looked up in."""
+        names = _core.SPLIT_QUANTITIES
+        if self.filtered or self.q.name not in names:
+            return None
+        return names.index(self.q.name)
+
+    @property
     def in_core(self) -> bool:
-        """Whether splitting's loop runs in the core (split_core.py): the paths are the
-        white-noise grid's (_extend), not the filtered walk's, and the core computes the
-        quantity's score (its name is in _core.SPLIT_QUANTITIES); otherwise splitting.py's
-        Python loop, the reference, runs it."""
-        return not self.filtered and self.q.name in _core.SPLIT_QUANTITIES
+        """Whether splitting's loop runs in the core (:attr:`core_quantity`)."""
+        return self.core_quantity is not None
 
     @property
     def noisy_steps(self) -> int:
@@ -270,7 +273,7 @@ class _Problem:
         """Whether splitting ranks the paths by :meth:`uncoasted`: the velocity and the speed
         after the switch-off, at levels >= 0 (where Q > L if and only if the unclipped value
         exceeds L, so that a path past the level is always ranked past it)."""
-        return (self.q.tail in ("velocity", "speed") and self.coast > 0
+        return (self.tail_score.uncoast is not None and self.coast > 0
                 and bool(np.min(levels) >= 0))
 
     def uncoasted(self, states: np.ndarray) -> np.ndarray:
@@ -281,7 +284,7 @@ class _Problem:
         them, and above 0 it is the quantity."""
         v = states[..., 0]
         shift = self.scene.drift * self.coast
-        return self._times_factor((np.abs(v) if self.q.tail == "speed" else v) - shift)
+        return self._times_factor(self.tail_score.uncoast(v) - shift)
 
     def _coasted(self, v):
         """The velocity at the output time from the velocity at the end of the grid."""
@@ -294,11 +297,16 @@ class _Problem:
         """The score at every grid point, shape states.shape[:2]; its last point (or, for the
         peaks, its maximum over the path) is the quantity: its row's score (SCORES) times its
         factor."""
-        return self._times_factor(SCORES[self.q.tail](self, states))
+        return self._times_factor(self.tail_score.function(self, states))
 
     def _times_factor(self, out: np.ndarray) -> np.ndarray:
         f = self.q.factor(self.scene)
         return out if f == 1.0 else out * f
+
+    def in_score_units(self, x):
+        """A value of the quantity (a level) in its score's units: over its factor."""
+        f = self.q.factor(self.scene)
+        return x if f == 1.0 else x / f
 
     def value(self, score: np.ndarray) -> np.ndarray:
         return score.max(axis=-1) if self.q.peak else score[..., -1]
@@ -355,22 +363,65 @@ def _peak_speed_at_stop(p: _Problem, states: np.ndarray) -> np.ndarray:
     return np.abs(states[..., 0])  # the speed only falls after the last piece
 
 
-#: The tail scores (``Quantity.tail``): per grid point a function of the path's state whose
-#: last value (maximum over the path for a peak) is the quantity over its factor. The stop
-#: time, the velocity after the grid and where the body would stop rest on the coast at the
-#: deceleration c once the shaking has ended (model.TAIL_SPLITTING, checked by every tail
-#: run), the stop time from the horizon on the body moving there (model.MOVING_AT_SWITCH_OFF),
-#: the distance's conditional mean (``_Problem.remaining``) on model.ITO_DISTANCE.
-#: The core's loop computes the score of every quantity named in _core.SPLIT_QUANTITIES.
-SCORES = {
-    "stop_time": _stop_time,
-    "velocity": _velocity,
-    "speed": _speed,
-    "distance_at_stop": _distance_at_stop,
-    "displacement_at_stop": _ahead,
-    "residual_displacement": _residual_displacement,
-    "peak_displacement_at_stop": _peak_displacement_at_stop,
-    "peak_speed_at_stop": _peak_speed_at_stop,
+def _stop_time_speed(p: _Problem, top: float) -> float:
+    """The speed at the horizon from which the body coasts to rest at ``top``."""
+    return (top - p.horizon) * p.scene.drift
+
+
+def _speed_before_coast(p: _Problem, top: float) -> float:
+    """The speed at the end of the grid that coasts down to |``top``| at the output time."""
+    return abs(top) + p.scene.drift * p.coast
+
+
+def _signed(v: np.ndarray) -> np.ndarray:
+    return v
+
+
+class TailScore(NamedTuple):
+    """A tail score (``Quantity.tail`` names it) and what the tail's methods know of it; a row
+    with this score has them all, whatever its name. The score's values are the quantity over
+    the row's factor (levels go into them over it: ``_Problem.in_score_units``)."""
+
+    #: ``function(problem, states)``: the score at every grid point (shape states.shape[:2]);
+    #: its last value (its maximum over the path for a peak row) is the quantity over its factor.
+    function: Callable[[_Problem, np.ndarray], np.ndarray]
+    #: Splitting's normalised score serves it (a run of one level, _Problem.split_score): the
+    #: score's martingale part grows at the rate sigma^2 V^2 / c^2 (the sign-drift diffusion,
+    #: model.TAIL_MODEL), so the spread still to come normalises it.
+    normalised: bool = False
+    #: The score is the displacement where the body stops, u0 plus a stretch before the first
+    #: touch of 0 plus the stretches between touches each with a fair sign: importance sampling
+    #: re-draws those signs (importance.py, _resigned; with its own proposal drifts, speed
+    #: thresholds and pilot size). "signed": the displacement; "magnitude": its magnitude,
+    #: the signs tilted towards +level and -level. None: the signs are not re-drawn.
+    signs: Optional[str] = None
+    #: ``speed(problem, top)``: the speed a velocity quantity's large-deviation path reaches at
+    #: the end of the grid for the score ``top`` (|V| climbs to it at the rate c of the
+    #: reversed friction over its last speed / c): importance sampling adds that window to its
+    #: pilot's (importance.py, _ld_windows). None: no such window.
+    ld_speed: Optional[Callable[[_Problem, float], float]] = None
+    #: ``uncoast(v)``: the velocity's function (v or |v|) whose value minus the coast c (time -
+    #: horizon) splitting ranks by after the switch-off (_Problem.uncoasted); None: the score
+    #: itself.
+    uncoast: Optional[Callable[[np.ndarray], np.ndarray]] = None
+
+
+#: The tail scores (``Quantity.tail``), by key. The stop time, the velocity after the grid and
+#: where the body would stop rest on the coast at the deceleration c once the shaking has ended
+#: (model.TAIL_SPLITTING, checked by every tail run), the stop time from the horizon on the body
+#: moving there (model.MOVING_AT_SWITCH_OFF), the distance's conditional mean
+#: (``_Problem.remaining``) on model.ITO_DISTANCE. The core's loop computes the score of every
+#: quantity named in _core.SPLIT_QUANTITIES.
+SCORES: Dict[str, TailScore] = {
+    "stop_time": TailScore(_stop_time, ld_speed=_stop_time_speed),
+    "velocity": TailScore(_velocity, ld_speed=_speed_before_coast, uncoast=_signed),
+    "speed": TailScore(_speed, ld_speed=_speed_before_coast, uncoast=np.abs),
+    "distance_at_stop": TailScore(_distance_at_stop, normalised=True),
+    "displacement_at_stop": TailScore(_ahead, normalised=True, signs="signed"),
+    "residual_displacement": TailScore(_residual_displacement, normalised=True,
+                                       signs="magnitude"),
+    "peak_displacement_at_stop": TailScore(_peak_displacement_at_stop),
+    "peak_speed_at_stop": TailScore(_peak_speed_at_stop, ld_speed=_speed_before_coast),
 }
 
 

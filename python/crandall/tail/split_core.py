@@ -11,9 +11,6 @@ import numpy as np
 from .. import _core
 from .problem import _Problem
 
-#: The core's index of each quantity whose score it computes (split.hpp's SplitQuantity).
-_QUANTITY_INDEX = {name: i for i, name in enumerate(_core.SPLIT_QUANTITIES)}
-
 
 def core_replicas(problem: _Problem, levels: np.ndarray, particles: int, kill: int, key: int,
                   replicas: Sequence[int], threads: int, max_iterations: int,
@@ -23,7 +20,6 @@ def core_replicas(problem: _Problem, levels: np.ndarray, particles: int, kill: i
     loop, which runs them in step (their clones share the vector lanes; each replica's bits are
     those it has alone)."""
     scene = problem.scene
-    energy = problem.q.name == "dissipated_energy_at_stop"
     normaliser = None
     if top is not None:
         points, cum, stationary, step = problem._normaliser()
@@ -33,8 +29,10 @@ def core_replicas(problem: _Problem, levels: np.ndarray, particles: int, kill: i
         problem.lengths, problem.noises, problem.drifts, key, [int(r) for r in replicas],
         particles, kill, max_iterations, deadline, float(scene.v0), float(scene.u0), first,
         np.asarray(levels, dtype=np.float64), np.asarray(thresholds, dtype=np.float64),
-        _QUANTITY_INDEX[problem.q.name], float(scene.drift), float(problem.horizon),
-        float(problem.coast), float(scene.mass) if energy else 1.0, problem.remaining,
+        problem.core_quantity, float(scene.drift), float(problem.horizon),
+        # The scene's mass: the core's energy score is the distance's times mass * c (the
+        # energy row's factor); no other score reads it.
+        float(problem.coast), float(scene.mass), problem.remaining,
         bool(uncoast), top, normaliser, threads)
     out = []
     for est, iterations, steps, log_weight, extinct, timed_out in outcomes:

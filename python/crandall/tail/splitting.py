@@ -18,8 +18,8 @@ _REPLICA_STREAMS = 1 << 40
 
 def _normalised_top(problem: _Problem, levels: np.ndarray, schedule: bool = True) -> Optional[float]:
     """The level splitting's score is normalised towards: the one level of a run of one level
-    of a NORMALISED quantity under one intensity (None: the plain score). ``schedule=False``
-    drops the schedule's condition (bench/tails_score.py)."""
+    of a quantity whose score is ``normalised`` (problem.SCORES) under one intensity (None: the
+    plain score). ``schedule=False`` drops the schedule's condition (bench/tails_score.py)."""
     return float(levels[0]) if len(levels) == 1 and problem.normalisable(schedule) else None
 
 
@@ -60,7 +60,7 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     with Q > L, K_j the number killed at iteration j (every particle at or below z, so ties are
     killed together: Bréhier et al. 2016). If every particle sits at z the estimate is 0.
 
-    A run of one level of a NORMALISED quantity under one intensity ranks the paths by the
+    A run of one level of a quantity whose score is ``normalised`` (problem.SCORES) under one intensity ranks the paths by the
     normalised score (_Problem.split_score) over the points from the first random one on (the
     points before are every path's, so a maximum there would tie them all); the level is then
     its threshold.
