@@ -51,6 +51,31 @@ void register_diagnostics(py::module_& m) {
       "(n + 2) x (n + 2) arrays, state (z, G, D), unit noise intensity.");
 
   m.def(
+      "filter_root_levels",
+      [](const std::vector<double>& a, const std::vector<double>& b, const std::vector<double>& c,
+         double longest, int count) {
+        const std::size_t n = b.size();
+        if (n < 1 || n > static_cast<std::size_t>(crandall::kMaxFilter) || a.size() != n * n ||
+            c.size() != n)
+          throw std::invalid_argument("filter_root_levels: b and c need n = 1 to 6 numbers, a n * n (row-major)");
+        crandall::LinearFilter f;
+        f.n = static_cast<int>(n);
+        f.a = a;
+        f.b = b;
+        f.c = c;
+        const auto levels = crandall::root_levels(f, longest, count);
+        py::list out;
+        for (const crandall::RootLevel& level : levels)
+          out.append(py::make_tuple(level.length, to_array(level.phi, n + 2, n + 2),
+                                    to_array(level.root, n + 2, n + 2)));
+        return out;
+      },
+      py::arg("a"), py::arg("b"), py::arg("c"), py::arg("longest"), py::arg("count"),
+      "The noise-space tree's levels as a filtered plan stores them: (length, Phi, R) for the "
+      "lengths longest / 2^i, i < count, with R R^T = Q(length) (R lower triangular; the step's "
+      "own R is the skeleton's root).");
+
+  m.def(
       "exact_steps",
       [](const std::vector<double>& start, double step, double drift, double noise,
          std::uint64_t seed) {
