@@ -51,13 +51,17 @@ struct RMat {
   }
 };
 
+// Every out(i, j) sums its terms in increasing k from +0. A term with a zero factor is skipped:
+// it is a signed zero, and adding it to a sum that started at +0 changes no bit (the matrices
+// here are sparse: Abar's structure, the tree's unit vectors).
 RMat operator*(const RMat& a, const RMat& b) {
   RMat out(a.rows, b.cols);
   for (int i = 0; i < a.rows; ++i)
-    for (int j = 0; j < b.cols; ++j) {
-      Real s = 0.0;
-      for (int k = 0; k < a.cols; ++k) s += a(i, k) * b(k, j);
-      out(i, j) = s;
+    for (int k = 0; k < a.cols; ++k) {
+      const Real aik = a(i, k);
+      if (aik.hi == 0.0) continue;
+      for (int j = 0; j < b.cols; ++j)
+        if (b(k, j).hi != 0.0) out(i, j) += aik * b(k, j);
     }
   return out;
 }
@@ -160,11 +164,13 @@ void taylor(const RMat& abar, const RMat& noise, const Real& tau, RMat& phi, RMa
   phi = RMat(m, m);
   for (int k = kTerms; k >= 0; --k) phi = phi + terms[static_cast<std::size_t>(k)];
   terms.clear();
+  // Every term is symmetric (B is), so L(X) = M + M^T with M = Abar X: one product a term, and
+  // the sum is exactly symmetric (double-double addition is commutative).
   RMat r = noise * tau;
   terms.push_back(r);
-  const RMat abar_t = transpose(abar);
   for (int k = 0; k < kTerms; ++k) {
-    r = (abar * r + r * abar_t) * (tau / Real(k + 2));
+    const RMat product = abar * r;
+    r = (product + transpose(product)) * (tau / Real(k + 2));
     terms.push_back(r);
   }
   q = RMat(m, m);
@@ -174,23 +180,56 @@ void taylor(const RMat& abar, const RMat& noise, const Real& tau, RMat& phi, RMa
 // Phi(h), Q(h) (Van Loan's integral): the Taylor series on h / 2^s with ||Abar h|| / 2^s <= 1/2,
 // then s doublings Q(2t) = Phi(t) Q(t) Phi(t)^T + Q(t), Phi(2t) = Phi(t)^2 (the composition of
 // two steps: a sum of two positive semidefinite terms, so the diagonal never cancels).
-void phi_q(const LinearFilter& f, double h, RMat& phi, RMat& q) {
-  require(std::isfinite(h) && h > 0.0, "filter transition: the step must be finite and > 0");
-  RMat abar, noise;
-  augmented(f, abar, noise);
+// The halvings s of phi_q's Taylor step for a length h: the fewest with ||Abar|| h / 2^s <= 1/2.
+int halvings(const RMat& abar, double h) {
   const Real norm = norm_inf(abar);
   int s = 0;
   Real tau = h;
   while (norm * tau > Real(0.5) && s < 2000) tau = ldexp(Real(h), -(++s));
-  taylor(abar, noise, tau, phi, q);
-  for (int i = 0; i < s; ++i) {
-    q = phi * q * transpose(phi) + q;
-    q = (q + transpose(q)) * Real(0.5);
-    phi = phi * phi;
-  }
+  return s;
+}
+
+void double_step(RMat& phi, RMat& q) {
+  q = phi * q * transpose(phi) + q;
+  q = (q + transpose(q)) * Real(0.5);
+  phi = phi * phi;
+}
+
+void require_finite_transition(const RMat& phi, const RMat& q, double h) {
   require(all_finite(phi) && all_finite(q),
           "filter_a, filter_b, filter_c: the filter's transition over a step of " +
               std::to_string(h) + " overflows (the filter grows too fast for the horizon)");
+}
+
+void phi_q(const LinearFilter& f, double h, RMat& phi, RMat& q) {
+  require(std::isfinite(h) && h > 0.0, "filter transition: the step must be finite and > 0");
+  RMat abar, noise;
+  augmented(f, abar, noise);
+  const int s = halvings(abar, h);
+  taylor(abar, noise, ldexp(Real(h), -s), phi, q);
+  for (int i = 0; i < s; ++i) double_step(phi, q);
+  require_finite_transition(phi, q, h);
+}
+
+// Phi(longest / 2^i) for i < count, bitwise phi_q's for each length: a length that phi_q halves
+// s > 0 times is the next shorter length's Taylor step (halved s - 1 times) and doublings, so it
+// is one doubling of that length's (Phi, Q); only the lengths with s = 0 need their own series.
+std::vector<RMat> phi_ladder(const LinearFilter& f, double longest, int count) {
+  RMat abar, noise;
+  augmented(f, abar, noise);
+  std::vector<RMat> phis(static_cast<std::size_t>(count));
+  RMat phi, q;
+  for (int i = count - 1; i >= 0; --i) {
+    const double h = std::ldexp(longest, -i);
+    if (i + 1 < count && halvings(abar, h) > 0) {
+      double_step(phi, q);
+      require_finite_transition(phi, q, h);
+    } else {
+      phi_q(f, h, phi, q);
+    }
+    phis[static_cast<std::size_t>(i)] = phi;
+  }
+  return phis;
 }
 
 // A square root of a positive semidefinite matrix q (q = R R^T), robust to its ill
@@ -456,12 +495,9 @@ std::vector<double> quadrature_root(const LinearFilter& f, double length) {
 std::vector<RootLevel> root_levels(const LinearFilter& f, double longest, int count) {
   require(count >= 1, "filter root levels: count must be >= 1");
   const int n = f.n, m = n + 2;
-  std::vector<RMat> phis(static_cast<std::size_t>(count)), roots(static_cast<std::size_t>(count)),
-      splits(static_cast<std::size_t>(count));
-  for (int i = 0; i < count; ++i) {
-    RMat q;
-    phi_q(f, std::ldexp(longest, -i), phis[static_cast<std::size_t>(i)], q);
-  }
+  require(std::isfinite(longest) && longest > 0.0, "filter transition: the step must be finite and > 0");
+  const std::vector<RMat> phis = phi_ladder(f, longest, count);
+  std::vector<RMat> roots(static_cast<std::size_t>(count)), splits(static_cast<std::size_t>(count));
   roots[static_cast<std::size_t>(count - 1)] = quadrature_root_long(f, std::ldexp(longest, -(count - 1)));
   for (int i = count - 2; i >= 0; --i)
     roots[static_cast<std::size_t>(i)] = compose_roots(phis[static_cast<std::size_t>(i + 1)],
