@@ -2,7 +2,7 @@
 // skeleton's transitions, the noise tree's levels, spreads and midpoint rows, the decay bound)
 // as hexadecimal bits, for a Kanai-Tajimi and a Clough-Penzien filter at a few steps.
 // bench/filter_plan_bits.sh builds it for x86-64 and for aarch64 (run under qemu) and compares
-// the two outputs bit by bit (docs/filtered.md, "Near degeneracy, extended precision").
+// the two outputs bit by bit (docs/filtered.md, "The same doubles on every CPU").
 #include <cinttypes>
 #include <cstdint>
 #include <cstdio>
