@@ -288,3 +288,37 @@ def test_no_cpp_function_is_longer_than_120_lines():
                 long[(rel, name)] = (first, lines)
     assert set(long) - LONG_FUNCTIONS == set(), long
     assert LONG_FUNCTIONS - set(long) == set(), "no longer long: remove from LONG_FUNCTIONS"
+
+
+# long double is x87's 80-bit format on x86-64, IEEE quad on aarch64 and double elsewhere: a
+# result computed in it has other bits on another machine. The core's own code (cpp/src,
+# cpp/include) uses none; the C++ tests may, for references.
+_LONG_DOUBLE = re.compile(r"\blong\s+double\b"
+                          r"|(?<![\w.])(\d+\.\d*|\.\d+|\d+(?=[eE]))([eE][+-]?\d+)?[lL]\b")
+
+
+def long_double_lines(text: str):
+    """The lines whose code (comments and strings left out) names long double or has a long
+    double literal."""
+    code = _code_only(text)
+    return sorted({code.count("\n", 0, m.start()) + 1 for m in _LONG_DOUBLE.finditer(code)})
+
+
+def test_the_long_double_scan_finds_what_it_should():
+    # So that the test below can fail: the type, its literals, and not a comment, a string,
+    # a long integer or a name.
+    text = ('// long double in a comment\nlong  double x = 1;\nconst char* s = "long double";\n'
+            'auto y = 0.5L;\nlong n = 1L;\nauto z = 1e-21L + .5l;\nint long_doubles = 2;\n'
+            'double w = 1.0;\n')
+    assert long_double_lines(text) == [2, 4, 6]
+
+
+def test_the_core_uses_no_long_double():
+    found = {}
+    for top in ("src", "include"):
+        for path in sorted((CPP / top).rglob("*")):
+            if path.suffix in (".cpp", ".hpp", ".inc", ".h"):
+                lines = long_double_lines(path.read_text())
+                if lines:
+                    found[str(path.relative_to(CPP))] = lines
+    assert found == {}, found

@@ -1,4 +1,6 @@
 #include <cstdint>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "common.hpp"
@@ -9,6 +11,33 @@
 
 using bindings::to_array;
 using bindings::without_gil;
+
+namespace {
+
+crandall::LinearFilter checked_filter(const std::vector<double>& a, const std::vector<double>& b,
+                                      const std::vector<double>& c, const std::string& name) {
+  const std::size_t n = b.size();
+  if (n < 1 || n > static_cast<std::size_t>(crandall::kMaxFilter) || a.size() != n * n || c.size() != n)
+    throw std::invalid_argument(name + ": b and c need n = 1 to 6 numbers, a n * n (row-major)");
+  crandall::LinearFilter f;
+  f.n = static_cast<int>(n);
+  f.a = a;
+  f.b = b;
+  f.c = c;
+  return f;
+}
+
+py::list filter_root_levels(const std::vector<double>& a, const std::vector<double>& b,
+                            const std::vector<double>& c, double longest, int count) {
+  const crandall::LinearFilter f = checked_filter(a, b, c, "filter_root_levels");
+  const std::size_t m = b.size() + 2;
+  py::list out;
+  for (const crandall::RootLevel& level : crandall::root_levels(f, longest, count))
+    out.append(py::make_tuple(level.length, to_array(level.phi, m, m), to_array(level.root, m, m)));
+  return out;
+}
+
+}  // namespace
 
 void register_diagnostics(py::module_& m) {
   m.attr("RANDOM_STREAM") = crandall::kRandomStream;
@@ -34,21 +63,20 @@ void register_diagnostics(py::module_& m) {
       "filter_transition",
       [](const std::vector<double>& a, const std::vector<double>& b, const std::vector<double>& c,
          double h) {
+        const crandall::LinearFilter f = checked_filter(a, b, c, "filter_transition");
         const std::size_t n = b.size();
-        if (n < 1 || n > static_cast<std::size_t>(crandall::kMaxFilter) || a.size() != n * n ||
-            c.size() != n)
-          throw std::invalid_argument("filter_transition: b and c need n = 1 to 6 numbers, a n * n (row-major)");
-        crandall::LinearFilter f;
-        f.n = static_cast<int>(n);
-        f.a = a;
-        f.b = b;
-        f.c = c;
         const auto t = crandall::transition(f, h);
         return py::make_tuple(to_array(t.phi, n + 2, n + 2), to_array(t.q, n + 2, n + 2));
       },
       py::arg("a"), py::arg("b"), py::arg("c"), py::arg("h"),
       "(Phi, Q) of the filter augmented with G = int a_g and D = int G over a step h: "
       "(n + 2) x (n + 2) arrays, state (z, G, D), unit noise intensity.");
+
+  m.def("filter_root_levels", &filter_root_levels, py::arg("a"), py::arg("b"), py::arg("c"),
+        py::arg("longest"), py::arg("count"),
+        "The noise-space tree's levels as a filtered plan stores them: (length, Phi, R) for the "
+        "lengths longest / 2^i, i < count, with R R^T = Q(length) (R lower triangular; the step's "
+        "own R is the skeleton's root).");
 
   m.def(
       "exact_steps",

@@ -277,6 +277,11 @@ def filter_transition(
 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """(Phi, Q) of the filter augmented with G and D over a step h (unit intensity)."""
 
+def filter_root_levels(
+    a: List[float], b: List[float], c: List[float], longest: float, count: int
+) -> List[Tuple[float, npt.NDArray[np.float64], npt.NDArray[np.float64]]]:
+    """The noise tree's (length, Phi, R) at lengths longest / 2^i, i < count, R R^T = Q."""
+
 def simulate_states(plan: Plan) -> npt.NDArray[np.float64]:
     """Diagnostics: every path's velocity at the end of the plan's last segment, velocity only,
     exact or Euler method, one thread, through the kernel in use."""

@@ -92,7 +92,8 @@ double widest_spread(const std::vector<RootLevel>& levels, const std::vector<dou
 // A square root R (m x m, lower triangular) of Q(length) from the columns exp(Abar s_j) bbar
 // sqrt(w_j) at k = m + 4 Gauss-Legendre nodes on [0, length] (for ||Abar length|| <= 1/2; a
 // longer interval is halved until it is, and the roots composed back up by the QR above),
-// reduced to m x m by a Householder QR of their transpose. Long double inside.
+// reduced to m x m by a Householder QR of their transpose. Double-double inside
+// (double_double.hpp), as everywhere in the plan-time algebra: the same bits on every CPU.
 std::vector<double> quadrature_root(const LinearFilter& f, double length);
 
 // Solves A X + X A^T = -rhs for X (n x n row-major; rhs n x n, usually symmetric) by the
