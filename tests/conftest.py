@@ -42,3 +42,20 @@ def same_result(a, b):
 
 
 INF = math.inf
+
+
+@pytest.fixture(scope="session")
+def worker_client():
+    """A Dask client of one worker process, for the recipes' Dask legs (tests/recipe_workers.py
+    patches its process as a test patches this one). One for the session: a process cluster
+    takes about a second to start. Ephemeral ports, as in tests/test_distributed.py."""
+    distributed = pytest.importorskip("distributed")
+    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                       scheduler_port=0, dashboard_address=":0",
+                                       worker_dashboard_address=None)
+    client = distributed.Client(cluster)
+    try:
+        yield client
+    finally:
+        client.close()
+        cluster.close()
