@@ -1,4 +1,6 @@
 import math
+import os
+import site
 
 import pytest
 
@@ -54,6 +56,9 @@ def worker_client():
                                        scheduler_port=0, dashboard_address=":0",
                                        worker_dashboard_address=None)
     client = distributed.Client(cluster)
+    # A worker imports by name what the tests send it (tests/recipe_workers.py's functions,
+    # the stubs and task functions of the test modules): this folder is on its path.
+    client.run(site.addsitedir, os.path.dirname(os.path.abspath(__file__)))
     try:
         yield client
     finally:

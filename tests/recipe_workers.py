@@ -6,31 +6,16 @@ made in the test by patching the client's modules, which a worker's process does
 recipe's Dask leg goes through real worker processes (``simulate(..., client=)``,
 ``crandall.tail(..., client=)``) as the real change would.
 
-This module is pickled by value (``cloudpickle.register_pickle_by_value``), and so are the
-stubs a test defines in its own module: a worker needs neither this folder on its path nor
-the test modules."""
+A worker imports what a test sends it by name (this module's functions, a stub class or a
+task function defined in a test module, which Dask pickles by reference) from this folder,
+which ``conftest.worker_client`` puts on the worker's path."""
 
 from __future__ import annotations
 
 import contextlib
 import dataclasses
 import importlib
-import sys
 from typing import Any, Iterator, List, Sequence, Tuple
-
-try:
-    import cloudpickle  # with distributed
-except ImportError:  # the tests that use a cluster skip without distributed
-    cloudpickle = None
-
-
-def by_value(module_name: str) -> None:
-    """Pickle the functions and classes of ``module_name`` by value (a test's stubs)."""
-    if cloudpickle is not None:
-        cloudpickle.register_pickle_by_value(sys.modules[module_name])
-
-
-by_value(__name__)
 
 #: One patch: (where, name, value). ``where`` is "module" or "module:attr.attr" (an object
 #: reached from a module, looked up in the worker's process); ``name`` an attribute of it,
@@ -39,8 +24,8 @@ Change = Tuple[str, str, Any]
 
 #: What a worker keeps to undo the patches (an attribute of the Worker object).
 _UNDO = "_recipe_undo"
-#: What an undo records for an attribute or item that was not there (compared by value: each
-#: call reaches the worker as a fresh copy of this module).
+#: What an undo records for an attribute or item that was not there (compared by value, not
+#: by identity, so that it does not matter how the worker came by this module).
 _MISSING = "<recipe_workers: missing>"
 
 
@@ -75,11 +60,11 @@ def _get(obj: Any, name: str) -> Any:
 
 def _apply(changes: Sequence[Change], dask_worker=None) -> int:
     undo: List[Tuple[Any, str, Any]] = getattr(dask_worker, _UNDO, [])
+    setattr(dask_worker, _UNDO, undo)  # kept as it grows: a failed change undoes the others
     for where, name, value in changes:
         obj = _resolve(where)
         undo.append((obj, name, _get(obj, name)))
         _set(obj, name, value)
-    setattr(dask_worker, _UNDO, undo)
     return len(undo)
 
 

@@ -17,10 +17,7 @@ import numpy as np
 import pytest
 
 import crandall
-import recipe_workers
 from crandall import _core, checkpoint, driver, streams
-
-recipe_workers.by_value(__name__)  # toy_batch reaches a worker's process by value
 
 TAU = 1.0
 BATCH = 4000
@@ -144,7 +141,7 @@ def test_the_progress_bar_shows_the_estimators_progress(toy, capsys):
 
 
 def test_a_new_estimator_on_a_cluster_is_bitwise_local(toy, worker_client):
-    # Its tasks run in a worker's process (toy_batch reaches it by value).
+    # Its tasks run in a worker's process (which imports toy_batch from this module).
     local = driver.drive(Toy(9, 0.02), progress=False)[0]
     remote = driver.drive(Toy(9, 0.02), client=worker_client, progress=False)[0]
     assert remote == local

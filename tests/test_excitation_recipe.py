@@ -29,7 +29,6 @@ from crandall.scene import Scene
 from crandall.spec import RunSpec
 
 tail_module = importlib.import_module("crandall.tail")  # crandall.tail is the function
-recipe_workers.by_value(__name__)  # the stub kind reaches a worker's process by value
 
 #: The stub kind's effect (step 2 of the recipe would name it in model.py).
 STUB_EFFECT = "stub_excitation"

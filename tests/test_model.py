@@ -24,7 +24,6 @@ from crandall.scene import Scene
 from crandall.spec import RunSpec
 
 tail_module = importlib.import_module("crandall.tail")  # crandall.tail is the function
-recipe_workers.by_value(__name__)  # the stub reaches a worker's process by value
 
 
 class _StubScene(Scene):

@@ -16,7 +16,6 @@ from crandall.quantities import Quantity, VELOCITY
 from crandall.tail import TAIL_QUANTITIES
 
 TAIL_PROBLEM = importlib.import_module("crandall.tail.problem")
-recipe_workers.by_value(__name__)  # the new row's factor reaches a worker's process by value
 
 
 def test_public_names_still_where_they_were():
