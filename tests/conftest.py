@@ -1,3 +1,4 @@
+import importlib
 import math
 import os
 import site
@@ -56,10 +57,12 @@ def worker_client():
                                        scheduler_port=0, dashboard_address=":0",
                                        worker_dashboard_address=None)
     client = distributed.Client(cluster)
-    # A worker imports by name what the tests send it (tests/recipe_workers.py's functions,
-    # the stubs and task functions of the test modules): this folder is on its path.
-    client.run(site.addsitedir, os.path.dirname(os.path.abspath(__file__)))
     try:
+        # A worker imports by name what the tests send it (tests/recipe_workers.py's
+        # functions, the stubs and task functions of the test modules): this folder is on its
+        # path, checked here (a task the worker cannot read would leave its run waiting).
+        client.run(site.addsitedir, os.path.dirname(os.path.abspath(__file__)))
+        client.run(importlib.import_module, "recipe_workers")
         yield client
     finally:
         client.close()
