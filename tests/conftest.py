@@ -1,4 +1,7 @@
+import importlib
 import math
+import os
+import site
 
 import pytest
 
@@ -42,3 +45,25 @@ def same_result(a, b):
 
 
 INF = math.inf
+
+
+@pytest.fixture(scope="session")
+def worker_client():
+    """A Dask client of one worker process, for the recipes' Dask legs (tests/recipe_workers.py
+    patches its process as a test patches this one). One for the session: a process cluster
+    takes about a second to start. Ephemeral ports, as in tests/test_distributed.py."""
+    distributed = pytest.importorskip("distributed")
+    cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                       scheduler_port=0, dashboard_address=":0",
+                                       worker_dashboard_address=None)
+    client = distributed.Client(cluster)
+    try:
+        # A worker imports by name what the tests send it (tests/recipe_workers.py's
+        # functions, the stubs and task functions of the test modules): this folder is on its
+        # path, checked here (a task the worker cannot read would leave its run waiting).
+        client.run(site.addsitedir, os.path.dirname(os.path.abspath(__file__)))
+        client.run(importlib.import_module, "recipe_workers")
+        yield client
+    finally:
+        client.close()
+        cluster.close()

@@ -140,15 +140,41 @@ def test_the_progress_bar_shows_the_estimators_progress(toy, capsys):
     assert "crandall" in err
 
 
-def test_a_new_estimator_on_a_cluster_is_bitwise_local(toy):
-    distributed = pytest.importorskip("distributed")
+def test_a_new_estimator_on_a_cluster_is_bitwise_local(toy, worker_client):
+    # Its tasks run in a worker's process (which imports toy_batch from this module).
     local = driver.drive(Toy(9, 0.02), progress=False)[0]
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=False,
-                                  scheduler_port=0, dashboard_address=":0",
-                                  worker_dashboard_address=None) as cluster, \
-            distributed.Client(cluster) as client:
-        remote = driver.drive(Toy(9, 0.02), client=client, progress=False)[0]
+    remote = driver.drive(Toy(9, 0.02), client=worker_client, progress=False)[0]
     assert remote == local
+
+
+def test_the_public_entry_points_are_estimators_under_the_driver(monkeypatch):
+    # The recipe's other legs are not a new estimator's: simulate, simulate(error=),
+    # simulate_many and crandall.tail are the public functions of the estimators there are,
+    # each of which builds its estimator(s), named in checkpoint.ESTIMATORS, and hands them to
+    # driver.drive, as a new one's public function does: what the driver gives the toy above,
+    # it gives them.
+    import importlib
+    seen = []
+
+    def spying(real):
+        def spy(estimators, **kw):
+            listed = estimators if isinstance(estimators, list) else [estimators]
+            seen.append([type(e).__name__ for e in listed])
+            assert all(isinstance(e, driver.Estimator) and e.name in checkpoint.ESTIMATORS
+                       for e in listed)
+            return real(estimators, **kw)
+        return spy
+
+    for name in ("crandall.simulate", "crandall.adaptive.entry", "crandall.tail.entry"):
+        module = importlib.import_module(name)
+        monkeypatch.setattr(module, "drive", spying(module.drive))
+    sc = crandall.Scene.scaled(tau0=1.0, times=[1.0], observe=["velocity", "stop"])
+    crandall.simulate(sc, paths=100, seed=1, threads=1)
+    crandall.simulate(sc, error=0.2, seed=1, threads=1)
+    crandall.simulate_many([sc, sc], paths=100, seed=1, threads=1)
+    crandall.tail(sc, "stop_time", [2.0], seed=1, threads=1, rel_error=0.5, min_samples=4,
+                  max_samples=4, particles=50)
+    assert seen == [["FixedStep"], ["_Engine"], ["FixedStep", "FixedStep"], ["_TailRun"]]
 
 
 def test_a_client_without_what_the_driver_calls_is_refused(toy):

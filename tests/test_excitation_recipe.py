@@ -4,8 +4,10 @@ data, its effect, its time scale), registered in ``excitation.KINDS`` for the te
 does not step it (step 2) and the model does not declare it (step 3), so every entry point
 refuses a scene shaken by it, naming ``scene``, before any path is drawn: simulate,
 simulate(error=), simulate_many, a scene file, crandall.tail, crandall.paths,
-crandall.fragility and the Dask tasks (a scene rebuilt from its plain data). Declared, the
-same calls run."""
+crandall.fragility and the Dask tasks (a scene rebuilt from its plain data), called here and
+through a cluster's worker process (tests/recipe_workers.py registers the stub there).
+Declared, the same calls run, a cluster gives the local run's bits, and a result's file
+gives them back."""
 
 from __future__ import annotations
 
@@ -14,9 +16,12 @@ import math
 from dataclasses import dataclass
 from typing import Any, Dict, FrozenSet
 
+import numpy as np
 import pytest
 
 import crandall
+import recipe_workers
+from conftest import same_result
 from crandall import _core, adaptive, engine, excitation, model, streams
 from crandall.errors import ParameterError
 from crandall.excitation import Excitation
@@ -160,12 +165,17 @@ def test_every_entry_point_refuses_a_kind_the_core_does_not_step(entry, stub_kin
     assert exc.value.name == "scene"
 
 
+#: The models of the estimators that rest on one (runs to an accuracy, tails, sample paths).
+_MODELS = (model.LEVELS, model.TAIL_MODEL, model.TAIL_SPLITTING)
+
+
 @pytest.fixture
 def stub_declared(monkeypatch):
     """Steps 2 and 3 pretended: the core declared to step the kind (its options are none, so
-    the paths are white noise's) and the tail's and sample paths' models to hold under it."""
+    the paths are white noise's) and the models of runs to an accuracy, tails and sample paths
+    to hold under it."""
     monkeypatch.setattr(model, "SIMULATED", model.SIMULATED | {STUB_EFFECT})
-    kept = {ident: ident.supports for ident in (model.TAIL_MODEL, model.TAIL_SPLITTING)}
+    kept = {ident: ident.supports for ident in _MODELS}
     for ident, supports in kept.items():
         object.__setattr__(ident, "supports", supports | {STUB_EFFECT})  # (frozen)
     yield
@@ -173,8 +183,9 @@ def stub_declared(monkeypatch):
         object.__setattr__(ident, "supports", supports)
 
 
-@pytest.mark.parametrize("entry", ["simulate", "scene file", "RunSpec.from_dict",
-                                   "fixed-step Dask task", "tail Dask task"])
+@pytest.mark.parametrize("entry", ["simulate", "simulate(error=)", "scene file",
+                                   "RunSpec.from_dict", "fixed-step Dask task",
+                                   "tail Dask task"])
 def test_the_refusal_comes_from_the_declaration_alone(entry, stub_kind, stub_declared,
                                                       tmp_path):
     ENTRY_POINTS[entry](tmp_path)
@@ -196,3 +207,96 @@ def test_a_kind_the_tails_splitting_holds_for_but_not_its_paths_is_refused(stub_
         assert exc.value.name == "scene"
     finally:
         object.__setattr__(model.TAIL_SPLITTING, "supports", kept)
+
+
+# Through a cluster: the entry points given a client of one worker process (conftest's
+# worker_client), whose crandall knows the stub only as the test tells it (recipe_workers).
+
+#: The stub kind registered in a worker's process (step 1, as the client's stub_kind).
+REGISTERED = [("crandall.excitation:KINDS", f"[{StubKind.kind}]", StubKind)]
+
+
+def _declared_on_workers():
+    """Steps 2 and 3 pretended in a worker's process, as the client's stub_declared."""
+    return ([("crandall.model", "SIMULATED", model.SIMULATED | {STUB_EFFECT})]
+            + [(f"crandall.model:{name}", "supports", getattr(model, name).supports
+                | {STUB_EFFECT}) for name in ("LEVELS", "TAIL_MODEL", "TAIL_SPLITTING")])
+
+
+_TAIL = dict(rel_error=0.5, min_samples=4, max_samples=4, particles=50, dt=0.02)
+
+#: The entry points that take a client, given it and (None: run here, one thread).
+CLUSTER_ENTRY_POINTS = {
+    "simulate": lambda c: crandall.simulate(_scene(), paths=3000, seed=1, client=c,
+                                            threads=None if c else 1),
+    "simulate(error=)": lambda c: crandall.simulate(_scene(), error=0.1, seed=1, client=c,
+                                                    threads=None if c else 1),
+    "simulate_many": lambda c: crandall.simulate_many([_scene(), _scene()], paths=3000, seed=1,
+                                                      client=c, threads=None if c else 1),
+    "tail": lambda c: crandall.tail(_scene(), "distance_at_stop", [0.5], seed=1, client=c,
+                                    threads=None if c else 1, **_TAIL),
+}
+
+
+@pytest.mark.parametrize("entry", sorted(CLUSTER_ENTRY_POINTS))
+def test_on_a_cluster_every_entry_point_refuses_the_kind_before_any_path(
+        entry, worker_client, stub_kind, no_path_drawn):
+    # Neither this process nor the worker's may draw a path.
+    with recipe_workers.on_workers(worker_client, REGISTERED + recipe_workers.no_path_drawn()):
+        with pytest.raises(ParameterError, match=f"scene: holds {STUB_EFFECT}, which this "
+                                                 "crandall does not simulate") as exc:
+            CLUSTER_ENTRY_POINTS[entry](worker_client)
+    assert exc.value.name == "scene"
+
+
+@pytest.mark.parametrize("entry", sorted(CLUSTER_ENTRY_POINTS))
+def test_a_worker_that_does_not_declare_the_kind_refuses_its_tasks(entry, worker_client,
+                                                                   stub_kind, stub_declared):
+    # The client declares the kind, the worker's crandall only knows its class (a cluster
+    # running a crandall of step 1): each Dask task refuses the scene it rebuilds, naming it,
+    # before its worker draws a path, and the client raises that error.
+    with recipe_workers.on_workers(worker_client, REGISTERED + recipe_workers.no_path_drawn()):
+        with pytest.raises(ParameterError, match=f"scene: holds {STUB_EFFECT}, which this "
+                                                 "crandall does not simulate") as exc:
+            CLUSTER_ENTRY_POINTS[entry](worker_client)
+    assert exc.value.name == "scene"
+
+
+def _bits(out):
+    """A run's numbers as bytes: every statistic of a result (or of each of a list), a tail's
+    probabilities, standard errors and sample count."""
+    if isinstance(out, list):
+        return [_bits(o) for o in out]
+    if isinstance(out, crandall.TailResult):
+        return (out.probability.tobytes(), out.stderr.tobytes(), out.samples)
+    return [(name, np.asarray(out.mean(name)).tobytes(), np.asarray(out.var(name)).tobytes(),
+             np.asarray(out.stderr(name)).tobytes()) for name in out.names]
+
+
+@pytest.mark.parametrize("entry", sorted(CLUSTER_ENTRY_POINTS))
+def test_declared_a_cluster_run_is_bitwise_the_local_run(entry, worker_client, stub_kind,
+                                                         stub_declared, request):
+    local = CLUSTER_ENTRY_POINTS[entry](None)
+    if entry in ("simulate", "simulate_many"):
+        # Every path of a fixed-step run is the worker's (a run to an accuracy and a tail
+        # draw part of theirs in this process).
+        request.getfixturevalue("no_path_drawn")
+    with recipe_workers.on_workers(worker_client, REGISTERED + _declared_on_workers()):
+        remote = CLUSTER_ENTRY_POINTS[entry](worker_client)
+    assert _bits(remote) == _bits(local)
+
+
+def test_declared_its_results_files_give_the_run_back(stub_kind, stub_declared, tmp_path):
+    # A result's file keeps the scene's plain data, the kind's among them: loaded, the scene
+    # is shaken by the stub again, and the numbers are the saved ones.
+    pytest.importorskip("xarray")
+    r = CLUSTER_ENTRY_POINTS["simulate"](None)
+    r.save(tmp_path / "r.nc")
+    loaded = crandall.load(tmp_path / "r.nc")
+    assert loaded.scene.excitation == StubKind(period=0.5)
+    assert STUB_EFFECT in loaded.scene.effects and not loaded.exact("velocity")
+    assert same_result(loaded, r)
+    t = CLUSTER_ENTRY_POINTS["tail"](None)
+    t.save(tmp_path / "t.nc")
+    loaded_tail = crandall.load(tmp_path / "t.nc")
+    assert _bits(loaded_tail) == _bits(t)

@@ -1,7 +1,12 @@
 """Model features (crandall.model): an identity is used, and a number reported exact, only for
 scenes whose effects it supports. The scenes of this version hold no effect beyond the paper's;
 a stub effect (no dynamics of its own, declared simulated for the test) stands in for the
-initial states and intensity schedules to come, which no identity supports yet."""
+initial states and intensity schedules to come, which no identity supports yet.
+
+The recipe's legs: simulate, simulate(error=), simulate_many, crandall.tail, crandall.paths,
+crandall.fragility, a scene file, a result's and a tail's file, and Dask, both the tasks
+called here and the entry points given a client of a worker process (tests/recipe_workers.py
+makes the stub there too)."""
 
 from __future__ import annotations
 
@@ -11,6 +16,8 @@ import numpy as np
 import pytest
 
 import crandall
+import recipe_workers
+from conftest import same_result
 from crandall import adaptive, engine, model, plots, streams
 from crandall.errors import ParameterError
 from crandall.scene import Scene
@@ -183,3 +190,120 @@ def test_the_closed_forms_are_not_offered_for_an_effect_they_do_not_hold_under(s
     from crandall import cli
     with pytest.raises(ValueError, match="closed forms do not hold"):
         cli._analytic_table(_stub())
+
+
+def test_a_scene_file_of_the_stub_is_refused_until_declared(every_scene_holds_a_stub,
+                                                            tmp_path, monkeypatch):
+    path = tmp_path / "s.toml"
+    path.write_text("[scene]\nmu = 0.5\nh = 1.0\nt0 = 1.0\ntimes = [0.5, 1.0]\n")
+    sc = Scene.from_toml(path)
+    with pytest.raises(ParameterError, match="scene: holds stub") as exc:
+        crandall.simulate(sc, paths=100, seed=1, threads=1)
+    assert exc.value.name == "scene"
+    monkeypatch.setattr(model, "SIMULATED", frozenset({"stub"}))
+    r = crandall.simulate(sc, paths=100, seed=1, threads=1)
+    assert not r.exact("velocity")
+
+
+def test_declared_the_stubs_files_give_the_run_back(every_scene_holds_a_stub, stub_simulated,
+                                                    tmp_path):
+    # A result's file rebuilds its scene from plain data: loaded, it holds the stub again, so
+    # nothing becomes exact, and the numbers are the saved ones; so is a tail's file.
+    pytest.importorskip("xarray")
+    r = CLUSTER_ENTRY_POINTS["simulate"](None)
+    r.save(tmp_path / "r.nc")
+    loaded = crandall.load(tmp_path / "r.nc")
+    assert not loaded.exact("velocity")
+    assert same_result(loaded, r)
+    assert np.asarray(loaded.bias("velocity")).tobytes() == np.asarray(r.bias("velocity")).tobytes()
+    t = CLUSTER_ENTRY_POINTS["tail"](None)
+    t.save(tmp_path / "t.nc")
+    assert _bits(crandall.load(tmp_path / "t.nc")) == _bits(t)
+
+
+# Through a cluster: the entry points given a client of one worker process (conftest's
+# worker_client), patched as this process is (recipe_workers.on_workers).
+
+def _holds_stub(self) -> frozenset:
+    return frozenset({"stub"})
+
+
+#: Every scene of a worker's process holds the stub (as every_scene_holds_a_stub here).
+HOLDS_STUB = [("crandall.scene:Scene", "effects", property(_holds_stub))]
+
+
+def _simulated_on_workers():
+    """stub_simulated in a worker's process."""
+    return ([("crandall.model", "SIMULATED", frozenset({"stub"}))]
+            + [(f"crandall.model:{name}", "supports", getattr(model, name).supports | {"stub"})
+               for name in ("LEVELS", "TAIL_MODEL", "TAIL_SPLITTING")])
+
+
+_TAIL = dict(rel_error=0.5, min_samples=4, max_samples=4, particles=50, dt=0.02)
+
+#: The entry points that take a client, given it and (None: run here, one thread).
+CLUSTER_ENTRY_POINTS = {
+    "simulate": lambda c: crandall.simulate(Scene(**_PLAIN), paths=3000, seed=1, client=c,
+                                            threads=None if c else 1),
+    "simulate(error=)": lambda c: crandall.simulate(Scene(**_PLAIN), error=0.1, seed=1,
+                                                    client=c, threads=None if c else 1),
+    "simulate_many": lambda c: crandall.simulate_many([Scene(**_PLAIN)] * 2, paths=3000, seed=1,
+                                                      client=c, threads=None if c else 1),
+    "tail": lambda c: crandall.tail(Scene(**_PLAIN), "distance_at_stop", [0.5], seed=1,
+                                    client=c, threads=None if c else 1, **_TAIL),
+}
+
+
+def _bits(out):
+    """A run's numbers as bytes (a result's statistics, each of a list's, a tail's
+    probabilities, standard errors and sample count)."""
+    if isinstance(out, list):
+        return [_bits(o) for o in out]
+    if isinstance(out, crandall.TailResult):
+        return (out.probability.tobytes(), out.stderr.tobytes(), out.samples)
+    return [(name, np.asarray(out.mean(name)).tobytes(), np.asarray(out.var(name)).tobytes(),
+             np.asarray(out.stderr(name)).tobytes()) for name in out.names]
+
+
+@pytest.fixture
+def no_path_drawn_here(monkeypatch):
+    """Every path-drawing function of this process's core fails the test if called."""
+    for name, refuse in zip(recipe_workers.DRAWING, (c[2] for c in
+                                                     recipe_workers.no_path_drawn())):
+        monkeypatch.setattr(crandall._core, name, refuse)
+
+
+@pytest.mark.parametrize("entry", sorted(CLUSTER_ENTRY_POINTS))
+def test_on_a_cluster_every_entry_point_refuses_the_stub_before_any_path(
+        entry, worker_client, every_scene_holds_a_stub, no_path_drawn_here):
+    with recipe_workers.on_workers(worker_client, HOLDS_STUB + recipe_workers.no_path_drawn()):
+        with pytest.raises(ParameterError, match="scene: holds stub, which this crandall does "
+                                                 "not simulate") as exc:
+            CLUSTER_ENTRY_POINTS[entry](worker_client)
+    assert exc.value.name == "scene"
+
+
+@pytest.mark.parametrize("entry", sorted(CLUSTER_ENTRY_POINTS))
+def test_a_worker_that_does_not_simulate_the_stub_refuses_its_tasks(
+        entry, worker_client, every_scene_holds_a_stub, stub_simulated):
+    # Declared here, not in the worker's process (a cluster running a crandall that does not
+    # simulate the effect): each Dask task refuses the scene it rebuilds, naming it, before
+    # its worker draws a path.
+    with recipe_workers.on_workers(worker_client, HOLDS_STUB + recipe_workers.no_path_drawn()):
+        with pytest.raises(ParameterError, match="scene: holds stub, which this crandall does "
+                                                 "not simulate") as exc:
+            CLUSTER_ENTRY_POINTS[entry](worker_client)
+    assert exc.value.name == "scene"
+
+
+@pytest.mark.parametrize("entry", sorted(CLUSTER_ENTRY_POINTS))
+def test_declared_a_cluster_run_of_the_stub_is_bitwise_the_local_run(
+        entry, worker_client, every_scene_holds_a_stub, stub_simulated, request):
+    local = CLUSTER_ENTRY_POINTS[entry](None)
+    if entry in ("simulate", "simulate_many"):
+        # Every path of a fixed-step run is the worker's (a run to an accuracy and a tail
+        # draw part of theirs in this process).
+        request.getfixturevalue("no_path_drawn_here")
+    with recipe_workers.on_workers(worker_client, HOLDS_STUB + _simulated_on_workers()):
+        remote = CLUSTER_ENTRY_POINTS[entry](worker_client)
+    assert _bits(remote) == _bits(local)

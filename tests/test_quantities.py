@@ -8,6 +8,8 @@ import pytest
 import importlib
 
 import crandall
+import recipe_workers
+from conftest import same_result
 from crandall import _core, quantities
 from crandall.errors import ParameterError
 from crandall.quantities import Quantity, VELOCITY
@@ -132,6 +134,57 @@ def test_a_new_quantity_with_a_tail_score_reaches_the_tail(monkeypatch, tmp_path
     loaded = crandall.load(path)
     assert loaded.quantity == "momentum" and loaded.units == "kg m/s"
     assert np.array_equal(loaded.probability, momentum.probability)
+
+
+def test_a_new_quantity_reaches_a_cluster_a_scene_file_and_every_file(monkeypatch, tmp_path,
+                                                                      worker_client):
+    """The row on a cluster (simulate, simulate(error=), simulate_many, crandall.tail given a
+    client: the local run's bits), in a scene file (its distribution asked for by name) and in
+    the files of a run to an accuracy. The row is the package's source, so a worker's process
+    has it too (recipe_workers makes it there): a tail's Dask task looks the quantity up in
+    its own process's table."""
+    def momentum_factor(scene):
+        return scene.mass
+
+    row = Quantity("momentum", VELOCITY, "kg m/s", "momentum", ("velocity",),
+                   factor=momentum_factor, tail="velocity")
+    table = quantities.QUANTITIES + (row,)
+    monkeypatch.setattr(quantities, "QUANTITIES", table)
+    path = tmp_path / "momentum.toml"
+    path.write_text("[scene]\nmu = 0.3\nh = 1.0\nt0 = 2.0\nmass = 4.0\ntimes = [0.5, 1.0]\n"
+                    'observe = ["velocity", "stop"]\ndistributions = ["momentum", "velocity"]\n')
+    scene = crandall.Scene.from_toml(path)
+    plain = crandall.Scene(mu=0.3, h=1.0, t0=2.0, mass=4.0, times=[0.5, 1.0],
+                           observe=["velocity", "stop"])
+    assert set(scene.distributions) == {"momentum", "velocity"}
+    tail_kw = dict(time=1.0, seed=3, dt=0.02, rel_error=0.5, min_samples=4, max_samples=4,
+                   particles=50)
+    local = crandall.simulate(scene, paths=2000, seed=3, dt=0.1, threads=1)
+    local_many = crandall.simulate_many([scene, plain], paths=2000, seed=3, dt=0.1, threads=1)
+    local_accurate = crandall.simulate(plain, error=0.1, seed=3, threads=1)
+    local_tail = crandall.tail(plain, "momentum", [4.8], threads=1, **tail_kw)
+    with recipe_workers.on_workers(worker_client, [("crandall.quantities", "QUANTITIES", table)]):
+        remote = crandall.simulate(scene, paths=2000, seed=3, dt=0.1, client=worker_client)
+        many = crandall.simulate_many([scene, plain], paths=2000, seed=3, dt=0.1,
+                                      client=worker_client)
+        accurate = crandall.simulate(plain, error=0.1, seed=3, client=worker_client)
+        tail = crandall.tail(plain, "momentum", [4.8], client=worker_client, **tail_kw)
+    assert same_result(remote, local) and "momentum" in remote.names
+    assert all(same_result(m, l) for m, l in zip(many, local_many))
+    # The histogram of m V is the velocity's with its edges times m (4: no rounding).
+    q = remote.quantile("momentum", 0.9, time=1.0)
+    assert q == local.quantile("momentum", 0.9, time=1.0)
+    assert q.value == 4.0 * remote.quantile("velocity", 0.9, time=1.0).value
+    assert accurate.to_pandas().equals(local_accurate.to_pandas())
+    assert np.array_equal(accurate.var("momentum"), 16.0 * accurate.var("velocity"))
+    assert tail.probability.tobytes() == local_tail.probability.tobytes()
+    assert tail.samples == local_tail.samples
+    pytest.importorskip("xarray")
+    accurate.save(tmp_path / "accurate.nc")
+    loaded = crandall.load(tmp_path / "accurate.nc")
+    for stat in ("mean", "var"):
+        assert np.array_equal(getattr(loaded, stat)("momentum"),
+                              getattr(accurate, stat)("momentum"))
 
 
 def test_the_tail_quantities_are_the_rows_with_a_tail_score():

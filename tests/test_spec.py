@@ -140,6 +140,69 @@ def test_every_field_of_the_spec_travels(tmp_path, monkeypatch):
     assert RunSpec.from_dict(json.loads(json.dumps(want))).to_dict() == want
 
 
+#: The fields of RunSpec that a run to an accuracy also takes: its levels build their own
+#: options (docs/architecture.md, "... a run option"), so simulate(error=) refuses every
+#: other field users set, naming it.
+WITH_ERROR = {"seed"}
+#: The fields of RunSpec that crandall.tail also takes, each as an argument of its own (a
+#: tail takes no RunSpec): its seed, its grid step and its method, which is the tail's own
+#: (splitting or importance), so a fixed-step method is refused naming it. It takes no other.
+TAIL_TAKES = {"seed", "dt", "method"}
+
+
+def test_every_field_users_set_reaches_every_entry_point(tmp_path, monkeypatch, worker_client):
+    # The recipe's other legs, for the fields users set (those in simulate's signature):
+    # simulate, simulate_many, a scene file's [run] table, `crandall run`'s options and a
+    # cluster take each of them; simulate(error=) refuses each but the seed, naming it; and
+    # crandall.tail takes only its own seed, step and method.
+    import inspect
+    from crandall import cli, scene_file
+    from crandall.errors import ParameterError
+    user = {k: v for k, v in OTHER.items() if k in inspect.signature(crandall.simulate).parameters}
+    assert set(user) == set(scene_file.RUN_SETTINGS), \
+        "a field users set is a key of a scene file's [run] table (scene_file.RUN_SETTINGS)"
+    r = crandall.simulate(SCENE, threads=1, **user)
+    want = {k: r.spec.to_dict()[k] for k in user}
+    assert want == user
+    assert crandall.simulate_many([SCENE], threads=1, **user)[0].spec == r.spec
+    remote = crandall.simulate(SCENE, client=worker_client, **user)
+    assert remote.spec == r.spec and same_result(remote, r)
+    # A scene file's [run] table.
+    path = tmp_path / "s.toml"
+    path.write_text("[scene]\nunits = 'scaled'\ntau0 = 1.0\ntimes = [0.5, 1.0]\n"
+                    "observe = ['velocity', 'distance', 'stop']\n[run]\n"
+                    + "".join(f"{k} = {json.dumps(v)}\n" for k, v in user.items()))
+    from_file = crandall.Scene.from_toml(path)
+    assert dict(from_file.run_settings) == user
+    # `crandall run`: its options, and the file's [run] table, reach simulate.
+    seen = []
+    real = cli.simulation.simulate
+
+    def spy(scene, **kw):
+        seen.append(kw)
+        return real(scene, **kw)
+
+    monkeypatch.setattr(cli.simulation, "simulate", spy)
+    flags = [x for k, v in user.items() for x in (f"--{k.replace('_', '-')}", str(v))]
+    for argv in (["run", str(path)], ["run", str(path), *flags]):
+        assert cli.main([*argv, "--no-files", "--threads", "1"]) == 0
+        assert {k: seen[-1][k] for k in user} == user, argv
+    # A run to an accuracy: the seed only.
+    for k in sorted(set(user) - WITH_ERROR):
+        with pytest.raises(ParameterError, match=f"{k}: not with error=") as exc:
+            crandall.simulate(SCENE, error=0.1, **{k: user[k]})
+        assert exc.value.name == k
+    # A tail: no RunSpec.
+    tail_takes = set(inspect.signature(crandall.tail).parameters)
+    assert set(user) & tail_takes == TAIL_TAKES
+    with pytest.raises(ParameterError, match="method") as exc:
+        crandall.tail(SCENE, "stop_time", [1.0], method=user["method"], seed=1)
+    assert exc.value.name == "method"
+    for k in sorted(set(user) - TAIL_TAKES):
+        with pytest.raises(TypeError, match=k):
+            crandall.tail(SCENE, "stop_time", [1.0], **{k: user[k]})
+
+
 def test_a_file_whose_spec_disagrees_with_its_attributes_is_refused(tmp_path):
     xr = pytest.importorskip("xarray")
     r = crandall.simulate(SCENE, paths=300, seed=4, method="exact", dt=0.1)
