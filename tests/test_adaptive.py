@@ -494,6 +494,8 @@ def test_cli_error(tmp_path, capsys):
                                    rtol=1e-15)  # the CSV's decimal text
     assert cli.main(["run", str(scene), "--error", "0.05", "--paths", "10", "--no-files"]) == 2
     assert "--paths: not with --error" in capsys.readouterr().err
+    assert cli.main(["run", str(scene), "--error", "0.05", "--event-depth", "4", "--no-files"]) == 2
+    assert "--event-depth: not with --error" in capsys.readouterr().err
     assert cli.main(["run", str(scene), "--error", "0.05", "--checkpoint", str(tmp_path / "c"),
                      "--no-files"]) == 2
     assert "--checkpoint: give --seed with --error" in capsys.readouterr().err

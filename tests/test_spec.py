@@ -161,16 +161,18 @@ def test_every_field_users_set_reaches_every_entry_point(tmp_path, monkeypatch, 
     user = {k: v for k, v in OTHER.items() if k in inspect.signature(crandall.simulate).parameters}
     assert set(user) == set(scene_file.RUN_SETTINGS), \
         "a field users set is a key of a scene file's [run] table (scene_file.RUN_SETTINGS)"
-    r = crandall.simulate(SCENE, threads=1, **user)
+    r = crandall.simulate(FILTERED_SCENE, threads=1, **user)
     want = {k: r.spec.to_dict()[k] for k in user}
     assert want == user
-    assert crandall.simulate_many([SCENE], threads=1, **user)[0].spec == r.spec
-    remote = crandall.simulate(SCENE, client=worker_client, **user)
+    assert crandall.simulate_many([FILTERED_SCENE], threads=1, **user)[0].spec == r.spec
+    remote = crandall.simulate(FILTERED_SCENE, client=worker_client, **user)
     assert remote.spec == r.spec and same_result(remote, r)
     # A scene file's [run] table.
     path = tmp_path / "s.toml"
-    path.write_text("[scene]\nunits = 'scaled'\ntau0 = 1.0\ntimes = [0.5, 1.0]\n"
-                    "observe = ['velocity', 'distance', 'stop']\n[run]\n"
+    path.write_text("[scene]\nunits = 'SI'\nmu = 1.0\ng = 1.0\nt0 = 1.0\ntimes = [0.5, 1.0]\n"
+                    "observe = ['velocity', 'distance', 'stop']\n"
+                    "excitation = { kind = 'kanai_tajimi', omega = 2.0, zeta = 0.6, h = 1.0 }\n"
+                    "[run]\n"
                     + "".join(f"{k} = {json.dumps(v)}\n" for k, v in user.items()))
     from_file = crandall.Scene.from_toml(path)
     assert dict(from_file.run_settings) == user
@@ -190,7 +192,7 @@ def test_every_field_users_set_reaches_every_entry_point(tmp_path, monkeypatch, 
     # A run to an accuracy: the seed only.
     for k in sorted(set(user) - WITH_ERROR):
         with pytest.raises(ParameterError, match=f"{k}: not with error=") as exc:
-            crandall.simulate(SCENE, error=0.1, **{k: user[k]})
+            crandall.simulate(FILTERED_SCENE, error=0.1, **{k: user[k]})
         assert exc.value.name == k
     # A tail: no RunSpec.
     tail_takes = set(inspect.signature(crandall.tail).parameters)

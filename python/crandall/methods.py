@@ -5,6 +5,7 @@ from typing import NamedTuple
 from . import _core
 
 __all__ = ["METHODS", "GRIDS", "SKELETON", "ORDERS", "MethodRow", "TABLE",
+           "MIN_EVENT_DEPTH", "MAX_EVENT_DEPTH",
            "EXTRAPOLATING_METHODS", "DEFAULT_METHOD", "DEFAULT_DT_TAU", "DEFAULT_MIN_STEPS",
            "DEFAULT_STEPS_FREE", "DEFAULT_DT_FILTER", "DEFAULT_DT_TAU_FILTER"]
 
@@ -103,3 +104,11 @@ DEFAULT_STEPS_FREE = 2000
 #: documented above. N = 32 would do for "richardson" alone (-8e-5 in the Brownian limit) but
 #: not for "exact" (-1.7e-3). An explicit ``dt`` gives a uniform grid (no grading).
 DEFAULT_MIN_STEPS = 64
+
+#: The range of a filtered excitation's ``event_depth`` (bisections of a step in which a stop or
+#: an onset may happen; docs/filtered.md). At most the core's kMaxEventDepth (plan.hpp); at
+#: least what every plan of a run needs: the bias estimate's coupled run walks the most grids
+#: (``GRIDS``), and the core bisects its coarsest grid's steps at the finer grids'
+#: points first, so it needs ``grids - 1`` bisections.
+MIN_EVENT_DEPTH = max(GRIDS.values()) - 1
+MAX_EVENT_DEPTH = 20

@@ -14,7 +14,7 @@ from typing import Any, Dict, Tuple
 
 import numpy as np
 
-from .methods import METHODS
+from .methods import MAX_EVENT_DEPTH, METHODS, MIN_EVENT_DEPTH
 
 __all__ = ["read", "locate", "shipped", "title", "SHIPPED_FOLDER", "SceneFile", "RUN_SETTINGS", "MAX_RANGE_TIMES", "SI_KEYS", "SCALED_KEYS",
            "COMMON_KEYS"]
@@ -25,7 +25,7 @@ else:  # pragma: no cover - Python < 3.11
     import tomli as _toml
 
 #: Keys of a scene file's [run] table, as ``simulate`` takes them.
-RUN_SETTINGS = ("paths", "seed", "method", "dt")
+RUN_SETTINGS = ("paths", "seed", "method", "dt", "event_depth")
 
 #: Most output times a scene file's range may give (either form, {start, stop, num} or
 #: {start, stop, step}); checked before the times are built.
@@ -182,6 +182,13 @@ class SceneFile:
                 if v not in METHODS:
                     raise _file_error(path, "run.method", f"must be one of {', '.join(METHODS)}, "
                                                           f"got {v!r}")
+            elif k == "event_depth":
+                # Its range here; that the scene's excitation has an event search, at the run
+                # (spec.check_event_depth), as for the argument.
+                if (isinstance(v, bool) or not isinstance(v, int)
+                        or not MIN_EVENT_DEPTH <= v <= MAX_EVENT_DEPTH):
+                    raise _file_error(path, "run.event_depth", f"must be an integer from "
+                                      f"{MIN_EVENT_DEPTH} to {MAX_EVENT_DEPTH}, got {v!r}")
             settings[k] = v
         return settings
 

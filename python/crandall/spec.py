@@ -17,7 +17,7 @@ from typing import Any, Dict, Optional
 
 import numpy as np
 
-from .methods import DEFAULT_DT_FILTER, DEFAULT_DT_TAU, DEFAULT_DT_TAU_FILTER, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, GRIDS, METHODS
+from .methods import MAX_EVENT_DEPTH, MIN_EVENT_DEPTH, DEFAULT_DT_FILTER, DEFAULT_DT_TAU, DEFAULT_DT_TAU_FILTER, DEFAULT_METHOD, DEFAULT_MIN_STEPS, DEFAULT_STEPS_FREE, GRIDS, METHODS
 from .errors import ParameterError, UnresolvableGrid
 from .model import FILTERED_EXCITATION, GRID_ORDERS, Identity, check_simulated, holds, require
 from .scene import Scene
@@ -30,13 +30,6 @@ __all__ = ["RunSpec", "default_dt", "default_method", "MAX_PATHS", "MIN_EVENT_DE
 MAX_PATHS = 1 << 63
 #: Seeds are 64-bit.
 MAX_SEED = (1 << 64) - 1
-#: The range of a filtered excitation's ``event_depth`` (bisections of a step in which a stop or
-#: an onset may happen; docs/filtered.md). At most the core's kMaxEventDepth (plan.hpp); at
-#: least what every plan of a run needs: the bias estimate's coupled run walks the most grids
-#: (``methods.GRIDS``), and the core bisects its coarsest grid's steps at the finer grids'
-#: points first, so it needs ``grids - 1`` bisections.
-MIN_EVENT_DEPTH = max(GRIDS.values()) - 1
-MAX_EVENT_DEPTH = 20
 
 
 def check_int(name: str, value, minimum: int, maximum: Optional[int] = None) -> int:

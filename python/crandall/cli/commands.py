@@ -241,7 +241,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             if not 50 <= args.dpi <= 1200:
                 raise ParameterError("--dpi", f"--dpi must be between 50 and 1200, got {args.dpi}")
             return run(args.scene, paths=args.paths, seed=args.seed, threads=args.threads,
-                       dt=args.dt, method=args.method, out=args.out, checkpoint=args.checkpoint,
+                       dt=args.dt, method=args.method, event_depth=args.event_depth,
+                       out=args.out, checkpoint=args.checkpoint,
                        scheduler=args.scheduler, figures=not args.no_figures,
                        files=not args.no_files, progress=args.progress,
                        overwrite=args.overwrite, error=args.error, rel_error=args.rel_error,

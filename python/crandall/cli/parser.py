@@ -7,7 +7,7 @@ from typing import List
 
 from .. import paper, plots
 from .._version import __version__
-from ..methods import DEFAULT_METHOD, METHODS
+from ..methods import DEFAULT_METHOD, MAX_EVENT_DEPTH, METHODS, MIN_EVENT_DEPTH
 from ..records import POLARITIES
 from .outputs import DEFAULT_FILE_PATHS, DEFAULT_OUT, DEFAULT_TAIL_OUT, PAPER_SEED
 
@@ -95,6 +95,10 @@ def _parser() -> argparse.ArgumentParser:
                      help="longest internal step in the scene's time units (default: the "
                           "file's, else crandall.default_dt)")
     run.add_argument("--method", choices=METHODS, help=f"simulation method (default: {DEFAULT_METHOD})")
+    run.add_argument("--event-depth", type=_positive_int, metavar="D",
+                     help="a filtered excitation's event search: bisections of a step where the "
+                          "body may stop or start (default: the file's, else 8; "
+                          f"{MIN_EVENT_DEPTH} to {MAX_EVENT_DEPTH})")
     target = run.add_mutually_exclusive_group()
     target.add_argument("--error", type=_float, metavar="EPS",
                         help="ask for an accuracy instead of paths: run until the estimated "

@@ -42,8 +42,9 @@ def _load_scene(path: Optional[str]):
 
 
 def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None, dt=None,
-        method=None, out: str = DEFAULT_OUT, checkpoint=None, scheduler=None,
-        figures: bool = True, files: bool = True, progress=None, overwrite: bool = False,
+        method=None, event_depth=None, out: str = DEFAULT_OUT, checkpoint=None,
+        scheduler=None, figures: bool = True, files: bool = True, progress=None,
+        overwrite: bool = False,
         error=None, rel_error=None, max_seconds=None, statistics=None,
         figure_options: Optional[dict] = None) -> int:
     """What ``crandall run`` does (arguments as its options); returns the exit status.
@@ -61,7 +62,8 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     earlier = _check_out(out, overwrite) if files else []
     if error is not None or rel_error is not None:
         return _run_to_error(scene, settings, error=error, rel_error=rel_error, paths=paths,
-                             seed=seed, threads=threads, dt=dt, method=method, out=out,
+                             seed=seed, threads=threads, dt=dt, method=method,
+                             event_depth=event_depth, out=out,
                              checkpoint=checkpoint, scheduler=scheduler, files=files,
                              earlier=earlier, progress=progress, max_seconds=max_seconds,
                              statistics=statistics, figures=figures, is_paper=is_paper,
@@ -70,7 +72,8 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
         raise ParameterError("--max-seconds", "--max-seconds: only with --error or --rel-error")
     if statistics is not None:
         raise ParameterError("--statistics", "--statistics: only with --error or --rel-error")
-    for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method)):
+    for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method),
+                       ("event_depth", event_depth)):
         if value is not None:
             settings[key] = value
     n = settings.get("paths", DEFAULT_FILE_PATHS)
@@ -81,7 +84,8 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     start = time.perf_counter()
     try:
         result = simulate(scene, paths=n, seed=settings.get("seed"), dt=settings.get("dt"),
-                          method=settings.get("method"), threads=threads,
+                          method=settings.get("method"),
+                          event_depth=settings.get("event_depth"), threads=threads,
                           checkpoint=checkpoint, client=client, progress=progress)
         if result.bias_pending:
             # Part of the run: shown in its progress and counted in its time (printing the
@@ -129,12 +133,13 @@ def _client(scheduler: Optional[str]):
 
 
 def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, threads, dt, method,
-                  out, checkpoint, scheduler, files, earlier, progress=None,
+                  event_depth, out, checkpoint, scheduler, files, earlier, progress=None,
                   max_seconds=None, statistics=None, figures: bool = True,
                   is_paper: bool = False,
                   figure_options: Optional[dict] = None) -> int:
     """``crandall run --error EPS``: a run to a requested accuracy."""
-    for option, value in (("--paths", paths), ("--dt", dt), ("--method", method)):
+    for option, value in (("--paths", paths), ("--dt", dt), ("--method", method),
+                          ("--event-depth", event_depth)):
         if value is not None:
             raise ParameterError(option, f"{option}: not with --error / --rel-error (the run "
                                          "chooses its grids and paths itself)")
