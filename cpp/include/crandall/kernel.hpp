@@ -29,12 +29,11 @@
 CRANDALL_BEGIN_VARIANT
 
 // The stop's values on one grid from the state at the switch-off (x, u, s, every path coasts
-// to rest: coast.hpp), given to the observers' at_stop with the peaks over the whole path (as
+// to rest: coast.hpp), given to the outputs' at_stop with the peaks over the whole path (as
 // after_switch_off's) and the quadratic variation up to the switch-off (no noise after it).
-template <class Obs>
-void stop_outputs(const Options& o, Obs& obs, int grid, std::uint64_t path0, int lanes,
-                  const double* x, const double* u, const double* s, PeakView peaks,
-                  const double* quadratic) {
+inline void stop_outputs(const Options& o, Outputs& out, int grid, std::uint64_t path0,
+                         int lanes, const double* x, const double* u, const double* s,
+                         PeakView peaks, const double* quadratic) {
   double ts[kLanes] = {}, us[kLanes] = {}, ss[kLanes] = {}, qu[kLanes] = {};
   for (int l = 0; l < lanes; ++l) {
     const double to_stop = time_to_stop(x[l], o.drift);
@@ -48,13 +47,14 @@ void stop_outputs(const Options& o, Obs& obs, int grid, std::uint64_t path0, int
   }
   if (peaks.displacement != nullptr)
     for (int l = 0; l < lanes; ++l) qu[l] = std::max(peaks.displacement[l], std::abs(us[l]));
-  obs.at_stop(StopView{grid, path0, lanes, ts, us, ss,
+  out.at_stop(StopView{grid, path0, lanes, ts, us, ss,
                        PeakView{peaks.speed, peaks.displacement != nullptr ? qu : nullptr},
                        quadratic});
 }
 
 // The outputs after the switch-off (closed-form coast) and at the stop, from the state at t0 on
-// one grid, given to the same observers as the loop's slots. The fine grid (grid 0) passes its
+// one grid, given to the same output observers as the loop's slots (the loop's own observers
+// have nothing to see after the switch-off). The fine grid (grid 0) passes its
 // peaks at t0; Richardson's coarse grids pass none (their moments are only extrapolated, the
 // peaks and the distributions come from the fine grid). Each grid passes its quadratic
 // variation up to t0 (or null).
@@ -64,10 +64,9 @@ void stop_outputs(const Options& o, Obs& obs, int grid, std::uint64_t path0, int
 // sign(X(t0)) times the distance travelled, which never decreases, so U2 is monotone on
 // [t0, t] and its largest modulus there is at an end: the peak of |U2| up to t is
 // max(pu, |U2(t)|), and at the stop max(pu, |U2(t_s)|).
-template <class Obs>
-void after_switch_off(const Plan& plan, Obs& obs, int grid, std::uint64_t path0, int lanes,
-                      const double* x, const double* u, const double* s, PeakView peaks,
-                      const double* quadratic) {
+inline void after_switch_off(const Plan& plan, Outputs& out, int grid, std::uint64_t path0,
+                             int lanes, const double* x, const double* u, const double* s,
+                             PeakView peaks, const double* quadratic) {
   const Options& o = plan.options();
   const auto& slots = plan.coast_slots();
   const auto& elapsed = plan.coast_elapsed();
@@ -90,9 +89,9 @@ void after_switch_off(const Plan& plan, Obs& obs, int grid, std::uint64_t path0,
     const PeakView at = peaks.speed != nullptr
                             ? PeakView{qv, peaks.displacement != nullptr ? qu : nullptr}
                             : PeakView{};
-    obs.at_slot(SlotView{grid, static_cast<std::size_t>(slots[j]), path0, lanes, cx, cu, cs, at});
+    out.at_slot(SlotView{grid, static_cast<std::size_t>(slots[j]), path0, lanes, cx, cu, cs, at});
   }
-  if (o.stop) stop_outputs(o, obs, grid, path0, lanes, x, u, s, peaks, quadratic);
+  if (o.stop) stop_outputs(o, out, grid, path0, lanes, x, u, s, peaks, quadratic);
 }
 
 // Whether the first `lanes` paths are at rest.

@@ -73,10 +73,10 @@ struct Unobserving {
   void substep(int, double, double) {}
   // The fine grid's state after a step (every lane).
   void moved(const double*, const double*) {}
-  // The outputs at an output slot of a grid: reached by the loop, or by the coast after the
-  // switch-off (kernel.hpp, after_switch_off).
+  // An output slot of a grid, reached by the loop; or by the coast after the switch-off, which
+  // calls the outputs' hooks only (kernel.hpp, after_switch_off; kernel_outputs.hpp).
   void at_slot(const SlotView&) {}
-  // The outputs at the stop of a grid (from the coast after the switch-off).
+  // The stop of a grid (from the coast after the switch-off: the outputs' hooks only).
   void at_stop(const StopView&) {}
   // The path has reached the output time of `slot` (after its outputs there on every grid).
   void passed_slot(std::size_t) {}
@@ -159,8 +159,9 @@ struct Quadratic : Unobserving {
   double qc[kGrids][kLanes];
 };
 
-// A list of observers, each hook calling theirs in turn. A loop's list is Observers<...>
-// (kernel_outputs.hpp): the output observers, then the loop's own.
+// A list of observers, each hook calling theirs in turn; itself an observer (a list's entry may
+// be a list). A loop's list is Observers<...> (kernel_outputs.hpp): the outputs, then the
+// loop's own.
 template <class... Os>
 struct ObserverList : Os... {
   static constexpr bool kWatchesSteps = (false || ... || Os::kWatchesSteps);
@@ -185,8 +186,11 @@ struct ObserverList : Os... {
     (Os::substep(l, x, u), ...);
   }
   void moved([[maybe_unused]] const double* x, [[maybe_unused]] const double* u) { (Os::moved(x, u), ...); }
-  // Inlined into the loop as the outputs it replaced were: at every output slot.
-  [[gnu::always_inline]] void at_slot([[maybe_unused]] const SlotView& v) { (Os::at_slot(v), ...); }
+  // Inlined into the loop, which calls it at every output slot (the outputs' switches are then
+  // tested there, as when they were one inlined function).
+  [[gnu::always_inline]] void at_slot([[maybe_unused]] const SlotView& v) {
+    (Os::at_slot(v), ...);
+  }
   void at_stop([[maybe_unused]] const StopView& v) { (Os::at_stop(v), ...); }
   void passed_slot([[maybe_unused]] std::size_t slot) { (Os::passed_slot(slot), ...); }
   void end_paths([[maybe_unused]] std::uint64_t path0, [[maybe_unused]] int lanes) {
@@ -194,13 +198,18 @@ struct ObserverList : Os... {
   }
   PeakView peaks() const {
     PeakView v;
-    (Os::peaks(v), ...);
+    peaks(v);
     return v;
   }
-  const double* quadratic([[maybe_unused]] int g) const {
+  const double* quadratic(int g) const {
     const double* q = nullptr;
-    (Os::quadratic(g, q), ...);
+    quadratic(g, q);
     return q;
+  }
+  // The hooks' forms, so that a list can be one observer of another.
+  void peaks([[maybe_unused]] PeakView& v) const { (Os::peaks(v), ...); }
+  void quadratic([[maybe_unused]] int g, [[maybe_unused]] const double*& q) const {
+    (Os::quadratic(g, q), ...);
   }
 };
 

@@ -1,11 +1,12 @@
 // The outputs of the white-noise path loop (simulate_block, kernel.hpp) as observers
 // (kernel_observers.hpp): at an output slot of a grid (at_slot) and at the stop (at_stop), each
 // writes its part into the thread's Workspace. They are in every loop (Observers<...> below puts
-// them before a loop's own observers), since whether a run records per-path values, counts
-// histograms or sums the squared velocity is a run-time option: each holds its run-time switch,
-// tested once per slot and lane group, never per step, so these choices add no instantiations.
-// The loop calls them at its slots, the coast after the switch-off at the later slots and at
-// the stop (kernel.hpp, after_switch_off). In the order of the list:
+// them, as one observer Outputs, before a loop's own observers), since whether a run records
+// per-path values, counts histograms or sums the squared velocity is a run-time option: each
+// holds its run-time switch, tested once per slot and lane group, never per step, so these
+// choices add no instantiations. The loop calls them at its slots, the coast after the
+// switch-off at the later slots and at the stop (kernel.hpp, after_switch_off). In the order of
+// the list:
 // - MomentSums: the moment sums of every grid (Workspace::times, stop and the coarse grids');
 // - EnergySums: the squared velocity's sums (Options::energy), fine grid;
 // - Recording: the per-path values of every grid (Workspace::samples, multilevel runs);
@@ -198,8 +199,13 @@ class HistogramCounts : public Unobserving {
   std::size_t stop_slot_;
 };
 
+// The outputs, in this order, as one observer: one type, so that the coast after the
+// switch-off, which feeds them alone (the steps' observers have nothing to see there), is one
+// function, not one per loop kind (kernel.hpp, after_switch_off).
+using Outputs = ObserverList<MomentSums, EnergySums, Recording, PeakSums, HistogramCounts>;
+
 // A loop's observers: the outputs, then the loop's own Os (the table in kernel_variant.inc).
 template <class... Os>
-using Observers = ObserverList<MomentSums, EnergySums, Recording, PeakSums, HistogramCounts, Os...>;
+using Observers = ObserverList<Outputs, Os...>;
 
 CRANDALL_END_VARIANT
