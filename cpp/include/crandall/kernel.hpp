@@ -121,8 +121,8 @@ template <int kGrids>
 
 // Simulate paths [first, first + count) (count <= kBlockPaths) into ws (reset by the caller):
 // method M (methods/*.hpp) with the integrals kDisp, kDist, watched by the observers Obs
-// (Observers<...>: the outputs of kernel_outputs.hpp, then the step observers of
-// kernel_observers.hpp compiled in only when asked for). The outputs' run-time choices
+// (Observers<...>: the step observers of kernel_observers.hpp, compiled in only when asked
+// for, then the outputs of kernel_outputs.hpp). The outputs' run-time choices
 // (histograms, the squared velocity, the recorded values) are made at output slots only.
 template <class M, bool kDisp, bool kDist, class Obs = Observers<>>
 void simulate_block(const Plan& plan, std::uint64_t first, std::uint64_t count, Workspace& ws) {

@@ -160,8 +160,8 @@ struct Quadratic : Unobserving {
 };
 
 // A list of observers, each hook calling theirs in turn; itself an observer (a list's entry may
-// be a list). A loop's list is Observers<...> (kernel_outputs.hpp): the outputs, then the
-// loop's own.
+// be a list). A loop's list is Observers<...> (kernel_outputs.hpp): the loop's own, then the
+// outputs.
 template <class... Os>
 struct ObserverList : Os... {
   static constexpr bool kWatchesSteps = (false || ... || Os::kWatchesSteps);
