@@ -31,9 +31,10 @@ CRANDALL_BEGIN_VARIANT
 // The stop's values on one grid from the state at the switch-off (x, u, s, every path coasts
 // to rest: coast.hpp), given to the outputs' at_stop with the peaks over the whole path (as
 // after_switch_off's) and the quadratic variation up to the switch-off (no noise after it).
-inline void stop_outputs(const Options& o, Outputs& out, int grid, std::uint64_t path0,
-                         int lanes, const double* x, const double* u, const double* s,
-                         PeakView peaks, const double* quadratic) {
+// Kept out of line and uncloned, as after_switch_off.
+[[gnu::noinline, gnu::noclone]] inline void stop_outputs(
+    const Options& o, Outputs& out, int grid, std::uint64_t path0, int lanes, const double* x,
+    const double* u, const double* s, PeakView peaks, const double* quadratic) {
   double ts[kLanes] = {}, us[kLanes] = {}, ss[kLanes] = {}, qu[kLanes] = {};
   for (int l = 0; l < lanes; ++l) {
     const double to_stop = time_to_stop(x[l], o.drift);
@@ -64,9 +65,12 @@ inline void stop_outputs(const Options& o, Outputs& out, int grid, std::uint64_t
 // sign(X(t0)) times the distance travelled, which never decreases, so U2 is monotone on
 // [t0, t] and its largest modulus there is at an end: the peak of |U2| up to t is
 // max(pu, |U2(t)|), and at the stop max(pu, |U2(t_s)|).
-inline void after_switch_off(const Plan& plan, Outputs& out, int grid, std::uint64_t path0,
-                             int lanes, const double* x, const double* u, const double* s,
-                             PeakView peaks, const double* quadratic) {
+//
+// Kept out of line and uncloned: it runs once per group of paths, and the copies GCC made of
+// it (clones per grid and inlined ones) grew each kernel unit by about 10 kB.
+[[gnu::noinline, gnu::noclone]] inline void after_switch_off(
+    const Plan& plan, Outputs& out, int grid, std::uint64_t path0, int lanes, const double* x,
+    const double* u, const double* s, PeakView peaks, const double* quadratic) {
   const Options& o = plan.options();
   const auto& slots = plan.coast_slots();
   const auto& elapsed = plan.coast_elapsed();
