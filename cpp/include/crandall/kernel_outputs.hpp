@@ -171,7 +171,9 @@ class PeakSums : public Unobserving {
 
 // The histograms of the fine grid's values (Plan::histograms; bin_slot): at a slot the
 // velocity, the integrals simulated and the peaks; at the stop (slot times.size()) the time to
-// it, the integrals there and the peaks over the whole path.
+// it, the integrals there and the peaks over the whole path. The integrals simulated are the
+// options' (Options::displacement, distance), by which every run picks its loop (only
+// simulate_states steps velocity alone whatever they say, and it keeps no histograms).
 class HistogramCounts : public Unobserving {
  public:
   HistogramCounts(const Plan& plan, Workspace& ws)
