@@ -1,7 +1,10 @@
 // Observers of the white-noise path loop (simulate_block, kernel.hpp): small types whose hooks
-// the loop calls at fixed points, chosen at compile time, so that a loop pays only for what it
-// observes (a hook with nothing to do compiles to nothing). The peaks, the quadratic variation
-// (here) and the control sums (kernel_controls.hpp).
+// the loop calls at fixed points (a hook with nothing to do compiles to nothing). Those that
+// watch the steps are chosen at compile time, so that a loop pays only for what it observes:
+// the peaks, the quadratic variation (here) and the control sums (kernel_controls.hpp). Those
+// that write the outputs at an output slot and at the stop (the moment sums, the squared
+// velocity's, the recorded values, the peaks' sums and the histograms: kernel_outputs.hpp) are
+// in every loop, each with its run-time switch.
 #pragma once
 
 #include <cstddef>
@@ -20,6 +23,34 @@ CRANDALL_BEGIN_VARIANT
 struct PeakView {
   const double* speed = nullptr;
   const double* displacement = nullptr;
+};
+
+// What the outputs see at an output slot of one grid (0 the fine grid; g >= 1 a coupled coarse
+// grid): the lanes' velocity x, displacement u and distance s there, and the running maxima
+// (the fine grid's, when peaks are observed; none on a coarse grid).
+struct SlotView {
+  int grid;
+  std::size_t slot;
+  std::uint64_t path0;
+  int lanes;
+  const double* x;
+  const double* u;
+  const double* s;
+  PeakView peaks;
+};
+
+// What the outputs see at the stop on one grid: the time from the switch-off to the stop, the
+// displacement u and distance s there, the peaks over the whole path (as at a slot) and the
+// quadratic variation up to the switch-off (null when not integrated).
+struct StopView {
+  int grid;
+  std::uint64_t path0;
+  int lanes;
+  const double* time;
+  const double* u;
+  const double* s;
+  PeakView peaks;
+  const double* quadratic;
 };
 
 // The hooks, every one empty. An observer derives from it and hides the ones it uses.
@@ -42,7 +73,12 @@ struct Unobserving {
   void substep(int, double, double) {}
   // The fine grid's state after a step (every lane).
   void moved(const double*, const double*) {}
-  // The path has reached the output time of `slot` (after its outputs there).
+  // An output slot of a grid, reached by the loop; or by the coast after the switch-off, which
+  // calls the outputs' hooks only (kernel.hpp, after_switch_off; kernel_outputs.hpp).
+  void at_slot(const SlotView&) {}
+  // The stop of a grid (from the coast after the switch-off: the outputs' hooks only).
+  void at_stop(const StopView&) {}
+  // The path has reached the output time of `slot` (after its outputs there on every grid).
   void passed_slot(std::size_t) {}
   // The group's paths path0 .. path0 + lanes - 1 have taken all their steps.
   void end_paths(std::uint64_t, int) {}
@@ -123,12 +159,14 @@ struct Quadratic : Unobserving {
   double qc[kGrids][kLanes];
 };
 
-// A list of observers, each hook calling theirs in turn.
+// A list of observers, each hook calling theirs in turn; itself an observer (a list's entry may
+// be a list). A loop's list is Observers<...> (kernel_outputs.hpp): the loop's own, then the
+// outputs.
 template <class... Os>
-struct Observers : Os... {
+struct ObserverList : Os... {
   static constexpr bool kWatchesSteps = (false || ... || Os::kWatchesSteps);
   static constexpr bool kNeedsSkeleton = (false || ... || Os::kNeedsSkeleton);
-  Observers([[maybe_unused]] const Plan& plan, [[maybe_unused]] Workspace& ws) : Os(plan, ws)... {}
+  ObserverList([[maybe_unused]] const Plan& plan, [[maybe_unused]] Workspace& ws) : Os(plan, ws)... {}
   void begin([[maybe_unused]] const Options& o) { (Os::begin(o), ...); }
   void before_step([[maybe_unused]] const double* x, [[maybe_unused]] const double* u,
                    [[maybe_unused]] const double* s, [[maybe_unused]] const double* normal,
@@ -148,19 +186,30 @@ struct Observers : Os... {
     (Os::substep(l, x, u), ...);
   }
   void moved([[maybe_unused]] const double* x, [[maybe_unused]] const double* u) { (Os::moved(x, u), ...); }
+  // Inlined into the loop, which calls it at every output slot (the outputs' switches are then
+  // tested there, as when they were one inlined function).
+  [[gnu::always_inline]] void at_slot([[maybe_unused]] const SlotView& v) {
+    (Os::at_slot(v), ...);
+  }
+  void at_stop([[maybe_unused]] const StopView& v) { (Os::at_stop(v), ...); }
   void passed_slot([[maybe_unused]] std::size_t slot) { (Os::passed_slot(slot), ...); }
   void end_paths([[maybe_unused]] std::uint64_t path0, [[maybe_unused]] int lanes) {
     (Os::end_paths(path0, lanes), ...);
   }
   PeakView peaks() const {
     PeakView v;
-    (Os::peaks(v), ...);
+    peaks(v);
     return v;
   }
-  const double* quadratic([[maybe_unused]] int g) const {
+  const double* quadratic(int g) const {
     const double* q = nullptr;
-    (Os::quadratic(g, q), ...);
+    quadratic(g, q);
     return q;
+  }
+  // The hooks' forms, so that a list can be one observer of another.
+  void peaks([[maybe_unused]] PeakView& v) const { (Os::peaks(v), ...); }
+  void quadratic([[maybe_unused]] int g, [[maybe_unused]] const double*& q) const {
+    (Os::quadratic(g, q), ...);
   }
 };
 
