@@ -3,6 +3,7 @@ import math
 import os
 import site
 
+import numpy as np
 import pytest
 
 import crandall
@@ -42,6 +43,18 @@ def same_result(a, b):
         else:
             assert (ma == mb).all() and (va == vb).all(), name
     return True
+
+
+
+def run_bits(out):
+    """A run's numbers as bytes (a result's statistics, each of a list's, a tail's
+    probabilities, standard errors and sample count): equal only if bitwise equal."""
+    if isinstance(out, list):
+        return [run_bits(o) for o in out]
+    if isinstance(out, crandall.TailResult):
+        return (out.probability.tobytes(), out.stderr.tobytes(), out.samples)
+    return [(name, np.asarray(out.mean(name)).tobytes(), np.asarray(out.var(name)).tobytes(),
+             np.asarray(out.stderr(name)).tobytes()) for name in out.names]
 
 
 INF = math.inf

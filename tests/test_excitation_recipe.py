@@ -21,7 +21,7 @@ import pytest
 
 import crandall
 import recipe_workers
-from conftest import same_result
+from conftest import run_bits, same_result
 from crandall import _core, adaptive, engine, excitation, model, streams
 from crandall.errors import ParameterError
 from crandall.excitation import Excitation
@@ -262,17 +262,6 @@ def test_a_worker_that_does_not_declare_the_kind_refuses_its_tasks(entry, worker
     assert exc.value.name == "scene"
 
 
-def _bits(out):
-    """A run's numbers as bytes: every statistic of a result (or of each of a list), a tail's
-    probabilities, standard errors and sample count."""
-    if isinstance(out, list):
-        return [_bits(o) for o in out]
-    if isinstance(out, crandall.TailResult):
-        return (out.probability.tobytes(), out.stderr.tobytes(), out.samples)
-    return [(name, np.asarray(out.mean(name)).tobytes(), np.asarray(out.var(name)).tobytes(),
-             np.asarray(out.stderr(name)).tobytes()) for name in out.names]
-
-
 @pytest.mark.parametrize("entry", sorted(CLUSTER_ENTRY_POINTS))
 def test_declared_a_cluster_run_is_bitwise_the_local_run(entry, worker_client, stub_kind,
                                                          stub_declared, request):
@@ -283,7 +272,7 @@ def test_declared_a_cluster_run_is_bitwise_the_local_run(entry, worker_client, s
         request.getfixturevalue("no_path_drawn")
     with recipe_workers.on_workers(worker_client, REGISTERED + _declared_on_workers()):
         remote = CLUSTER_ENTRY_POINTS[entry](worker_client)
-    assert _bits(remote) == _bits(local)
+    assert run_bits(remote) == run_bits(local)
 
 
 def test_declared_its_results_files_give_the_run_back(stub_kind, stub_declared, tmp_path):
@@ -299,4 +288,4 @@ def test_declared_its_results_files_give_the_run_back(stub_kind, stub_declared, 
     t = CLUSTER_ENTRY_POINTS["tail"](None)
     t.save(tmp_path / "t.nc")
     loaded_tail = crandall.load(tmp_path / "t.nc")
-    assert _bits(loaded_tail) == _bits(t)
+    assert run_bits(loaded_tail) == run_bits(t)

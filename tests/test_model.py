@@ -17,7 +17,7 @@ import pytest
 
 import crandall
 import recipe_workers
-from conftest import same_result
+from conftest import run_bits, same_result
 from crandall import adaptive, engine, model, plots, streams
 from crandall.errors import ParameterError
 from crandall.scene import Scene
@@ -218,7 +218,7 @@ def test_declared_the_stubs_files_give_the_run_back(every_scene_holds_a_stub, st
     assert np.asarray(loaded.bias("velocity")).tobytes() == np.asarray(r.bias("velocity")).tobytes()
     t = CLUSTER_ENTRY_POINTS["tail"](None)
     t.save(tmp_path / "t.nc")
-    assert _bits(crandall.load(tmp_path / "t.nc")) == _bits(t)
+    assert run_bits(crandall.load(tmp_path / "t.nc")) == run_bits(t)
 
 
 # Through a cluster: the entry points given a client of one worker process (conftest's
@@ -254,17 +254,6 @@ CLUSTER_ENTRY_POINTS = {
 }
 
 
-def _bits(out):
-    """A run's numbers as bytes (a result's statistics, each of a list's, a tail's
-    probabilities, standard errors and sample count)."""
-    if isinstance(out, list):
-        return [_bits(o) for o in out]
-    if isinstance(out, crandall.TailResult):
-        return (out.probability.tobytes(), out.stderr.tobytes(), out.samples)
-    return [(name, np.asarray(out.mean(name)).tobytes(), np.asarray(out.var(name)).tobytes(),
-             np.asarray(out.stderr(name)).tobytes()) for name in out.names]
-
-
 @pytest.fixture
 def no_path_drawn_here(monkeypatch):
     """Every path-drawing function of this process's core fails the test if called."""
@@ -276,6 +265,10 @@ def no_path_drawn_here(monkeypatch):
 @pytest.mark.parametrize("entry", sorted(CLUSTER_ENTRY_POINTS))
 def test_on_a_cluster_every_entry_point_refuses_the_stub_before_any_path(
         entry, worker_client, every_scene_holds_a_stub, no_path_drawn_here):
+    _refused_with_no_path_drawn_on_the_worker(entry, worker_client)
+
+
+def _refused_with_no_path_drawn_on_the_worker(entry, worker_client):
     with recipe_workers.on_workers(worker_client, HOLDS_STUB + recipe_workers.no_path_drawn()):
         with pytest.raises(ParameterError, match="scene: holds stub, which this crandall does "
                                                  "not simulate") as exc:
@@ -289,11 +282,7 @@ def test_a_worker_that_does_not_simulate_the_stub_refuses_its_tasks(
     # Declared here, not in the worker's process (a cluster running a crandall that does not
     # simulate the effect): each Dask task refuses the scene it rebuilds, naming it, before
     # its worker draws a path.
-    with recipe_workers.on_workers(worker_client, HOLDS_STUB + recipe_workers.no_path_drawn()):
-        with pytest.raises(ParameterError, match="scene: holds stub, which this crandall does "
-                                                 "not simulate") as exc:
-            CLUSTER_ENTRY_POINTS[entry](worker_client)
-    assert exc.value.name == "scene"
+    _refused_with_no_path_drawn_on_the_worker(entry, worker_client)
 
 
 @pytest.mark.parametrize("entry", sorted(CLUSTER_ENTRY_POINTS))
@@ -306,4 +295,4 @@ def test_declared_a_cluster_run_of_the_stub_is_bitwise_the_local_run(
         request.getfixturevalue("no_path_drawn_here")
     with recipe_workers.on_workers(worker_client, HOLDS_STUB + _simulated_on_workers()):
         remote = CLUSTER_ENTRY_POINTS[entry](worker_client)
-    assert _bits(remote) == _bits(local)
+    assert run_bits(remote) == run_bits(local)
