@@ -60,11 +60,14 @@ def run_bits(out):
 INF = math.inf
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def worker_client():
     """A Dask client of one worker process, for the recipes' Dask legs (tests/recipe_workers.py
-    patches its process as a test patches this one). One for the session: a process cluster
-    takes about a second to start. Ephemeral ports, as in tests/test_distributed.py."""
+    patches its process as a test patches this one). One per test module: a process cluster
+    takes about a second to start, and its scheduler runs in this process, where its
+    heartbeats' allocations would be traced by a later module's tracemalloc measurements
+    (tests/test_result_distributions.py's histogram memory test saw 250 kB of them) if it
+    outlived its module. Ephemeral ports, as in tests/test_distributed.py."""
     distributed = pytest.importorskip("distributed")
     cluster = distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                                        scheduler_port=0, dashboard_address=":0",
