@@ -53,7 +53,8 @@ def test_the_default_depth_is_the_cores_and_leaves_the_spec_as_it_was():
 
 def test_the_bias_estimate_covers_what_a_coarse_depth_moves():
     # Paired: the same seed at depths 4 and 8 walks the same skeleton and the same bridges
-    # (a node's random numbers depend on its place in the bisection tree only), so the
+    # (a node's random numbers depend on its place in the bisection tree only; depths of
+    # one parity: another parity walks the mirror image, docs/filtered.md), so the
     # per-path difference of the distance at the stop resolves the depth's shift.
     n = 2000
     spec8 = RunSpec.create(SCENE, paths=n, seed=1)
