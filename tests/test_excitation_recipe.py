@@ -242,6 +242,10 @@ CLUSTER_ENTRY_POINTS = {
 def test_on_a_cluster_every_entry_point_refuses_the_kind_before_any_path(
         entry, worker_client, stub_kind, no_path_drawn):
     # Neither this process nor the worker's may draw a path.
+    _refused_with_no_path_drawn_on_the_worker(entry, worker_client)
+
+
+def _refused_with_no_path_drawn_on_the_worker(entry, worker_client):
     with recipe_workers.on_workers(worker_client, REGISTERED + recipe_workers.no_path_drawn()):
         with pytest.raises(ParameterError, match=f"scene: holds {STUB_EFFECT}, which this "
                                                  "crandall does not simulate") as exc:
@@ -255,11 +259,7 @@ def test_a_worker_that_does_not_declare_the_kind_refuses_its_tasks(entry, worker
     # The client declares the kind, the worker's crandall only knows its class (a cluster
     # running a crandall of step 1): each Dask task refuses the scene it rebuilds, naming it,
     # before its worker draws a path, and the client raises that error.
-    with recipe_workers.on_workers(worker_client, REGISTERED + recipe_workers.no_path_drawn()):
-        with pytest.raises(ParameterError, match=f"scene: holds {STUB_EFFECT}, which this "
-                                                 "crandall does not simulate") as exc:
-            CLUSTER_ENTRY_POINTS[entry](worker_client)
-    assert exc.value.name == "scene"
+    _refused_with_no_path_drawn_on_the_worker(entry, worker_client)
 
 
 @pytest.mark.parametrize("entry", sorted(CLUSTER_ENTRY_POINTS))
