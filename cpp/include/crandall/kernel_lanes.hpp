@@ -115,4 +115,15 @@ struct Group {
   alignas(64) double sc[kGrids][kLanes] = {};
 };
 
+// What a method type reads from its row of kMethodTable (plan.hpp), as its base: kMethod, and
+// the row's kSkeleton and kOrder; segment(g), no constants of its own (a method with some hides
+// it). methods/exact.hpp says what a method type holds.
+template <Method M>
+struct MethodOf {
+  static constexpr Method kMethod = M;
+  static constexpr bool kSkeleton = skeleton(M);
+  static constexpr double kOrder = method_order(M);
+  static void segment(SegmentSteps&) {}
+};
+
 CRANDALL_END_VARIANT

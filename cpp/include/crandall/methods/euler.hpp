@@ -7,11 +7,7 @@
 
 CRANDALL_BEGIN_VARIANT
 
-struct Euler {
-  static constexpr Method kMethod = Method::euler;
-  static constexpr bool kSkeleton = skeleton(kMethod);
-  static constexpr double kOrder = method_order(kMethod);
-  static void segment(SegmentSteps&) {}
+struct Euler : MethodOf<Method::euler> {
   template <bool kDisp, bool kDist, int G, class Obs>
   [[gnu::always_inline]] static void step(const SegmentSteps& g, const StepDraws& z,
                                           std::uint64_t, Group<G>& p, Obs& obs) {

@@ -1,7 +1,8 @@
 // The exact method: the exact skeleton (exact_step.hpp, docs/exact-step.md) on the grid,
 // the integrals by the trapezoid rule on it (docs/integrals.md).
 //
-// A method is a small type the path loop (simulate_block, kernel.hpp) is instantiated with:
+// A method is a small type the path loop (simulate_block, kernel.hpp) is instantiated with;
+// the first four come from its base MethodOf<its Method> (kernel_lanes.hpp):
 //   kMethod    its Method (plan.hpp; its row in kMethodTable names it, counts its grids,
 //              says whether its steps are the exact skeleton's and states its order),
 //   kSkeleton  that row's answer (an observer of the Brownian increments and the quadratic
@@ -65,11 +66,7 @@ template <bool kDisp, bool kDist>
   }
 }
 
-struct Exact {
-  static constexpr Method kMethod = Method::exact;
-  static constexpr bool kSkeleton = skeleton(kMethod);
-  static constexpr double kOrder = method_order(kMethod);
-  static void segment(SegmentSteps&) {}
+struct Exact : MethodOf<Method::exact> {
   template <bool kDisp, bool kDist, int G, class Obs>
   [[gnu::always_inline]] static void step(const SegmentSteps& g, const StepDraws& z,
                                           std::uint64_t, Group<G>& p, Obs& obs) {

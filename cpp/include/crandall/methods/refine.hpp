@@ -19,10 +19,7 @@ constexpr std::uint64_t kRefineStream = 1ull << 63;
 
 CRANDALL_BEGIN_VARIANT
 
-struct Refine {
-  static constexpr Method kMethod = Method::refine;
-  static constexpr bool kSkeleton = skeleton(kMethod);
-  static constexpr double kOrder = method_order(kMethod);
+struct Refine : MethodOf<Method::refine> {
   static void segment(SegmentSteps& g) { g.near = kRefineWithin * g.noise * std::sqrt(g.step); }
   template <bool kDisp, bool kDist, int G, class Obs>
   [[gnu::always_inline]] static void step(const SegmentSteps& g, const StepDraws& z,

@@ -10,11 +10,7 @@
 CRANDALL_BEGIN_VARIANT
 
 template <Method M>
-struct RichardsonSteps {
-  static constexpr Method kMethod = M;
-  static constexpr bool kSkeleton = skeleton(kMethod);
-  static constexpr double kOrder = method_order(kMethod);
-  static void segment(SegmentSteps&) {}
+struct RichardsonSteps : MethodOf<M> {
   template <bool kDisp, bool kDist, int G, class Obs>
   [[gnu::always_inline]] static void step(const SegmentSteps& g, const StepDraws& z,
                                           std::uint64_t k, Group<G>& p, Obs& obs) {
