@@ -9,9 +9,8 @@ omega t* = 1, 4, 16, the default step, one thread. Per depth of DEPTHS:
   to depth 8's in the same process (the machine's load falls alike on all);
 - shift: the paired per-path difference against depth 8 on the same seed
   (``_core.run_samples``; a node's random numbers depend on its place in the bisection tree
-  only, so both depths walk the same skeleton and the same bridges, or, for depths of other
-  parities, their mirror image, -V and -U with the same distance and stop time: the roots'
-  signs alternate with the level, docs/filtered.md) of the distance at the stop (its mean and
+  only, and every depth builds the same roots, so both depths walk the same skeleton and the
+  same bridges, docs/filtered.md) of the distance at the stop (its mean and
   variance) and of the stop time, with standard errors;
 - bias: the run's ``Result.bias`` at that depth (its coupled grids each bisect to the same
   depth below their own step), for the same statistics.

@@ -486,6 +486,29 @@ RMat quadrature_root_long(const LinearFilter& f, double length) {
   return root;
 }
 
+// The noise tree's roots are unique only up to their columns' signs, and Householder's
+// convention (T's diagonal opposite in sign to the column it reduces) flips every level's signs
+// with each composition, so the sign of every level depended on how many compositions lie below
+// it: on the event depth's parity (and on how often the deepest quadrature root was halved). A
+// depth of the other parity then walked the mirror image of the path (-V and -U, the same
+// distance and stop time). Negating every root keeps every identity of the tree
+// ([Phi R_(d+1), R_(d+1)] U_d = [R_d, 0] holds for -R with the same U_d, and -R (-R)^T = Q), so
+// the roots are negated when the longest level's first nonzero diagonal entry is positive: every
+// depth then builds the same roots up to rounding, and the same seed walks the same path.
+// (Negative is the sign the default depth had, so its paths keep their bits.) Zero entries stay
+// +0.
+void canonical_signs(std::vector<RMat>& roots) {
+  const RMat& top = roots.front();
+  for (int k = 0; k < top.rows && k < top.cols; ++k) {
+    if (top(k, k).hi == 0.0) continue;
+    if (top(k, k).hi < 0.0) return;
+    for (RMat& r : roots)
+      for (Real& x : r.v)
+        if (x.hi != 0.0) x = -x;
+    return;
+  }
+}
+
 }  // namespace
 
 std::vector<double> quadrature_root(const LinearFilter& f, double length) {
@@ -503,6 +526,7 @@ std::vector<RootLevel> root_levels(const LinearFilter& f, double longest, int co
     roots[static_cast<std::size_t>(i)] = compose_roots(phis[static_cast<std::size_t>(i + 1)],
                                                        roots[static_cast<std::size_t>(i + 1)],
                                                        &splits[static_cast<std::size_t>(i)]);
+  canonical_signs(roots);
   RMat c(m, 1);
   for (int j = 0; j < n; ++j) c(j, 0) = f.c[static_cast<std::size_t>(j)];
   std::vector<RootLevel> out(static_cast<std::size_t>(count));
