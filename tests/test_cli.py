@@ -452,8 +452,12 @@ def test_tail_command_prints_writes_and_draws_the_curve(tmp_path, capsys):
             "--levels", "0.3", "0.6", "--seed", "3", "--rel-error", "0.3", "--mc-paths", "5000",
             "--out", str(out), "--no-progress"]
     assert cli.main(args) == 0
-    text = capsys.readouterr().out
+    captured = capsys.readouterr()
+    text = captured.out
     assert "P(residual_displacement > level): splitting" in text and "level [m]" in text
+    # The file's [run] table (crandall run's defaults) is said unused, not silently dropped.
+    assert (f"crandall: note: {SCENES / 'crate.toml'}: [run] paths = 200000, seed = 7 not "
+            "used" in captured.err)
     rows = (out / "tail.csv").read_text().splitlines()
     assert rows[0] == "level,units,probability,stderr,rel_error,lower_95,upper_95,reliable"
     # The curve starts at plain Monte Carlo's 10 % quantile and holds the asked levels.

@@ -160,6 +160,16 @@ def _file_run_with_error(file: str, settings) -> None:
               "to use them", file=sys.stderr)
 
 
+def note_unused_run_table(file: str, settings, command: str) -> None:
+    """Say on stderr that ``command`` (``crandall tail``, ``crandall fragility``) uses none of
+    the scene file's ``[run]`` fields: the table holds ``crandall run``'s defaults."""
+    if settings:
+        fields = ", ".join(f"{key} = {value!r}" for key, value in settings.items())
+        print(f"crandall: note: {file}: [run] {fields} not used: the [run] table sets "
+              f"crandall run's defaults; {command} takes its seed and step from --seed and "
+              "--dt only", file=sys.stderr)
+
+
 def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, threads, dt, method,
                   event_depth, out, checkpoint, scheduler, files, earlier, progress=None,
                   max_seconds=None, statistics=None, figures: bool = True,
