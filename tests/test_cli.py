@@ -452,8 +452,12 @@ def test_tail_command_prints_writes_and_draws_the_curve(tmp_path, capsys):
             "--levels", "0.3", "0.6", "--seed", "3", "--rel-error", "0.3", "--mc-paths", "5000",
             "--out", str(out), "--no-progress"]
     assert cli.main(args) == 0
-    text = capsys.readouterr().out
+    captured = capsys.readouterr()
+    text = captured.out
     assert "P(residual_displacement > level): splitting" in text and "level [m]" in text
+    # The file's [run] table (crandall run's defaults) is said unused, not silently dropped.
+    assert (f"crandall: note: {SCENES / 'crate.toml'}: [run] paths = 200000, seed = 7 not "
+            "used" in captured.err)
     rows = (out / "tail.csv").read_text().splitlines()
     assert rows[0] == "level,units,probability,stderr,rel_error,lower_95,upper_95,reliable"
     # The curve starts at plain Monte Carlo's 10 % quantile and holds the asked levels.
@@ -547,7 +551,35 @@ def test_every_shipped_scene_runs_to_a_relative_accuracy(name, tmp_path, monkeyp
     # (the distributions dropped with a note; a variance where almost every path is at rest
     # measured against 1 % of its largest value over the times, adaptive.REL_FLOOR; an
     # envelope's pieces refined until their error is within half the target).
+    # The file's [run] paths (and vibrating_table's dt) are not refused but said unused.
     monkeypatch.chdir(tmp_path)
     assert cli.main(["run", name, "--rel-error", "3e-2", "--no-files"]) == 0
-    out = capsys.readouterr().out
+    captured = capsys.readouterr()
+    out = captured.out
     assert "levels" in out and "path-steps" in out, out
+    run = crandall.Scene.from_toml(name).run_settings
+    assert "paths" in run and f"[run] paths = {run['paths']}" in captured.err
+    assert ("dt" in run) == ("dt = " in captured.err)
+    assert f"seed {run['seed']})" in out
+
+
+def test_run_to_an_accuracy_refuses_or_notes_the_files_run_fields(tmp_path, capsys):
+    # A file's [run] method or event_depth (how each path is computed: the levels keep their
+    # own) is refused naming the field, before anything is written; its paths and dt (the
+    # size of a fixed-step run, which a target replaces) are said unused; its seed is used.
+    f = tmp_path / "r.toml"
+    head = '[scene]\nunits = "scaled"\ntau0 = 1.0\ntimes = [0.5, 2.0]\n[run]\nseed = 5\n'
+    for line, field in (('method = "exact"', "[run] method = 'exact'"),
+                        ("event_depth = 4", "[run] event_depth = 4")):
+        f.write_text(head + line + "\n")
+        assert cli.main(["run", str(f), "--rel-error", "0.05", "--out", str(tmp_path / "o")]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"crandall: error: {f}: {field}: not with --error"), err
+        assert "remove it from the file's [run] table" in err
+        assert not (tmp_path / "o").exists()
+    f.write_text(head + "paths = 3000\ndt = 0.05\n")
+    assert cli.main(["run", str(f), "--rel-error", "0.05", "--statistics", "distance:mean",
+                     "--no-files"]) == 0
+    captured = capsys.readouterr()
+    assert f"crandall: note: {f}: [run] paths = 3000 and dt = 0.05 not used" in captured.err
+    assert "seed 5)" in captured.out

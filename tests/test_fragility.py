@@ -266,6 +266,7 @@ def test_reproducible_and_on_the_command_line(capsys):
     out = capsys.readouterr()
     assert code == 0, out.err
     assert "probability" in out.out and "lognormal" in out.out
+    assert "crate: [run] paths = 200000, seed = 7 not used" in out.err  # crandall run's
     assert cli.main(["fragility", "crate", "--quantity", "stop_time", "--thresholds", "2.5"]) == 2
     assert "intensities, mu" in capsys.readouterr().err
 

@@ -194,6 +194,10 @@ def test_every_field_users_set_reaches_every_entry_point(tmp_path, monkeypatch, 
         with pytest.raises(ParameterError, match=f"{k}: not with error=") as exc:
             crandall.simulate(FILTERED_SCENE, error=0.1, **{k: user[k]})
         assert exc.value.name == k
+    # `crandall run FILE --error`: each of the file's [run] fields but the seed is refused
+    # naming it or said unused on stderr (tests/test_cli.py), none dropped without a word.
+    assert (set(user) - WITH_ERROR == set(cli.simulation.REFUSED_WITH_ERROR)
+            | set(cli.simulation.UNUSED_WITH_ERROR))
     # A tail: no RunSpec.
     tail_takes = set(inspect.signature(crandall.tail).parameters)
     assert set(user) & tail_takes == TAIL_TAKES

@@ -21,7 +21,7 @@ from ..errors import ParameterError
 from ..fragility import fragility, hazard_csv, read_hazard_curve
 from .outputs import DEFAULT_TAIL_OUT, TAIL_MANIFEST, _TAIL_OUTPUTS, _check_out, _write_manifest
 from .parser import _parser
-from .simulation import _load_scene, _read_scene, analytic_command, run
+from .simulation import _load_scene, _read_scene, analytic_command, note_unused_run_table, run
 from .suite import suite_command
 
 
@@ -48,6 +48,8 @@ def tail_command(scene_path: Optional[str] = None, *, quantity: str, levels, tim
         raise ParameterError("--quantity", "--quantity must be one of "
                                            f"{', '.join(TAIL_QUANTITIES)}; got {quantity!r}")
     earlier = _check_out(out, overwrite, _TAIL_OUTPUTS) if files else []
+    if scene_path is not None:
+        note_unused_run_table(scene_path, settings, "crandall tail")
     if seed is None:
         seed = draw_seed()
         print(f"seed: {seed}")
@@ -149,6 +151,8 @@ def fragility_command(args) -> int:
         curve = read_hazard_curve(args.hazard)  # before the runs: a bad file fails at once
     elif args.hazard_save is not None:
         raise ParameterError("hazard_save", "--hazard-save needs --hazard FILE")
+    if args.scene is not None:
+        note_unused_run_table(args.scene, scene.run_settings, "crandall fragility")
     result = fragility(scene, args.quantity, args.thresholds, intensities=args.intensities,
                        mu=args.mu, rel_error=args.rel_error, seed=seed, threads=args.threads,
                        progress=args.progress, time=args.time, dt=args.dt, method=args.method,

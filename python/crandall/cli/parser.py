@@ -103,8 +103,10 @@ def _parser() -> argparse.ArgumentParser:
     target.add_argument("--error", type=_float, metavar="EPS",
                         help="ask for an accuracy instead of paths: run until the estimated "
                              "total error (bias and statistical) of every statistic is at most "
-                             "EPS in the scene's units (multilevel Monte Carlo; writes "
-                             "result.csv only)")
+                             "EPS in the scene's units (multilevel Monte Carlo). The run "
+                             "chooses its grids and paths: a scene file's [run] method and "
+                             "event_depth are refused, its paths and dt left unused (said on "
+                             "stderr)")
     target.add_argument("--rel-error", type=_float, metavar="R",
                         help="the same, relative to each statistic's size")
     run.add_argument("--statistics", nargs="+", metavar="NAME:STAT",

@@ -23,6 +23,17 @@ from .outputs import DEFAULT_FILE_PATHS, DEFAULT_OUT, PAPER_SEED, _check_out, _w
 #: The probabilities whose quantiles ``crandall run`` prints for the stop quantities.
 QUANTILES = (0.5, 0.9, 0.99, 0.999)
 
+#: A scene file's ``[run]`` fields that ``crandall run --error`` / ``--rel-error`` refuses:
+#: they choose how each path is computed, and a run to an accuracy computes with its levels'
+#: own method and event depth (docs/methods/adaptive.md), not the ones the file asks for.
+REFUSED_WITH_ERROR = ("method", "event_depth")
+
+#: The ``[run]`` fields it leaves unused, with a note on stderr: they size a fixed-step run
+#: (how many paths, how fine a grid), which is what a target replaces (a run to an accuracy
+#: chooses both to meet it). Every shipped scene sets paths, and one sets dt, so a refusal
+#: would break ``crandall run NAME --error EPS``.
+UNUSED_WITH_ERROR = ("paths", "dt")
+
 
 def _read_scene(path: str) -> Scene:
     try:
@@ -62,7 +73,7 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     earlier = _check_out(out, overwrite) if files else []
     if error is not None or rel_error is not None:
         return _run_to_error(scene, settings, error=error, rel_error=rel_error, paths=paths,
-                             seed=seed, threads=threads, dt=dt, method=method,
+                             seed=seed, file=scene_path, threads=threads, dt=dt, method=method,
                              event_depth=event_depth, out=out,
                              checkpoint=checkpoint, scheduler=scheduler, files=files,
                              earlier=earlier, progress=progress, max_seconds=max_seconds,
@@ -132,17 +143,47 @@ def _client(scheduler: Optional[str]):
                                             f"address: {exc}") from None
 
 
+def _file_run_with_error(file: str, settings) -> None:
+    """Refuse the scene file's ``[run]`` fields a run to an accuracy cannot honour (naming
+    them), and say on stderr which ones it leaves unused."""
+    for key in REFUSED_WITH_ERROR:
+        if key in settings:
+            raise ParameterError(f"run.{key}", f"{file}: [run] {key} = {settings[key]!r}: not "
+                                 "with --error / --rel-error (a run to an accuracy chooses its "
+                                 "grids and paths itself, and its levels keep their own method "
+                                 "and event depth); remove it from the file's [run] table, or "
+                                 "run without --error / --rel-error")
+    unused = [f"{key} = {settings[key]!r}" for key in UNUSED_WITH_ERROR if key in settings]
+    if unused:
+        print(f"crandall: note: {file}: [run] {' and '.join(unused)} not used: a run to an "
+              "accuracy chooses its grids and paths itself; run without --error / --rel-error "
+              "to use them", file=sys.stderr)
+
+
+def note_unused_run_table(file: str, settings, command: str) -> None:
+    """Say on stderr that ``command`` (``crandall tail``, ``crandall fragility``) uses none of
+    the scene file's ``[run]`` fields: the table holds ``crandall run``'s defaults."""
+    if settings:
+        fields = ", ".join(f"{key} = {value!r}" for key, value in settings.items())
+        print(f"crandall: note: {file}: [run] {fields} not used: the [run] table sets "
+              f"crandall run's defaults; {command} takes its seed and step from --seed and "
+              "--dt only", file=sys.stderr)
+
+
 def _run_to_error(scene: Scene, settings, *, error, rel_error, paths, seed, threads, dt, method,
                   event_depth, out, checkpoint, scheduler, files, earlier, progress=None,
                   max_seconds=None, statistics=None, figures: bool = True,
-                  is_paper: bool = False,
+                  is_paper: bool = False, file: Optional[str] = None,
                   figure_options: Optional[dict] = None) -> int:
-    """``crandall run --error EPS``: a run to a requested accuracy."""
+    """``crandall run --error EPS``: a run to a requested accuracy (``settings``: the scene
+    file's ``[run]`` table, read from ``file``)."""
     for option, value in (("--paths", paths), ("--dt", dt), ("--method", method),
                           ("--event-depth", event_depth)):
         if value is not None:
             raise ParameterError(option, f"{option}: not with --error / --rel-error (the run "
                                          "chooses its grids and paths itself)")
+    if file is not None:
+        _file_run_with_error(file, settings)
     seed = seed if seed is not None else settings.get("seed")
     if seed is None and checkpoint is not None:
         raise ParameterError("--checkpoint", "--checkpoint: give --seed with --error, so that a "
