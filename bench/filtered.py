@@ -11,17 +11,18 @@ kinetic friction, the shaking ending at t0; the body's time scale t* = 2 h^2 / (
    inverse of this ratio; it tends to 1 as omega grows.
 2. Time to a relative error eps (1e-2, 1e-3) in the mean distance at the stop and in its
    variance, at omega t* = 1, 4, 16, one thread each, as ratios measured in one run:
-   - crandall: a pilot run (--pilot paths) at each event depth of DEPTHS (the bisections of a
-     step where a stop or an onset may happen, ``simulate(event_depth=...)``; 8 is the
-     default) gives the per-path spread, the estimated bias (``Result.bias``: its coupled
-     grids each bisect to the same depth below their own step, so it sees the depth's error)
-     and the time per path at the default step (the fastest of --repeats runs, alternating
-     the depths; the same seed gives the same numbers, only the time differs). Per (statistic,
-     eps) the depth is the shallowest whose own estimated bias is at most eps |value| / 2
-     (the cheapest: time per path falls with every bisection removed, bench/event_depth.py),
-     its time the paths needed for a standard error of eps |value| / 2 times its time per
-     path. No outside reference enters the choice. The default depth's time and ratio are
-     kept beside it (the script says when even that bias is above eps |value| / 2);
+   - crandall: a pilot run (--pilot paths) at each step of STEP_FACTORS times the default
+     step and each event depth of DEPTHS (the bisections of a step where a stop or an onset
+     may happen, ``simulate(event_depth=...)``; 8 is the default) gives the per-path spread,
+     the estimated bias (``Result.bias``: its coupled grids each bisect to the same depth
+     below their own step, so it sees the depth's and the step's error) and the time per path
+     (the fastest of --repeats runs, alternating the pilots; the same seed gives the same
+     numbers, only the time differs). Per (statistic, eps) the pilot chosen is the fastest of
+     those whose own estimated bias is at most eps |value| / 2 (a longer step with one more
+     bisection reaches the same finest substep with fewer skeleton steps), its time the paths
+     needed for a standard error of eps |value| / 2 times its time per path. No outside
+     reference enters the choice. The default step and depth's time and ratio are kept beside
+     it (the script says when even that bias is above eps |value| / 2);
    - Euler: its step bias from the same paths at dt and 2 dt (dt = 4, 2, 1 ms; their paired
      difference is c dt for a first-order bias), c fitted where resolved; the dt that brings
      it to eps |value| / 2, the paths for the standard error, and its measured time per path
@@ -63,6 +64,8 @@ EPS = (1e-2, 1e-3)
 #: The event depths the time to eps chooses from (8: the default, kDefaultEventDepth).
 DEPTHS = (8, 6, 5, 4, 3)
 DEFAULT_DEPTH = 8
+#: The steps it chooses from, as multiples of the default step (1: the default).
+STEP_FACTORS = (1, 2)
 
 
 def scene(wt: float) -> crandall.Scene:
@@ -72,20 +75,23 @@ def scene(wt: float) -> crandall.Scene:
 
 
 def crandall_run(wt: float, paths: int, seed: int, depth: int = DEFAULT_DEPTH,
-                 repeats: int = 1):
+                 repeats: int = 1, factor: int = 1):
     """A run's statistics, bias estimates and time (the fastest of ``repeats`` runs, which
-    give the same numbers). The default depth runs as ``event_depth=None``."""
+    give the same numbers), at ``factor`` times the default step. The default depth runs as
+    ``event_depth=None``, the default step as ``dt=None``."""
     sc = scene(wt)
+    dt = None if factor == 1 else factor * crandall.simulate(sc, paths=1, seed=seed).dt
     seconds = []
     for _ in range(repeats):
         start = time.perf_counter()
-        r = crandall.simulate(sc, paths=paths, seed=seed, threads=1,
+        r = crandall.simulate(sc, paths=paths, seed=seed, threads=1, dt=dt,
                               event_depth=None if depth == DEFAULT_DEPTH else depth)
         seconds.append(time.perf_counter() - start)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", crandall.StatisticsWarning)
-        out = {"dt": r.dt, "paths": paths, "seconds": min(seconds), "all_seconds": seconds,
-               "event_depth": depth, "steps_per_path": int(r.steps_per_path)}
+        out = {"dt": r.dt, "step_factor": factor, "paths": paths, "seconds": min(seconds),
+               "all_seconds": seconds, "event_depth": depth,
+               "steps_per_path": int(r.steps_per_path)}
         for stat in ("mean", "var"):
             value = r.mean("distance_at_stop") if stat == "mean" else r.var("distance_at_stop")
             se = (r.stderr("distance_at_stop") if stat == "mean"
@@ -123,16 +129,20 @@ def euler_run(wt: float, dt: float, paths: int, seed: int):
     return out
 
 
+PILOTS = [(f, d) for f in STEP_FACTORS for d in DEPTHS]
+DEFAULT_PILOT = (1, DEFAULT_DEPTH)
+
+
 def pilots(wt: float, paths: int, seed: int, repeats: int):
-    """One pilot per depth of DEPTHS (the same seed), each timed as the fastest of
-    ``repeats`` runs taken in turn over the depths (so the machine's load falls alike on
-    them); the statistics and bias estimates are those of one run."""
-    runs = {d: crandall_run(wt, paths, seed, d) for d in DEPTHS}
+    """One pilot per (step factor, depth) of PILOTS (the same seed), each timed as the
+    fastest of ``repeats`` runs taken in turn over the pilots (so the machine's load falls
+    alike on them); the statistics and bias estimates are those of one run."""
+    runs = {p: crandall_run(wt, paths, seed, p[1], factor=p[0]) for p in PILOTS}
     for _ in range(repeats - 1):
-        for d in DEPTHS:
-            again = crandall_run(wt, paths, seed, d)
-            runs[d]["all_seconds"] += again["all_seconds"]
-            runs[d]["seconds"] = min(runs[d]["all_seconds"])
+        for p in PILOTS:
+            again = crandall_run(wt, paths, seed, p[1], factor=p[0])
+            runs[p]["all_seconds"] += again["all_seconds"]
+            runs[p]["seconds"] = min(runs[p]["all_seconds"])
     return runs
 
 
@@ -141,17 +151,18 @@ def crandall_time(pilot, stat: str, half: float):
     ref = pilot[stat]
     spread = ref["stderr"] * math.sqrt(pilot["paths"])  # NaN: too few carrying paths
     paths = math.ceil((spread / half) ** 2) if math.isfinite(spread) else math.nan
-    return {"event_depth": pilot["event_depth"], "paths": paths,
+    return {"event_depth": pilot["event_depth"], "dt": pilot["dt"],
+            "step_factor": pilot["step_factor"], "paths": paths,
             "seconds": paths * pilot["seconds"] / pilot["paths"], "bias": ref["bias"],
             "bias_is_bound": ref["bias_is_bound"], "bias_within": ref["bias"] <= half}
 
 
 def cost(wt, runs, euler_runs):
-    """Per (statistic, eps): crandall at the shallowest (cheapest) depth whose own estimated
-    bias is within eps |value| / 2 (the default depth's numbers beside it), against Euler."""
+    """Per (statistic, eps): crandall at the fastest pilot whose own estimated bias is
+    within eps |value| / 2 (the default step and depth's numbers beside it), against Euler."""
     rows = []
     rate = sum(e["seconds"] for e in euler_runs) / sum(e["path_steps"] for e in euler_runs)
-    default = runs[DEFAULT_DEPTH]
+    default = runs[DEFAULT_PILOT]
     for stat in ("mean", "var"):
         value = abs(default[stat]["value"])
         points = [{"dt": e["dt"], "bias": e[stat]["difference"], "stderr": e[stat]["stderr"],
@@ -163,13 +174,13 @@ def cost(wt, runs, euler_runs):
         e_spread = euler_runs[-1][stat]["spread"]
         for eps in EPS:
             half = eps * value / 2
-            each = [crandall_time(runs[d], stat, half) for d in DEPTHS]
+            each = [crandall_time(runs[p], stat, half) for p in PILOTS]
             within = [x for x in each if x["bias_within"] and math.isfinite(x["seconds"])]
-            # The shallowest depth within: every bisection removed saves time per path
-            # (bench/event_depth.py), and taking the least of the measured times instead
-            # would pick whichever run the machine's load happened to spare. None within:
-            # the default depth, flagged (crandall_bias_within False).
-            chosen = min(within, key=lambda x: x["event_depth"]) if within else each[0]
+            # The fastest within, by the fastest of each pilot's alternated runs (a step and
+            # a depth trade against each other, so no order of the pilots is known to be
+            # that of their cost). None within: the default, flagged
+            # (crandall_bias_within False).
+            chosen = min(within, key=lambda x: x["seconds"]) if within else each[0]
             base = each[0]
             dt_e = min(half / abs(c), EULER_DT[0]) if resolved else math.nan
             n_e = math.ceil((e_spread / half) ** 2)
@@ -177,6 +188,8 @@ def cost(wt, runs, euler_runs):
             rows.append({"omega_t_star": wt, "stat": stat, "eps": eps,
                          "value": default[stat]["value"], "crandall_dt": default["dt"],
                          "crandall_depth": chosen["event_depth"],
+                         "crandall_chosen_dt": chosen["dt"],
+                         "crandall_step_factor": chosen["step_factor"],
                          "crandall_paths": chosen["paths"],
                          "crandall_seconds": chosen["seconds"],
                          "crandall_bias": chosen["bias"],
@@ -216,12 +229,13 @@ def plot(data, path):
     labels, ratios, defaults = [], [], []
     for r in rows:
         labels.append(f"{r['stat']} eps={r['eps']:g}\nwt*={r['omega_t_star']:g} "
-                      f"d={r.get('crandall_depth', DEFAULT_DEPTH)}")
+                      f"d={r.get('crandall_depth', DEFAULT_DEPTH)} "
+                      f"dt x{r.get('crandall_step_factor', 1)}")
         ratios.append(r["ratio"])
         defaults.append(r.get("default_depth", {}).get("ratio", r["ratio"]))
     x = np.arange(len(rows))
-    b.bar(x - 0.2, defaults, width=0.4, label=f"event depth {DEFAULT_DEPTH} (default)")
-    b.bar(x + 0.2, ratios, width=0.4, label="chosen depth (d)")
+    b.bar(x - 0.2, defaults, width=0.4, label=f"default step, event depth {DEFAULT_DEPTH}")
+    b.bar(x + 0.2, ratios, width=0.4, label="chosen step and depth (d)")
     b.legend(fontsize=7)
     b.set_yscale("log")
     b.set_xticks(x)
@@ -254,8 +268,9 @@ def main():
     rows = []
     for i, wt in enumerate(COST_AT):
         runs = pilots(wt, args.pilot, 200 + i, args.repeats)
-        for d, run in runs.items():
-            print(f"omega t* = {wt:4g} depth {d}: {run['seconds'] / run['paths'] * 1e6:.1f} us "
+        for (f, d), run in runs.items():
+            print(f"omega t* = {wt:4g} dt {run['dt']:.3g} depth {d}: "
+                  f"{run['seconds'] / run['paths'] * 1e6:.1f} us "
                   f"per path, mean {run['mean']['value']:.5f} (bias {run['mean']['bias']:.2e}), "
                   f"var {run['var']['value']:.4f} (bias {run['var']['bias']:.2e})", flush=True)
         euler = [euler_run(wt, dt, args.euler_paths, 300 + 10 * i + j)
@@ -264,7 +279,8 @@ def main():
             rows.append(row)
             base = row["default_depth"]
             print(f"omega t* = {wt:4g} {row['stat']:4s} eps {row['eps']:g}: crandall "
-                  f"{row['crandall_seconds']:.3g} s at depth {row['crandall_depth']} "
+                  f"{row['crandall_seconds']:.3g} s at dt {row['crandall_chosen_dt']:.3g}, "
+                  f"depth {row['crandall_depth']} "
                   f"({row['crandall_paths']} paths"
                   f"{'' if row['crandall_bias_within'] else ', bias above eps/2'}; depth "
                   f"{DEFAULT_DEPTH} {base['crandall_seconds']:.3g} s), Euler "
@@ -274,6 +290,7 @@ def main():
     data = {"machine": platform.machine(), "python": platform.python_version(),
             "crandall": crandall.__version__, "zeta": ZETA, "mu_g": MU_G, "h": H, "t0": T0,
             "t_star": T_STAR, "white": WHITE, "depths": list(DEPTHS),
+            "step_factors": list(STEP_FACTORS),
             "command": " ".join(["bench/filtered.py"] + sys.argv[1:]),
             "ratio": ratio, "cost": rows}
     print(write("filtered", data, plot, publish=args.publish))
