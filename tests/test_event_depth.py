@@ -104,3 +104,23 @@ def test_every_depth_walks_the_same_path():
             # 2.5e-4 (depth 5), against a velocity's spread near 1.
             assert np.corrcoef(deep[:, k], other[:, k])[0, 1] > 0.999
         assert np.max(np.abs(other[:, 0] - deep[:, 0])) < 0.01
+
+
+def test_an_envelopes_pilot_searches_as_deep_as_the_run(monkeypatch):
+    # The pieces of an envelope are chosen by a pilot on the run's coupled grids
+    # (crandall.pieces); it searches a filtered excitation's events to the run's depth, as
+    # the run's own bias estimate of the pieces does (it used to keep the default 8).
+    from crandall import bias, envelopes
+    seen = []
+    kept = bias.piece_table_kept
+
+    def spy(spec, *args, **kw):
+        seen.append(spec.event_depth)
+        return kept(spec, *args, **kw)
+
+    monkeypatch.setattr(bias, "piece_table_kept", spy)
+    env = envelopes.from_function(lambda t: min(t, 1.0), 2.0, pieces=2)
+    scene = Scene(mu=1.0, g=1.0, excitation=KanaiTajimi(omega=2.0, zeta=0.6), envelope=env,
+                  times=[2.0], observe=["distance"])
+    crandall.simulate(scene, paths=64, seed=3, threads=1, event_depth=4)
+    assert seen and set(seen) == {4}

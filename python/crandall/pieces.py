@@ -106,14 +106,16 @@ def accuracy_target(scene, eps: Optional[float], rel: Optional[float],
 def choose(scene, names: Sequence[str], *, paths: int, seed: int, threads: int,
            target: Target, step_length: float, stats: Optional[set] = None,
            dt: Optional[float] = None, method: str = "richardson",
-           max_seconds: float = math.inf) -> Tuple[object, Optional[Dict]]:
+           max_seconds: float = math.inf,
+           event_depth: Optional[int] = None) -> Tuple[object, Optional[Dict]]:
     """The scene with the pieces its run needs, and what the choice found (None when the
     scene has no envelope to refine): ``pieces`` given and chosen, ``worst``, the largest
     resolved piece error over its target on the chosen pieces, and ``table``, the chosen
     pieces' errors per (name, stat) (crandall.bias.piece_table). ``stats``: the (name, stat)
     pairs that count (all of ``names``' means and variances if None); ``step_length``: the
-    run's step (pieces are not refined below it on average); ``dt``, ``method``: the run's
-    (the pilot's coupled grids are its bias estimate's). ``max_seconds``: a pilot still
+    run's step (pieces are not refined below it on average); ``dt``, ``method``,
+    ``event_depth``: the run's (the pilot's coupled grids are its bias estimate's, and search
+    a filtered excitation's events as deep as the run does). ``max_seconds``: a pilot still
     refining after that long is a ParameterError naming it (a run to an accuracy's bound)."""
     env = scene.envelope
     if (ENVELOPE not in scene.effects or env is None or env.function is None or paths < 2
@@ -140,7 +142,7 @@ def choose(scene, names: Sequence[str], *, paths: int, seed: int, threads: int,
                 "(envelope.fixed())")
         current = with_pieces(scene, env.pieces * factor)
         spec = RunSpec.create(current, paths=pilot, seed=seed, dt=dt,
-                              method=bias.piece_method(scene, method))
+                              method=bias.piece_method(scene, method), event_depth=event_depth)
         try:
             table, values = bias.piece_table_kept(spec, names, threads)
         except ValueError as exc:

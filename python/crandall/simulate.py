@@ -93,7 +93,8 @@ def run_spec(scene, *, paths, seed, dt, method, threads, event_depth=None):
         chosen, _ = pieces.choose(spec.scene, names_for(spec.scene.observe), paths=spec.paths,
                                   seed=spec.seed, threads=cores,
                                   target=pieces.stderr_target(spec.paths),
-                                  step_length=spec.dt, dt=dt, method=spec.method)
+                                  step_length=spec.dt, dt=dt, method=spec.method,
+                                  event_depth=spec.event_depth)
         if chosen is not spec.scene:
             spec = RunSpec.create(chosen, paths=spec.paths, seed=spec.seed, dt=dt,
                                   method=spec.method, event_depth=spec.event_depth)
