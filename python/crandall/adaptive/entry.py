@@ -9,6 +9,7 @@ from typing import Optional
 from .. import pieces
 from ..driver import drive
 from ..errors import ParameterError
+from ..model import FILTERED_EXCITATION
 from ..results import AccuracyResult
 from ..scene import Scene
 from ..spec import MAX_SEED, check_int, check_positive, check_scene, default_dt
@@ -40,16 +41,17 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
     eps = check_positive("error", error) if error is not None else None
     rel = check_positive("rel_error", rel_error) if rel_error is not None else None
     seed = check_int("seed", seed, 0, MAX_SEED)
-    if "peaks" in scene.observe:
-        # A filtered scene's coupled grids record the peaks (Result.bias estimates their
-        # grid error), but the levels' bias from the measured ratio of the finest levels has
-        # not been calibrated for maxima, so no target could be claimed met for them.
-        raise ParameterError("observe", "observe: 'peaks' is not available with error= or rel_error= (the "
-                         "peaks are maxima over the grid, whose shortfall the levels do not "
-                         "estimate: the white-noise levels have no per-path maxima, and the "
-                         "filtered levels' bias estimate is not calibrated for maxima); run "
-                         "the peaks with paths= (under a filtered excitation Result.bias "
-                         "estimates their grid error)")
+    if "peaks" in scene.observe and FILTERED_EXCITATION not in scene.effects:
+        # White noise's levels have no per-path maxima (its kernel records none), so no
+        # level could estimate them. A filtered excitation's coupled grids record each grid's
+        # maxima per path, and its levels carry them like every other statistic (their bias
+        # estimate calibrated against a reference outside the code: bench/filtered_error.py).
+        raise ParameterError("observe", "observe: 'peaks' is not available with error= or "
+                             "rel_error= under white noise (the peaks are maxima over the "
+                             "grid, and the white-noise levels record no per-path maxima to "
+                             "estimate their shortfall from); run the peaks with paths=, or "
+                             "under a filtered excitation (crandall.KanaiTajimi, "
+                             "crandall.CloughPenzien)")
     if scene.distributions:
         raise ParameterError("distributions", "distributions: a run to an accuracy estimates means and variances "
                          "and keeps no histograms; leave distributions out of the scene, or "

@@ -11,7 +11,7 @@ from typing import Iterable, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 
 from .. import _core
-from ..quantities import VELOCITY, DISTANCE, names_for, quantity
+from ..quantities import PEAKS, VELOCITY, DISTANCE, names_for, quantity
 from ..model import (EXACT_STEP, FILTERED_EXCITATION, FILTERED_LEVELS, ITO_DISTANCE, LEVELS,
                      ZERO_FRICTION, Identity, holds, isometry_applies)
 from ..errors import ParameterError
@@ -128,6 +128,10 @@ def _targets(scene: Scene, statistics: Optional[set] = None) -> List[_Target]:
             continue  # refused by name when asked for (_check_statistics)
         q = quantity(name)
         slots = [(n_times, None)] if q.at_stop else [(i, i) for i in range(n_times)]
+        if q.peak:
+            # The filtered core's per-path peaks, in the slots after the stop's
+            # (Options::sample_slots); white noise's are refused (entry.simulate_to_error).
+            slots = [(_peak_base(scene) + slot, ti) for slot, ti in slots]
         for slot, ti in slots:
             for stat in STATS:
                 if statistics is not None and (name, stat) not in statistics:
@@ -135,7 +139,7 @@ def _targets(scene: Scene, statistics: Optional[set] = None) -> List[_Target]:
                 # Velocity, kinetic energy, stop time; and a quantity whose factor is 0 (the
                 # dissipated energy without friction), which is 0 on every path. Each only
                 # where its identity holds for the scene (crandall.model).
-                exact = ((q.variable == VELOCITY and holds(scene, EXACT_STEP))
+                exact = ((q.variable == VELOCITY and not q.peak and holds(scene, EXACT_STEP))
                          or (q.factor(scene) == 0.0 and holds(scene, ZERO_FRICTION)))
                 ito = (stat == "mean" and q.variable == DISTANCE and scene.drift > 0
                        and holds(scene, ITO_DISTANCE))
@@ -187,10 +191,24 @@ def _lower(w: int) -> np.ndarray:
     return np.tri(w, w, k=0, dtype=bool)
 
 
+def _peak_base(scene: Scene) -> int:
+    """The first of the peaks' slots (after the output times' and the stop's)."""
+    return len(scene.times) + (1 if "stop" in scene.observe else 0)
+
+
+def _peaks_recorded(scene: Scene) -> bool:
+    """Whether the core records each path's peaks per grid (the filtered core, with the peaks
+    observed: Options::sample_slots)."""
+    return FILTERED_EXCITATION in scene.effects and PEAKS in scene.observe
+
+
 def _sample_slots(scene: Scene, quadratic: bool) -> int:
-    """A path's slots of per-path values: the output times, the stop, and with ``quadratic``
-    the isometry's integral."""
-    return len(scene.times) + (1 if "stop" in scene.observe else 0) + (1 if quadratic else 0)
+    """A path's slots of per-path values: the output times, the stop, with ``quadratic`` the
+    isometry's integral, and under a filtered excitation with the peaks observed (max |V|,
+    max |U|, 0) per output time and at the stop (the filtered core has no isometry slot)."""
+    peaks = _peak_base(scene) if _peaks_recorded(scene) else 0
+    return (len(scene.times) + (1 if "stop" in scene.observe else 0) + (1 if quadratic else 0)
+            + peaks)
 
 
 class _Level:
