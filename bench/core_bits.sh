@@ -1,0 +1,50 @@
+#!/bin/sh
+# Checks that the core's results are the same bits on x86-64 and aarch64: links
+# bench/core_bits.cpp (every double of a few runs: the white-noise kernel with the exact method,
+# its stop and peaks, a Richardson run on pieces, per-path values with the control sums;
+# splitting's path continuation; Kanai-Tajimi and Clough-Penzien filtered runs with the stop;
+# Newmark's block on a record, exact and pySLAMMER's) against the core library as CMakeLists.txt
+# builds it (its flags: -O3 -ffp-contract=off -fno-trapping-math -fno-math-errno), natively and
+# with the aarch64 cross compiler (bench/aarch64.cmake: the baseline kernel variant only), runs
+# the second under qemu-user, and compares the dumps line by line. Natively it runs the best
+# kernel variant of the CPU and the baseline one (the variants' claim, on the same machine).
+# A third build, for aarch64, appends GCC's default -ffp-contract=fast to every compilation of
+# the core (and builds the driver at -O3 without -ffp-contract=off): what the results would be
+# if the build let GCC fuse a * b + c into fused multiply-adds, which aarch64 has and baseline
+# x86-64 has not.
+# Needs (Debian): apt-get install g++-aarch64-linux-gnu qemu-user libeigen3-dev.
+# Not part of CI (three builds of the core, some 25 minutes on two cores; the runs a few under qemu).
+# Usage: sh bench/core_bits.sh [OUTDIR]   (from the repository's root; default
+# /tmp/crandall-aarch64, shared with bench/core_tests_aarch64.sh's aarch64 build)
+set -eu
+out=${1:-/tmp/crandall-aarch64}
+mkdir -p "$out"
+printf '#!/bin/sh\nexec "$@" -ffp-contract=fast\n' > "$out/contract.sh"
+chmod +x "$out/contract.sh"
+cross="-DCMAKE_TOOLCHAIN_FILE=$(pwd)/bench/aarch64.cmake"
+cmake -S . -B "$out/x86_64-build" -G Ninja -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake -S . -B "$out/core-build" -G Ninja -DCMAKE_BUILD_TYPE=Release $cross >/dev/null
+cmake -S . -B "$out/contract-build" -G Ninja -DCMAKE_BUILD_TYPE=Release $cross \
+  -DCMAKE_CXX_COMPILER_LAUNCHER="$out/contract.sh" >/dev/null
+for b in x86_64-build core-build contract-build; do cmake --build "$out/$b" --target crandall_core -j2; done
+inc="-Icpp/include -Ithird_party/Random123/include -I/usr/include/eigen3"
+flags="-std=c++17 -O2 -fopenmp -ffp-contract=off -fno-trapping-math -fno-math-errno $inc"
+g++ $flags bench/core_bits.cpp "$out/x86_64-build/libcrandall_core.a" -o "$out/core_bits_x86_64"
+aarch64-linux-gnu-g++ $flags bench/core_bits.cpp "$out/core-build/libcrandall_core.a" -o "$out/core_bits_aarch64"
+aarch64-linux-gnu-g++ -std=c++17 -O3 -fopenmp $inc bench/core_bits.cpp \
+  "$out/contract-build/libcrandall_core.a" -o "$out/core_bits_aarch64_contract"
+"$out/core_bits_x86_64" > "$out/core_bits_x86_64.txt"
+"$out/core_bits_x86_64" baseline > "$out/core_bits_x86_64_baseline.txt"
+qemu-aarch64 -L /usr/aarch64-linux-gnu "$out/core_bits_aarch64" > "$out/core_bits_aarch64.txt"
+qemu-aarch64 -L /usr/aarch64-linux-gnu "$out/core_bits_aarch64_contract" > "$out/core_bits_aarch64_contract.txt"
+echo "$(wc -l < "$out/core_bits_x86_64.txt") doubles"
+# Lines (doubles) whose bits differ from x86-64's, then the runs they belong to.
+compare() {
+  awk -v name="$2" 'NR == FNR { a[FNR] = $0; next }
+    { if (a[FNR] != $0) { n++; split($0, f, "["); runs[f[1]]++ } }
+    END { printf "%s: %d doubles with other bits\n", name, n;
+          for (r in runs) printf "  %s: %d\n", r, runs[r] }' "$out/core_bits_x86_64.txt" "$1"
+}
+compare "$out/core_bits_x86_64_baseline.txt" "x86-64 baseline variant"
+compare "$out/core_bits_aarch64.txt" "aarch64"
+compare "$out/core_bits_aarch64_contract.txt" "aarch64 -ffp-contract=fast"
