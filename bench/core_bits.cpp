@@ -9,6 +9,7 @@
 // (docs/filtered.md, "The same doubles on every CPU"). Usage: core_bits [ISA] (ISA: a kernel
 // variant to force, as CRANDALL_ISA; default the best one this CPU runs).
 #include <cinttypes>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -246,6 +247,52 @@ void records() {
   }
 }
 
+// The C library's functions the core calls (nm -u on the library): exp and log1p (splitting's
+// weights, split.cpp) and hypot (the exact step's scaled form, exact_step.hpp, for step lengths
+// beyond the regular range). None is correctly rounded by contract, so their bits are the C
+// library's: checked here over many arguments (exact doubles made from integers), one hash of
+// the results' bits per function (FNV-1a) and, for the splitting weights' log1p(-k / n), every
+// value of the particle counts used.
+std::uint64_t fnv(std::uint64_t h, double x) {
+  std::uint64_t bits;
+  std::memcpy(&bits, &x, sizeof bits);
+  for (int i = 0; i < 8; ++i) h = (h ^ ((bits >> (8 * i)) & 0xffu)) * 0x100000001b3ull;
+  return h;
+}
+
+void libm() {
+  const std::uint64_t basis = 0xcbf29ce484222325ull;
+  std::uint64_t x = 0x9e3779b97f4a7c15ull;
+  const auto next = [&x] {
+    x ^= x << 13;
+    x ^= x >> 7;
+    x ^= x << 17;
+    return x;
+  };
+  const std::size_t n = 1000000;
+  std::uint64_t he = basis, hh = basis, hl = basis;
+  for (std::size_t i = 0; i < n; ++i) {
+    // exp over [-745, 0] and [0, 709] in steps of 2^-40; log1p over (-1, 1] in steps of 2^-52;
+    // hypot of (-64, 64) in steps of 2^-40 and [0, 64) in steps of 2^-46.
+    const double e = static_cast<double>(next() % (1454ull << 40)) / 1099511627776.0 - 745.0;
+    he = fnv(he, std::exp(e));
+    const double l = static_cast<double>(next() % (2ull << 52)) / 4503599627370496.0 - 1.0 + 0x1p-52;
+    hl = fnv(hl, std::log1p(l));
+    const double a = static_cast<double>(next() % (128ull << 40)) / 1099511627776.0 - 64.0;
+    const double b = static_cast<double>(next() % (64ull << 46)) / 70368744177664.0;
+    hh = fnv(hh, std::hypot(a, b));
+  }
+  std::printf("libm exp %zu arguments: hash %016" PRIx64 "\n", n, he);
+  std::printf("libm log1p %zu arguments: hash %016" PRIx64 "\n", n, hl);
+  std::printf("libm hypot %zu arguments: hash %016" PRIx64 "\n", n, hh);
+  for (std::size_t particles : {100, 200, 500, 1000}) {
+    std::vector<double> v;
+    for (std::size_t k = 1; k < particles; ++k)
+      v.push_back(std::log1p(-double(k) / double(particles)));
+    print("libm log1p(-k/" + std::to_string(particles) + ")", v);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -256,5 +303,6 @@ int main(int argc, char** argv) {
   splitting();
   filtered_plans();
   records();
+  libm();
   return 0;
 }
