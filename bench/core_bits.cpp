@@ -285,7 +285,7 @@ void libm() {
   std::printf("libm exp %zu arguments: hash %016" PRIx64 "\n", n, he);
   std::printf("libm log1p %zu arguments: hash %016" PRIx64 "\n", n, hl);
   std::printf("libm hypot %zu arguments: hash %016" PRIx64 "\n", n, hh);
-  for (std::size_t particles : {100, 200, 500, 1000}) {
+  for (std::size_t particles : {100, 200, 500, 1000, 2000, 5000, 10000}) {
     std::vector<double> v;
     for (std::size_t k = 1; k < particles; ++k)
       v.push_back(std::log1p(-double(k) / double(particles)));

@@ -58,6 +58,18 @@ compare "$out/core_bits_x86_64_baseline.txt" "x86-64 baseline variant"
 compare "$out/core_bits_x86_64_nehalem.txt" "x86-64 on qemu's Nehalem (no AVX, no FMA)"
 compare "$out/core_bits_aarch64.txt" "aarch64"
 compare "$out/core_bits_aarch64_contract.txt" "aarch64 -ffp-contract=fast"
+# The C library's exp, log1p and hypot at a million arguments (bench/libm_bits.cpp): how many
+# results have other bits than x86-64's, per function.
+g++ -O2 -ffp-contract=off -fno-math-errno bench/libm_bits.cpp -o "$out/libm_bits_x86_64"
+aarch64-linux-gnu-g++ -O2 -ffp-contract=off -fno-math-errno bench/libm_bits.cpp -o "$out/libm_bits_aarch64"
+"$out/libm_bits_x86_64" > "$out/libm_x86_64.bin"
+qemu-x86_64 -cpu Nehalem "$out/libm_bits_x86_64" > "$out/libm_nehalem.bin"
+qemu-aarch64 -L /usr/aarch64-linux-gnu "$out/libm_bits_aarch64" > "$out/libm_aarch64.bin"
+for p in nehalem aarch64; do
+  cmp -l "$out/libm_x86_64.bin" "$out/libm_$p.bin" | awk -v p="$p" '
+    { r = int(($1 - 1) / 8); if (r != last) { n[r % 3]++; last = r } }
+    END { printf "libm on %s: other bits for %d exp, %d log1p, %d hypot of 1000000\n", p, n[0], n[1], n[2] }' || true
+done
 [ "$units" = units ] || exit 0
 objects="$out/contract-build/CMakeFiles/crandall_core.dir/cpp/src"
 aarch64-linux-gnu-g++ $flags -c bench/core_bits.cpp -o "$out/core_bits_aarch64.o"
