@@ -16,7 +16,8 @@
 # if the build let GCC fuse a * b + c into fused multiply-adds, which aarch64 has and baseline
 # x86-64 has not.
 # Needs (Debian): apt-get install g++-aarch64-linux-gnu qemu-user libeigen3-dev.
-# Not part of CI (three builds of the core, some 25 minutes on two cores; the runs a few under qemu).
+# Not part of CI: three builds of the core (some 10 minutes on two cores), the runs a minute
+# under qemu, `units` 3 more.
 # With a second argument `units`, it then says which of the core's translation units' contraction
 # changes which numbers: the aarch64 library with one unit's object taken from the contracted
 # build at a time (a unit holds the inline functions of the headers it uses, and the linker keeps
