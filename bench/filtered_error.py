@@ -202,6 +202,90 @@ def euler_reference(recompute: bool = False):
     return data
 
 
+def reference_check(blocks: int):
+    """More independent blocks of EULER_PATHS paths at the coarsest step (its extrapolation
+    agreed with the finer ones), added to the cache as "check_blocks": a tighter reference
+    for the statistics whose extrapolation does not move with dt."""
+    data = euler_reference()
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from peers import numba_kt
+    numba_kt.warm_up()
+    done = data.setdefault("check_blocks", [])
+    dt = EULER_DT[0]
+    for j in range(blocks):
+        seed = 710 + len(done)
+        start = time.perf_counter()
+        fine, coarse = numba_kt.coupled_at(EULER_PATHS, dt, FRICTION_TIME, t0=T0, omega=2.0,
+                                           zeta=ZETA, h=1.0, mu_g=1.0, seed=seed)
+        block = {"dt": dt, "paths": EULER_PATHS, "seed": seed,
+                 "seconds": time.perf_counter() - start, "stats": {}}
+        for name, stat, col, _ in FRICTION_STATS:
+            v, se, f, c = _extrapolated(fine[:, col], coarse[:, col], stat)
+            block["stats"][f"{name}_{stat}"] = {"extrapolated": v, "stderr": se,
+                                                 "at_dt": f, "at_2dt": c}
+        done.append(block)
+        REFERENCE_CACHE.write_text(json.dumps(data, indent=1))
+        print(f"check block seed {seed}: {block['seconds']:.0f} s " + ", ".join(
+            f"{k} {x['extrapolated']:.4f} +- {x['stderr']:.4f}"
+            for k, x in block["stats"].items()), file=sys.stderr, flush=True)
+
+
+def pooled_reference():
+    """Each friction statistic's inverse-variance weighted mean of every independent Euler
+    extrapolation in the cache (the three steps and the check blocks), with its standard
+    error: the extrapolations agree across dt (their paired differences halve with dt)."""
+    data = euler_reference()
+    blocks = data["points"] + data.get("check_blocks", [])
+    out = {}
+    for name, stat, _, _ in FRICTION_STATS:
+        k = f"{name}_{stat}"
+        w = np.array([1.0 / b["stats"][k]["stderr"] ** 2 for b in blocks])
+        x = np.array([b["stats"][k]["extrapolated"] for b in blocks])
+        value = float(np.sum(w * x) / np.sum(w))
+        chi2 = float(np.sum(w * (x - value) ** 2))
+        out[k] = {"value": value, "stderr": float(1.0 / math.sqrt(np.sum(w))),
+                  "blocks": len(blocks), "chi2": chi2,
+                  "chi2_p": float(scipy.stats.chi2.sf(chi2, len(blocks) - 1))}
+    return out
+
+
+def recount(stem: str, publish: bool):
+    """The coverage of a friction calibration's stored per-seed values and errors against
+    the pooled Euler reference (pooled_reference) instead of the finest step's alone."""
+    src = Path(__file__).resolve().parent / "results" / f"{stem}.json"
+    data = json.loads(src.read_text())
+    pooled = pooled_reference()
+    out = {"source": str(src.name), "pooled_reference": pooled, "cases": {}}
+    for cname, c in data["cases"].items():
+        rel = c["rel_error"]
+        rows = {}
+        for rname, row in c["rows"].items():
+            ref = pooled[rname.split("@")[0]]
+            v, e = np.array(row["value"]), np.array(row["error"])
+            n = v.size
+            inside = int(np.sum(np.abs(v - ref["value"]) <= Z95 * e))
+            inside_se = int(np.sum(np.abs(v - ref["value"]) <= Z95 * np.hypot(e, ref["stderr"])))
+            z = (v - ref["value"]) / e
+            rows[rname] = {"reference": ref["value"], "reference_se": ref["stderr"],
+                           "seeds": n, "coverage": inside / n,
+                           "coverage_interval": clopper_pearson(inside, n),
+                           "coverage_with_reference_se": inside_se / n,
+                           "coverage_with_reference_se_interval": clopper_pearson(inside_se, n),
+                           "within_target_fraction":
+                               float(np.mean(np.abs(v - ref["value"]) <= rel * abs(ref["value"]))),
+                           "rms_z": float(np.sqrt(np.mean(z * z))), "mean_z": float(np.mean(z)),
+                           "mean_difference": float(np.mean(v - ref["value"])),
+                           "mean_difference_se": float(np.std(v, ddof=1) / math.sqrt(n))}
+            print(f"{cname} {rname:24s} pooled ref {ref['value']:.5f} +- {ref['stderr']:.5f} "
+                  f"(chi2 p {ref['chi2_p']:.2f}): coverage {inside / n:.3f} (with ref se "
+                  f"{inside_se / n:.3f}, CP {rows[rname]['coverage_with_reference_se_interval'][0]:.3f}-"
+                  f"{rows[rname]['coverage_with_reference_se_interval'][1]:.3f}), mean z "
+                  f"{np.mean(z):+.2f}, {n} seeds")
+        out["cases"][cname] = {"seeds": c["seeds"], "rows": rows}
+    out["command"] = " ".join(["bench/filtered_error.py"] + sys.argv[1:])
+    write(f"{stem}_recount", out, plot, publish=publish)
+
+
 def cases(recompute_reference: bool = False):
     """name -> (scene, statistics, target kind, target, references: key -> (value, its se))."""
     frictionless = Scene(mu=0.0, g=1.0, excitation=KanaiTajimi(omega=2.0, zeta=ZETA, h=1.0),
@@ -264,7 +348,7 @@ def run_case(name, case, seeds: int, first_seed: int, threads: int, deadline=Non
     times = list(scene.times)
     rows = {key_name(k, times): {"reference": v[0], "reference_se": v[1], "inside": 0,
                           "inside_with_reference_se": 0, "within_target": 0, "z": [],
-                          "error": [], "bias": []} for k, v in refs.items()}
+                          "value": [], "error": [], "bias": []} for k, v in refs.items()}
     costs = []
     for s in range(first_seed, first_seed + seeds):
         if deadline is not None and datetime.datetime.now(datetime.timezone.utc) >= deadline:
@@ -286,6 +370,7 @@ def run_case(name, case, seeds: int, first_seed: int, threads: int, deadline=Non
             row["inside_with_reference_se"] += int(abs(value - ref) <= Z95 * math.hypot(err, ref_se))
             row["within_target"] += int(abs(value - ref) <= tol)
             row["z"].append(float((value - ref) / err))
+            row["value"].append(float(value))
             row["error"].append(float(err))
             row["bias"].append(float(bias))
         print(f"{name} seed {s}: {time.strftime('%H:%M:%S')}", file=sys.stderr, flush=True)
@@ -348,8 +433,20 @@ def main():
                     help="HH:MM UTC: start no seed after it (the JSON gives the seeds run)")
     ap.add_argument("--recompute-reference", action="store_true",
                     help="rerun the Euler references of the friction cases (else the cache)")
+    ap.add_argument("--check-reference", type=int, default=0, metavar="K",
+                    help="only add K blocks of Euler paths at the coarsest step to the "
+                         "reference cache (a check of the friction references)")
+    ap.add_argument("--recount", default=None, metavar="STEM",
+                    help="only recount bench/results/STEM.json's per-seed values against the "
+                         "pooled Euler reference (writes STEM_recount)")
     ap.add_argument("--publish", action="store_true")
     a = ap.parse_args()
+    if a.check_reference:
+        reference_check(a.check_reference)
+        return
+    if a.recount:
+        recount(a.recount, a.publish)
+        return
     t = time.perf_counter()
     deadline = None
     if a.deadline:
@@ -379,7 +476,9 @@ def main():
                   f"mean z {row['mean_z']:+.2f}")
     for c in data["cases"].values():
         for row in c["rows"].values():
-            del row["z"], row["error"], row["bias"]
+            # The per-seed values and errors stay (a recount against another reference,
+            # --recount); z and the bias are summarised above.
+            del row["z"], row["bias"]
     write(a.stem, data, plot, publish=a.publish)
 
 
