@@ -39,6 +39,9 @@ Writes bench/out/filtered_error.{json,png} (bench/results/ with --publish).
 
     .venv/bin/python bench/filtered_error.py [--seeds 200] [--threads 2] [--cases a,b]
         [--stem filtered_error] [--deadline HH:MM] [--recompute-reference] [--publish]
+    .venv/bin/python bench/filtered_error.py --check-reference K   (K more Euler blocks)
+    .venv/bin/python bench/filtered_error.py --recount STEM [--publish]
+        (STEM's stored per-seed values against the pooled Euler reference)
 """
 
 from __future__ import annotations
