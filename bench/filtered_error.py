@@ -27,20 +27,40 @@ References, none from the code under test:
   value h^2 t0 / (2 mu g) = 5 at omega t* = 4 and 1 (tests/test_filtered.py). Their standard
   errors (0.015 and 0.01) are of the order of the runs' errors, so the interval is also
   counted with them added in quadrature ("coverage_with_reference_se").
+- ``frictionless_envelope``: mu = 0 under a smooth envelope sin(pi t / 4)^2 on [0, 4] s given
+  as 4 pieces (the run chooses finer pieces and adds their error to the bias,
+  crandall.pieces): the variances of V and of the displacement from the covariance ODE
+  dP/dt = A P + P A^T + e(t)^2 b b^T of the same augmented state (SciPy's solve_ivp, DOP853,
+  rtol 1e-11), which knows nothing of pieces; the mean distance sqrt(2 / pi) int sd V by
+  SciPy's quad on the ODE's dense output.
+- ``friction_omega_tstar_4``: mu g = 1, omega = 2 (omega t* = 4), t0 = 10 s, output at 5 s:
+  the variance and the mean of the distance at the stop, the mean distance and the variance
+  of the velocity at 5 s against the Euler peer bench/peers/numba_kt.py (``coupled_at``: the
+  same paths at dt and 2 dt on the same noise), extrapolated to dt -> 0 at first order per
+  path (2 X(dt) - X(2 dt); for a variance 2 Var(dt) - Var(2 dt), its standard error from the
+  influence function 2 (X - mean)^2 - (X' - mean')^2) at dt = 2e-3, 1e-3 and 5e-4 s; the
+  finest is the reference, its standard error counted as above, the coarser two check the
+  first-order extrapolation. Cached in bench/results/filtered_error_friction_reference.json
+  (--recompute-reference to redo it).
 
 Writes bench/out/filtered_error.{json,png} (bench/results/ with --publish).
 
     OMP_NUM_THREADS=1 .venv/bin/python bench/filtered_error.py [--seeds 200] [--threads 2] [--cases a,b]
-        [--stem filtered_error] [--publish]
+        [--stem filtered_error] [--deadline HH:MM] [--recompute-reference] [--publish]
+    .venv/bin/python bench/filtered_error.py --check-reference K   (K more Euler blocks)
+    .venv/bin/python bench/filtered_error.py --recount STEM [--publish]
+        (STEM's stored per-seed values against the pooled Euler reference)
 """
 
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import math
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import scipy.integrate
@@ -48,7 +68,7 @@ import scipy.linalg
 import scipy.stats
 
 import crandall
-from crandall import KanaiTajimi, Scene
+from crandall import KanaiTajimi, Scene, envelopes
 from _publish import HERE, write
 
 Z95 = 1.959963984540054
@@ -56,6 +76,13 @@ ZETA = 0.6
 T0 = 10.0
 WHITE = T0 / 2.0  # h^2 t0 / (2 mu g) with h = mu g = 1
 TIMES = (1.0, 5.0)
+ENVELOPE_TIMES = (1.0, 2.0, 4.0)
+ENVELOPE_DURATION = 4.0
+FRICTION_TIME = 5.0
+EULER_DT = (2e-3, 1e-3, 5e-4)
+EULER_PATHS = 1_000_000
+REFERENCE_CACHE = Path(__file__).resolve().parent / "results" / \
+    "filtered_error_friction_reference.json"
 
 
 def augmented_cov(omega: float, zeta: float, h: float, t: float) -> np.ndarray:
@@ -224,12 +251,195 @@ def frictionless_peak_references(omega: float = 2.0):
     return out
 
 
-def cases():
+def ramp(t: float) -> float:
+    """The smooth envelope: sin(pi t / 4)^2 on [0, 4] s (zero slope at both ends)."""
+    return math.sin(math.pi * t / ENVELOPE_DURATION) ** 2
+
+
+def envelope_references(omega: float = 2.0):
+    """Var V, Var of the displacement and E int |V| at ENVELOPE_TIMES without friction under
+    the smooth envelope: the covariance ODE of (x, x', G, D) (SciPy), no pieces."""
+    w = omega
+    a = np.array([[0.0, 1.0, 0.0, 0.0], [-w * w, -2 * ZETA * w, 0.0, 0.0],
+                  [-w * w, -2 * ZETA * w, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
+    bb = np.outer([0.0, -1.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0])
+
+    def rhs(s, y):
+        p = y.reshape(4, 4)
+        return (a @ p + p @ a.T + ramp(s) ** 2 * bb).ravel()
+
+    end = max(ENVELOPE_TIMES)
+    sol = scipy.integrate.solve_ivp(rhs, (0.0, end), np.zeros(16), method="DOP853",
+                                    rtol=1e-11, atol=1e-14, dense_output=True,
+                                    t_eval=list(ENVELOPE_TIMES))
+    assert sol.success, sol.message
+    out = {}
+    for i, t in enumerate(ENVELOPE_TIMES):
+        p = sol.y[:, i].reshape(4, 4)
+        out[("velocity", "var", i)] = (float(p[2, 2]), 0.0)
+        out[("displacement", "var", i)] = (float(p[3, 3]), 0.0)
+        sd_integral = scipy.integrate.quad(
+            lambda s: math.sqrt(max(sol.sol(s)[10], 0.0)), 0.0, t, limit=200, epsabs=1e-13,
+            epsrel=1e-10)[0]
+        out[("distance", "mean", i)] = (math.sqrt(2.0 / math.pi) * sd_integral, 0.0)
+    return out
+
+
+#: The friction statistics the Euler peer gives: name, stat, column of coupled_at, index.
+FRICTION_STATS = (("distance_at_stop", "var", 0, None), ("distance_at_stop", "mean", 0, None),
+                  ("distance", "mean", 1, 0), ("velocity", "var", 2, 0))
+
+
+def _extrapolated(fine: np.ndarray, coarse: np.ndarray, stat: str):
+    """First-order extrapolation to dt -> 0 of paired runs at dt and 2 dt, per path: value,
+    standard error, and the raw values at dt and 2 dt."""
+    n = fine.size
+    if stat == "mean":
+        phi = 2.0 * fine - coarse
+        return float(phi.mean()), float(phi.std(ddof=1) / math.sqrt(n)), float(fine.mean()), \
+            float(coarse.mean())
+    a, b = fine - fine.mean(), coarse - coarse.mean()
+    phi = 2.0 * a * a - b * b  # the influence function of 2 Var(dt) - Var(2 dt)
+    value = 2.0 * fine.var(ddof=1) - coarse.var(ddof=1)
+    return float(value), float(phi.std(ddof=1) / math.sqrt(n)), float(fine.var(ddof=1)), \
+        float(coarse.var(ddof=1))
+
+
+def euler_reference(recompute: bool = False):
+    """The friction references from the Euler peer (cached in REFERENCE_CACHE)."""
+    if REFERENCE_CACHE.exists() and not recompute:
+        return json.loads(REFERENCE_CACHE.read_text())
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from peers import numba_kt
+    numba_kt.warm_up()
+    points = []
+    for j, dt in enumerate(EULER_DT):
+        start = time.perf_counter()
+        fine, coarse = numba_kt.coupled_at(EULER_PATHS, dt, FRICTION_TIME, t0=T0, omega=2.0,
+                                           zeta=ZETA, h=1.0, mu_g=1.0, seed=700 + j)
+        point = {"dt": dt, "paths": EULER_PATHS, "seed": 700 + j,
+                 "seconds": time.perf_counter() - start, "stats": {}}
+        for name, stat, col, i in FRICTION_STATS:
+            v, se, f, c = _extrapolated(fine[:, col], coarse[:, col], stat)
+            point["stats"][f"{name}_{stat}"] = {"extrapolated": v, "stderr": se,
+                                                 "at_dt": f, "at_2dt": c}
+        points.append(point)
+        print(f"Euler dt {dt:g}: {point['seconds']:.0f} s " + ", ".join(
+            f"{k} {x['extrapolated']:.4f} +- {x['stderr']:.4f}"
+            for k, x in point["stats"].items()), file=sys.stderr, flush=True)
+    finest, next_ = points[-1], points[-2]
+    refs = {}
+    for name, stat, _, _ in FRICTION_STATS:
+        k = f"{name}_{stat}"
+        a, b = finest["stats"][k], next_["stats"][k]
+        refs[k] = {"value": a["extrapolated"], "stderr": a["stderr"],
+                   # First order holds if the extrapolations at dt and 2 dt agree: their
+                   # difference over its standard error (independent paths).
+                   "check_difference": a["extrapolated"] - b["extrapolated"],
+                   "check_z": (a["extrapolated"] - b["extrapolated"])
+                   / math.hypot(a["stderr"], b["stderr"])}
+    data = {"how": "bench/peers/numba_kt.py coupled_at (Euler-Maruyama filter, Euler body, the "
+                   "same noise at dt and 2 dt), omega = 2, zeta = 0.6, h = 1, mu g = 1 (static "
+                   "= kinetic), t0 = 10 s, output at 5 s; per path 2 X(dt) - X(2 dt) (means) "
+                   "and 2 Var(dt) - Var(2 dt) (variances, stderr from the influence function); "
+                   "the reference is the finest dt's, the check compares it with the next.",
+            "omega": 2.0, "zeta": ZETA, "h": 1.0, "mu_g": 1.0, "t0": T0,
+            "output_time": FRICTION_TIME, "points": points, "references": refs}
+    REFERENCE_CACHE.parent.mkdir(exist_ok=True)
+    REFERENCE_CACHE.write_text(json.dumps(data, indent=1))
+    return data
+
+
+def reference_check(blocks: int):
+    """More independent blocks of EULER_PATHS paths at the coarsest step (its extrapolation
+    agreed with the finer ones), added to the cache as "check_blocks": a tighter reference
+    for the statistics whose extrapolation does not move with dt."""
+    data = euler_reference()
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from peers import numba_kt
+    numba_kt.warm_up()
+    done = data.setdefault("check_blocks", [])
+    dt = EULER_DT[0]
+    for j in range(blocks):
+        seed = 710 + len(done)
+        start = time.perf_counter()
+        fine, coarse = numba_kt.coupled_at(EULER_PATHS, dt, FRICTION_TIME, t0=T0, omega=2.0,
+                                           zeta=ZETA, h=1.0, mu_g=1.0, seed=seed)
+        block = {"dt": dt, "paths": EULER_PATHS, "seed": seed,
+                 "seconds": time.perf_counter() - start, "stats": {}}
+        for name, stat, col, _ in FRICTION_STATS:
+            v, se, f, c = _extrapolated(fine[:, col], coarse[:, col], stat)
+            block["stats"][f"{name}_{stat}"] = {"extrapolated": v, "stderr": se,
+                                                 "at_dt": f, "at_2dt": c}
+        done.append(block)
+        REFERENCE_CACHE.write_text(json.dumps(data, indent=1))
+        print(f"check block seed {seed}: {block['seconds']:.0f} s " + ", ".join(
+            f"{k} {x['extrapolated']:.4f} +- {x['stderr']:.4f}"
+            for k, x in block["stats"].items()), file=sys.stderr, flush=True)
+
+
+def pooled_reference():
+    """Each friction statistic's inverse-variance weighted mean of every independent Euler
+    extrapolation in the cache (the three steps and the check blocks), with its standard
+    error: the extrapolations agree across dt (their paired differences halve with dt)."""
+    data = euler_reference()
+    blocks = data["points"] + data.get("check_blocks", [])
+    out = {}
+    for name, stat, _, _ in FRICTION_STATS:
+        k = f"{name}_{stat}"
+        w = np.array([1.0 / b["stats"][k]["stderr"] ** 2 for b in blocks])
+        x = np.array([b["stats"][k]["extrapolated"] for b in blocks])
+        value = float(np.sum(w * x) / np.sum(w))
+        chi2 = float(np.sum(w * (x - value) ** 2))
+        out[k] = {"value": value, "stderr": float(1.0 / math.sqrt(np.sum(w))),
+                  "blocks": len(blocks), "chi2": chi2,
+                  "chi2_p": float(scipy.stats.chi2.sf(chi2, len(blocks) - 1))}
+    return out
+
+
+def recount(stem: str, publish: bool):
+    """The coverage of a friction calibration's stored per-seed values and errors against
+    the pooled Euler reference (pooled_reference) instead of the finest step's alone."""
+    src = Path(__file__).resolve().parent / "results" / f"{stem}.json"
+    data = json.loads(src.read_text())
+    pooled = pooled_reference()
+    out = {"source": str(src.name), "pooled_reference": pooled, "cases": {}}
+    for cname, c in data["cases"].items():
+        rel = c["rel_error"]
+        rows = {}
+        for rname, row in c["rows"].items():
+            ref = pooled[rname.split("@")[0]]
+            v, e = np.array(row["value"]), np.array(row["error"])
+            n = v.size
+            inside = int(np.sum(np.abs(v - ref["value"]) <= Z95 * e))
+            inside_se = int(np.sum(np.abs(v - ref["value"]) <= Z95 * np.hypot(e, ref["stderr"])))
+            z = (v - ref["value"]) / e
+            rows[rname] = {"reference": ref["value"], "reference_se": ref["stderr"],
+                           "seeds": n, "coverage": inside / n,
+                           "coverage_interval": clopper_pearson(inside, n),
+                           "coverage_with_reference_se": inside_se / n,
+                           "coverage_with_reference_se_interval": clopper_pearson(inside_se, n),
+                           "within_target_fraction":
+                               float(np.mean(np.abs(v - ref["value"]) <= rel * abs(ref["value"]))),
+                           "rms_z": float(np.sqrt(np.mean(z * z))), "mean_z": float(np.mean(z)),
+                           "mean_difference": float(np.mean(v - ref["value"])),
+                           "mean_difference_se": float(np.std(v, ddof=1) / math.sqrt(n))}
+            print(f"{cname} {rname:24s} pooled ref {ref['value']:.5f} +- {ref['stderr']:.5f} "
+                  f"(chi2 p {ref['chi2_p']:.2f}): coverage {inside / n:.3f} (with ref se "
+                  f"{inside_se / n:.3f}, CP {rows[rname]['coverage_with_reference_se_interval'][0]:.3f}-"
+                  f"{rows[rname]['coverage_with_reference_se_interval'][1]:.3f}), mean z "
+                  f"{np.mean(z):+.2f}, {n} seeds")
+        out["cases"][cname] = {"seeds": c["seeds"], "rows": rows}
+    out["command"] = " ".join(["bench/filtered_error.py"] + sys.argv[1:])
+    write(f"{stem}_recount", out, plot, publish=publish)
+
+
+def cases(recompute_reference: bool = False):
     """name -> (scene, statistics, target kind, target, references: key -> (value, its se))."""
     frictionless = Scene(mu=0.0, g=1.0, excitation=KanaiTajimi(omega=2.0, zeta=ZETA, h=1.0),
                          t0=T0, times=list(TIMES),
                          observe=["velocity", "displacement", "distance"])
-    refs = frictionless_references()
+    refs = frictionless_references
     out = {}
     for rel in (0.02, 0.05):
         out[f"frictionless_rel_{rel:g}"] = (
@@ -274,7 +484,28 @@ def cases():
         for eps in targets:
             out[f"{tag}_error_{eps:g}"] = (
                 sc, ["distance_at_stop:mean"], "error", eps,
-                {("distance_at_stop", "mean", None): (anchor * WHITE, se * WHITE)})
+                lambda anchor=anchor, se=se: {
+                    ("distance_at_stop", "mean", None): (anchor * WHITE, se * WHITE)})
+    env = envelopes.from_function(ramp, ENVELOPE_DURATION, pieces=4)
+    enveloped = Scene(mu=0.0, g=1.0, excitation=KanaiTajimi(omega=2.0, zeta=ZETA),
+                      envelope=env, times=list(ENVELOPE_TIMES),
+                      observe=["velocity", "displacement", "distance"])
+    for rel in (0.02, 0.05):
+        out[f"frictionless_envelope_rel_{rel:g}"] = (
+            enveloped, ["velocity:var", "displacement:var", "distance:mean"], "rel_error", rel,
+            envelope_references)
+    friction = Scene(mu=1.0, g=1.0, excitation=KanaiTajimi(omega=2.0, zeta=ZETA, h=1.0), t0=T0,
+                     times=[FRICTION_TIME], observe=["distance", "velocity", "stop"])
+
+    def friction_refs():
+        r = euler_reference(recompute_reference)["references"]
+        return {(name, stat, i): (r[f"{name}_{stat}"]["value"], r[f"{name}_{stat}"]["stderr"])
+                for name, stat, _, i in FRICTION_STATS}
+
+    for rel in (0.02, 0.05):
+        out[f"friction_omega_tstar_4_rel_{rel:g}"] = (
+            friction, [f"{name}:{stat}" for name, stat, _, _ in FRICTION_STATS], "rel_error",
+            rel, friction_refs)
     return out
 
 
@@ -284,20 +515,23 @@ def clopper_pearson(k: int, n: int):
     return [lo, hi]
 
 
-def key_name(key) -> str:
+def key_name(key, times) -> str:
     name, stat, i = key
-    return f"{name}_{stat}" + ("" if i is None else f"@{TIMES[i]:g}")
+    return f"{name}_{stat}" + ("" if i is None else f"@{times[i]:g}")
 
 
-def run_case(name, case, seeds: int, first_seed: int, threads: int):
+def run_case(name, case, seeds: int, first_seed: int, threads: int, deadline=None):
     scene, statistics, kind, target, refs = case
-    if callable(refs):  # computed when a case needs it (the peaks' NumPy reference)
-        refs = refs()
-    rows = {key_name(k): {"reference": v[0], "reference_se": v[1], "inside": 0,
+    refs = refs()  # computed (or read from the cache) only for the cases run
+    times = list(scene.times)
+    rows = {key_name(k, times): {"reference": v[0], "reference_se": v[1], "inside": 0,
                           "inside_with_reference_se": 0, "within_target": 0, "z": [],
-                          "error": [], "bias": []} for k, v in refs.items()}
+                          "value": [], "error": [], "bias": []} for k, v in refs.items()}
     costs = []
     for s in range(first_seed, first_seed + seeds):
+        if deadline is not None and datetime.datetime.now(datetime.timezone.utc) >= deadline:
+            print(f"{name}: deadline reached after {s - first_seed} seeds", file=sys.stderr)
+            break
         r = crandall.simulate(scene, seed=s, threads=threads, statistics=statistics,
                               **{kind: target})
         assert r.model == "filtered_levels"
@@ -308,15 +542,19 @@ def run_case(name, case, seeds: int, first_seed: int, threads: int):
             err, bias = r.error(q, stat), r.bias(q, stat)
             if i is not None:
                 value, err, bias = value[i], err[i], bias[i]
-            row = rows[key_name(key)]
+            row = rows[key_name(key, times)]
             tol = target if kind == "error" else target * abs(ref)
             row["inside"] += int(abs(value - ref) <= Z95 * err)
             row["inside_with_reference_se"] += int(abs(value - ref) <= Z95 * math.hypot(err, ref_se))
             row["within_target"] += int(abs(value - ref) <= tol)
             row["z"].append(float((value - ref) / err))
+            row["value"].append(float(value))
             row["error"].append(float(err))
             row["bias"].append(float(bias))
         print(f"{name} seed {s}: {time.strftime('%H:%M:%S')}", file=sys.stderr, flush=True)
+    seeds = len(costs)
+    if seeds == 0:
+        return None
     for row in rows.values():
         row["coverage"] = row["inside"] / seeds
         row["coverage_interval"] = clopper_pearson(row["inside"], seeds)
@@ -345,7 +583,7 @@ def plot(data, path):
     labels, cov, lo, hi = [], [], [], []
     for cname, c in data["cases"].items():
         for rname, row in c["rows"].items():
-            labels.append(f"{cname}: {rname}")
+            labels.append(f"{cname} ({c['seeds']} seeds): {rname}")
             cov.append(row["coverage_with_reference_se"])
             lo.append(row["coverage_with_reference_se_interval"][0])
             hi.append(row["coverage_with_reference_se_interval"][1])
@@ -355,7 +593,7 @@ def plot(data, path):
     ax.axvline(0.95, color="g", label="nominal 95 %")
     ax.set_yticks(y, labels)
     ax.set_xlim(0.8, 1.0)
-    ax.set_xlabel(f"coverage of the 95 % interval ({data['seeds']} seeds per case; "
+    ax.set_xlabel("coverage of the 95 % interval (with the reference's se; "
                   "Clopper-Pearson 95 %)")
     ax.legend(loc="lower left")
     fig.tight_layout()
@@ -369,18 +607,43 @@ def main():
     ap.add_argument("--threads", type=int, default=1)
     ap.add_argument("--cases", default=None, help="comma-separated subset of the cases")
     ap.add_argument("--stem", default="filtered_error", help="the output files' name")
+    ap.add_argument("--deadline", default=None,
+                    help="HH:MM UTC: start no seed after it (the JSON gives the seeds run)")
+    ap.add_argument("--recompute-reference", action="store_true",
+                    help="rerun the Euler references of the friction cases (else the cache)")
+    ap.add_argument("--check-reference", type=int, default=0, metavar="K",
+                    help="only add K blocks of Euler paths at the coarsest step to the "
+                         "reference cache (a check of the friction references)")
+    ap.add_argument("--recount", default=None, metavar="STEM",
+                    help="only recount bench/results/STEM.json's per-seed values against the "
+                         "pooled Euler reference (writes STEM_recount)")
     ap.add_argument("--publish", action="store_true")
     a = ap.parse_args()
+    if a.check_reference:
+        reference_check(a.check_reference)
+        return
+    if a.recount:
+        recount(a.recount, a.publish)
+        return
     t = time.perf_counter()
-    chosen = cases()
+    deadline = None
+    if a.deadline:
+        now = datetime.datetime.now(datetime.timezone.utc)
+        hh, mm = (int(x) for x in a.deadline.split(":"))
+        deadline = now.replace(hour=hh, minute=mm, second=0, microsecond=0)
+    chosen = cases(a.recompute_reference)
     if a.cases:
         chosen = {k: chosen[k] for k in a.cases.split(",")}
     data = {"seeds": a.seeds, "cases": {}}
     for name, case in chosen.items():
-        data["cases"][name] = run_case(name, case, a.seeds, a.first_seed, a.threads)
+        done = run_case(name, case, a.seeds, a.first_seed, a.threads, deadline)
+        if done is not None:
+            data["cases"][name] = done
     if PEAK_REFERENCE_INFO:
         data["peak_reference"] = {k: v for k, v in PEAK_REFERENCE_INFO.items()
                                   if k != "references"}
+    if any(n.startswith("friction_") for n in chosen):
+        data["friction_reference"] = euler_reference()
     data["wall_time_total"] = time.perf_counter() - t
     data["command"] = " ".join(["bench/filtered_error.py"] + sys.argv[1:])
     data["crandall"] = crandall.__version__
@@ -394,7 +657,9 @@ def main():
                   f"mean z {row['mean_z']:+.2f}")
     for c in data["cases"].values():
         for row in c["rows"].values():
-            del row["z"], row["error"], row["bias"]
+            # The per-seed values and errors stay (a recount against another reference,
+            # --recount); z and the bias are summarised above.
+            del row["z"], row["bias"]
     write(a.stem, data, plot, publish=a.publish)
 
 

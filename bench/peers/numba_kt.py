@@ -112,6 +112,65 @@ def _coupled(rng, paths, dt, t0, omega, zeta, h, mu_g, mus_g, fine, coarse):
         coarse[p] = sc
 
 
+@njit(cache=False)
+def _coupled_at(rng, paths, dt, t0, n_out, omega, zeta, h, mu_g, mus_g, fine, coarse):
+    """``_coupled`` that also keeps, per path, the distance and the velocity at fine step
+    ``n_out`` (an even number of fine steps, so a coarse step ends there too): columns 0, 1,
+    2 of ``fine`` and ``coarse`` are the distance at the stop, the distance at the output time
+    and the velocity there."""
+    w2 = omega * omega
+    c1 = 2.0 * zeta * omega
+    sq = h * math.sqrt(dt)
+    n0 = int(round(t0 / dt))
+    for p in range(paths):
+        x = xd = v = s = 0.0
+        xc = xdc = vc = sc = 0.0
+        k = 0
+        while k < n0:
+            n1 = sq * rng.standard_normal()
+            n2 = sq * rng.standard_normal()
+            for noise in (n1, n2):
+                ag = -(c1 * xd + w2 * x)
+                v, s, _ = _body(x, xd, v, s, ag, mu_g, mus_g, dt)
+                xn = x + xd * dt
+                xd = xd + (-w2 * x - c1 * xd) * dt - noise
+                x = xn
+            ag = -(c1 * xdc + w2 * xc)
+            vc, sc, _ = _body(xc, xdc, vc, sc, ag, mu_g, mus_g, 2 * dt)
+            xn = xc + xdc * 2 * dt
+            xdc = xdc + (-w2 * xc - c1 * xdc) * 2 * dt - (n1 + n2)
+            xc = xn
+            k += 2
+            if k == n_out:
+                fine[p, 1] = s
+                fine[p, 2] = v
+                coarse[p, 1] = sc
+                coarse[p, 2] = vc
+        while v != 0.0:
+            v, s, _ = _body(x, xd, v, s, 0.0, mu_g, mus_g, dt)
+        while vc != 0.0:
+            vc, sc, _ = _body(xc, xdc, vc, sc, 0.0, mu_g, mus_g, 2 * dt)
+        fine[p, 0] = s
+        coarse[p, 0] = sc
+
+
+def coupled_at(paths: int, dt: float, t_out: float, *, t0: float, omega: float, zeta: float,
+               h: float, mu_g: float, mus_g: float = None, seed: int = 0):
+    """``coupled`` with the distance and the velocity at an output time t_out < t0 as well:
+    arrays (paths, 3) at dt and at 2 dt of the distance at the stop, the distance at t_out and
+    the velocity at t_out, on the same noise."""
+    for name, t in (("t0", t0), ("t_out", t_out)):
+        if abs(round(t / (2 * dt)) * 2 * dt - t) > 1e-9 * t:
+            raise ValueError(f"{name} must be a multiple of 2 dt")
+    if not 0.0 < t_out < t0:
+        raise ValueError("t_out must lie in (0, t0)")
+    rng = np.random.default_rng(seed)
+    fine, coarse = np.empty((paths, 3)), np.empty((paths, 3))
+    _coupled_at(rng, paths, dt, t0, int(round(t_out / dt)), omega, zeta, h, mu_g,
+                mu_g if mus_g is None else mus_g, fine, coarse)
+    return fine, coarse
+
+
 def coupled(paths: int, dt: float, *, t0: float, omega: float, zeta: float, h: float,
             mu_g: float, mus_g: float = None, seed: int = 0):
     """Distances at the stop of the same ``paths`` paths at steps dt and 2 dt (the shaking
@@ -139,3 +198,4 @@ def warm_up() -> None:
     """Compile once, outside any timing."""
     simulate(10, 0.1, t0=1.0, omega=1.0, zeta=0.5, h=1.0, mu_g=1.0)
     coupled(10, 0.1, t0=1.0, omega=1.0, zeta=0.5, h=1.0, mu_g=1.0)
+    coupled_at(10, 0.1, 0.4, t0=1.0, omega=1.0, zeta=0.5, h=1.0, mu_g=1.0)
