@@ -148,6 +148,20 @@ void def_filtered_grid(py::module_& m) {
       py::arg("plan"),
       "(lengths, noises, z0) of a filtered plan's walked grid: every fine step's length and "
       "intensity in time order, and the filter's start state.");
+  m.def(
+      "ground_feature_means",
+      [](const crandall::Plan& plan) {
+        const std::vector<double> v = crandall::ground_feature_means(plan);
+        py::array_t<double> out({static_cast<py::ssize_t>(v.size() / crandall::kGroundFeatures),
+                                 static_cast<py::ssize_t>(crandall::kGroundFeatures)});
+        std::copy(v.begin(), v.end(), out.mutable_data());
+        return out;
+      },
+      py::arg("plan"),
+      "The exact means of a filtered plan's ground features (filtered.hpp), one row per output "
+      "time and one for the stop (the last), GROUND_FEATURES columns: run_samples' control sums "
+      "on a filtered plan are these features minus this row.");
+  m.attr("GROUND_FEATURES") = crandall::kGroundFeatures;
 }
 
 void def_tail_grid(py::module_& m) {

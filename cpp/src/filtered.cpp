@@ -53,6 +53,7 @@
 #include "crandall/branch.hpp"
 #include "crandall/filter.hpp"
 #include "crandall/kernel.hpp"
+#include "crandall/kernel_controls.hpp"
 #include "crandall/newmark.hpp"
 #include "crandall/rng.hpp"
 #include "crandall/run.hpp"
@@ -126,6 +127,17 @@ void skeleton_normals(std::uint64_t seed, std::uint64_t path, std::uint64_t firs
       }
 }
 
+// Whether the filter starts at rest (z(0) = 0): then every state of the shaking has mean 0, and
+// the means of |a_g| and of the ground velocity's |vg| are sigma sqrt(2 / pi) (no exp or erf,
+// whose last bit differs between CPUs). Otherwise those two features are left out (0).
+bool zero_start(const FilterModel& fm) {
+  for (double x : fm.start)
+    if (x != 0.0) return false;
+  return true;
+}
+
+constexpr double kRootTwoOverPi = 0.79788456080286535588;  // sqrt(2 / pi)
+
 // A fine step of the walked grid: z at both ends, (G, D) over it, its index and start time.
 template <int N>
 struct FineStep {
@@ -181,10 +193,14 @@ class Walker {
   using Iv = Interval<N>;
 
  public:
-  Walker(const Plan& plan, int grids, Trajectory* trace)
+  Walker(const Plan& plan, int grids, Trajectory* trace, bool features = false)
       : plan_(plan), o_(plan.options()), fm_(*plan.filter()),
         grids_(grids), group_(1 << (grids - 1)), drift_(o_.drift), static_(fm_.static_drift),
-        margin_(event_margin.load()), peaks_(o_.peaks), trace_(trace) {
+        margin_(event_margin.load()), peaks_(o_.peaks), features_(features), trace_(trace) {
+    if (features_) {
+      feature_slots_.assign((o_.times.size() + 1) * kGroundFeatures, 0.0);
+      folded_ = zero_start(fm_);
+    }
     yield_ = {drift_, drift_, static_, static_};
     for (int i = 0; i < N; ++i) {
       c_[i] = fm_.filter.c[static_cast<std::size_t>(i)];
@@ -206,6 +222,10 @@ class Walker {
       if (peaks_) bodies_[g].track_peaks();
     }
     for (int i = 0; i < N; ++i) z_[i] = fm_.start[static_cast<std::size_t>(i)];
+    if (features_) {
+      vg_ = dg_ = 0.0;
+      for (double& x : sums_) x = 0.0;
+    }
     if (trace_) point(0.0, ground(z_), bodies_[0]);
     std::uint64_t k = 0;
     double start = 0.0;
@@ -214,14 +234,17 @@ class Walker {
       for (int g = 0; g < grids_; ++g)
         outputs[static_cast<std::size_t>(g)][static_cast<std::size_t>(slot)] = {
             bodies_[g].v, bodies_[g].u, bodies_[g].s, bodies_[g].pv, bodies_[g].pu};
+      if (features_) snapshot(static_cast<std::size_t>(slot));
     };
     if (!segments(0, true, cancelled, poll, at_slot, [](std::uint64_t) {}, k, start, all_done))
       return false;
     if (!o_.stop) return true;
+    if (features_) snapshot(o_.times.size());  // (frozen since the switch-off)
     if (start < o_.switch_off) start = o_.switch_off;  // (the grid always reaches it)
     end_shaking();
     const StepTable& tail = fm_.tables[static_cast<std::size_t>(fm_.tail_table)];
     // The ring-down: noise-free steps until every grid's body is at rest for good.
+    shaking_ = false;
     all_done = all_done || check_done(k);
     for (std::uint64_t j = 0; !all_done; ++j, ++k) {
       if ((++poll & (kPollSteps - 1)) == 0 && cancelled && cancelled()) return false;
@@ -232,6 +255,12 @@ class Walker {
       stops[static_cast<std::size_t>(g)] = {bodies_[g].rest_since, bodies_[g].u, bodies_[g].s,
                                             bodies_[g].pv, bodies_[g].pu};
     return true;
+  }
+
+  // With features: the ground-motion features of the last walk at output slot `slot` (the
+  // stop: times.size()), kGroundFeatures of them (filtered.hpp).
+  const double* features(std::size_t slot) const {
+    return feature_slots_.data() + slot * kGroundFeatures;
   }
 
   // Continues a path of the walked grid (grids() == 1) from its state at grid point `from`,
@@ -296,6 +325,7 @@ class Walker {
       }
       const bool after = start >= o_.switch_off;
       if (after) end_shaking();
+      shaking_ = !after;
       if (seg.steps > 0 && !all_done) {
         const StepTable& table = fm_.tables[static_cast<std::size_t>(fm_.segment_table[i])];
         std::uint64_t j = from > k ? from - k : 0;
@@ -310,6 +340,33 @@ class Walker {
       if (seg.slot >= 0) at_slot(seg.slot);
     }
     return true;
+  }
+
+  // The ground-motion features' running sums after a shaking fine step of length h with
+  // ground-velocity increment g = int a_g and d = int G over it (filtered.hpp, ground_features).
+  void accumulate(double h, double g, double d) {
+    dg_ = dg_ + vg_ * h + d;
+    vg_ = vg_ + g;
+    const double a = ground(z_);
+    sums_[0] += h * (a * a);
+    sums_[1] += h * (vg_ * vg_);
+    sums_[2] += h * (dg_ * dg_);
+    if (folded_) {
+      sums_[3] += h * std::abs(a);
+      sums_[4] += h * std::abs(vg_);
+    }
+  }
+  void snapshot(std::size_t slot) {
+    double* f = feature_slots_.data() + slot * kGroundFeatures;
+    f[0] = sums_[0];
+    f[1] = sums_[1];
+    f[2] = vg_ * vg_;
+    f[3] = sums_[3];
+    f[4] = sums_[4];
+    f[5] = vg_;
+    f[6] = dg_;
+    f[7] = dg_ * dg_;
+    f[8] = sums_[2];
   }
 
   // At the switch-off, unless the filter rings down (Options::ring_down): the shaking ends,
@@ -383,6 +440,7 @@ class Walker {
       f.z0[i] = z_[i];
       f.z1[i] = z_[i] = y[i];
     }
+    if (features_ && shaking_) accumulate(table.step, y[N], y[N + 1]);
     for (int i = 0; i < M; ++i) f.xi[i] = xi[i];
     f.g = y[N];
     f.d = y[N + 1];
@@ -616,6 +674,12 @@ class Walker {
   const int grids_, group_;
   const double drift_, static_, margin_;
   const bool peaks_;
+  const bool features_;
+  bool folded_ = false;   // the |a_g| and |ground velocity| features (a filter starting at 0)
+  bool shaking_ = false;  // the current segment is before the switch-off
+  double vg_ = 0.0, dg_ = 0.0;  // the ground's velocity and displacement (from 0)
+  double sums_[5] = {};          // the running sums of h a^2, h vg^2, h dg^2, h |a|, h |vg|
+  std::vector<double> feature_slots_;
   Trajectory* trace_;
   bool trace_grid_ = false;
   newmark::Yield yield_{};
@@ -661,7 +725,10 @@ void filtered_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
   const Options& o = plan.options();
   const int grids = o.grids();
   const std::size_t slots = o.times.size();
-  Walker<N> walker(plan, grids, nullptr);
+  const bool controls = ws.controls != nullptr;
+  Walker<N> walker(plan, grids, nullptr, controls);
+  const std::size_t chosen = ws.control_slots.size();
+  static_assert(kGroundFeatures <= kControls, "the features fit the control sums' width");
   std::vector<std::vector<Values>> outputs(static_cast<std::size_t>(grids),
                                            std::vector<Values>(slots));
   std::vector<Values> stops(static_cast<std::size_t>(grids));
@@ -689,6 +756,16 @@ void filtered_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
     for (int l = 0; l < lanes; ++l) {
       const std::uint64_t path = path0 + static_cast<std::uint64_t>(l);
       if (!walker.walk(path, outputs, stops, ws.cancelled, poll)) return;
+      if (controls) {  // the features minus their exact means (filtered.hpp)
+        double* row = ws.controls + (path - ws.sample_first) * chosen * kControls;
+        for (std::size_t a = 0; a < chosen; ++a) {
+          const std::size_t slot = ws.control_slots[a];
+          const double* f = walker.features(slot);
+          const double* mu = ws.control_means.data() + slot * kGroundFeatures;
+          for (int q = 0; q < kControls; ++q)
+            row[a * kControls + q] = q < kGroundFeatures ? f[q] - mu[q] : 0.0;
+        }
+      }
       for (std::size_t k = 0; k < slots; ++k) {
         for (std::size_t v = 0; v < kValues; ++v)
           lanes_out[(k * kValues + v) * kLanes + static_cast<std::size_t>(l)] = outputs[0][k][v];
@@ -779,6 +856,97 @@ Trajectory filtered_trajectory(const Plan& plan, std::uint64_t path) {
   if (path >= o.paths) throw std::invalid_argument("filtered_trajectory: path must be < paths");
   Trajectory out;
   with_dimension(plan, [&](auto n) { trace<decltype(n)::value>(plan, path, out); });
+  return out;
+}
+
+std::vector<double> ground_feature_means(const Plan& plan) {
+  const Options& o = plan.options();
+  if (plan.filter() == nullptr)
+    throw std::invalid_argument("ground_feature_means needs a plan with excitation 'filtered'");
+  const FilterModel& fm = *plan.filter();
+  const int n = fm.filter.n, m = fm.m;
+  const auto at = [m](int r, int c) { return static_cast<std::size_t>(r * m + c); };
+  const bool folded = zero_start(fm);
+  // The state (z, vg, dg): its mean and covariance, propagated exactly step by step.
+  std::vector<double> mean(static_cast<std::size_t>(m), 0.0), cov(at(m, 0), 0.0);
+  for (int i = 0; i < n; ++i) mean[static_cast<std::size_t>(i)] = fm.start[static_cast<std::size_t>(i)];
+  std::vector<double> t(at(m, 0)), tp(at(m, 0)), next(at(m, 0)), mean_next(static_cast<std::size_t>(m));
+  double sums[5] = {};
+  std::vector<double> out((o.times.size() + 1) * kGroundFeatures, 0.0);
+  const auto write = [&](std::size_t slot) {
+    double* f = out.data() + slot * kGroundFeatures;
+    const double mv = mean[static_cast<std::size_t>(n)], md = mean[static_cast<std::size_t>(n + 1)];
+    f[0] = sums[0];
+    f[1] = sums[1];
+    f[2] = mv * mv + cov[at(n, n)];
+    f[3] = sums[3];
+    f[4] = sums[4];
+    f[5] = mv;
+    f[6] = md;
+    f[7] = md * md + cov[at(n + 1, n + 1)];
+    f[8] = sums[2];
+  };
+  const auto& segs = plan.segments();
+  double start = 0.0;
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    const Segment& seg = segs[i];
+    if (seg.steps > 0 && start < o.switch_off) {
+      const StepTable& table = fm.tables[static_cast<std::size_t>(fm.segment_table[i])];
+      const double h = table.step, var = seg.noise * seg.noise;
+      const double* phi = table.skeleton.phi.data();
+      const double* root = table.skeleton.root.data();
+      // The transition of (z, vg, dg): z' = Phi_zz z, vg' = vg + Phi_gz z, dg' = dg + h vg +
+      // Phi_dz z, plus the noise sigma R xi.
+      std::fill(t.begin(), t.end(), 0.0);
+      for (int r = 0; r < m; ++r)
+        for (int c = 0; c < n; ++c) t[at(r, c)] = phi[at(r, c)];
+      t[at(n, n)] = 1.0;
+      t[at(n + 1, n)] = h;
+      t[at(n + 1, n + 1)] = 1.0;
+      for (std::uint64_t j = 0; j < seg.steps; ++j) {
+        for (int r = 0; r < m; ++r) {
+          double x = 0.0;
+          for (int c = 0; c < m; ++c) x += t[at(r, c)] * mean[static_cast<std::size_t>(c)];
+          mean_next[static_cast<std::size_t>(r)] = x;
+        }
+        mean.swap(mean_next);
+        for (int r = 0; r < m; ++r)  // T P
+          for (int c = 0; c < m; ++c) {
+            double x = 0.0;
+            for (int k = 0; k < m; ++k) x += t[at(r, k)] * cov[at(k, c)];
+            tp[at(r, c)] = x;
+          }
+        for (int r = 0; r < m; ++r)  // T P T^T + var R R^T
+          for (int c = 0; c < m; ++c) {
+            double x = 0.0, q = 0.0;
+            for (int k = 0; k < m; ++k) x += tp[at(r, k)] * t[at(c, k)];
+            for (int k = 0; k < m; ++k) q += root[at(r, k)] * root[at(c, k)];
+            next[at(r, c)] = x + var * q;
+          }
+        cov.swap(next);
+        double ma = 0.0, va = 0.0;
+        for (int r = 0; r < n; ++r) {
+          const double cr = fm.filter.c[static_cast<std::size_t>(r)];
+          ma += cr * mean[static_cast<std::size_t>(r)];
+          double x = 0.0;
+          for (int c = 0; c < n; ++c) x += cov[at(r, c)] * fm.filter.c[static_cast<std::size_t>(c)];
+          va += cr * x;
+        }
+        const double mv = mean[static_cast<std::size_t>(n)], md = mean[static_cast<std::size_t>(n + 1)];
+        const double vv = cov[at(n, n)], vd = cov[at(n + 1, n + 1)];
+        sums[0] += h * (ma * ma + va);
+        sums[1] += h * (mv * mv + vv);
+        sums[2] += h * (md * md + vd);
+        if (folded) {
+          sums[3] += h * (std::sqrt(va) * kRootTwoOverPi);
+          sums[4] += h * (std::sqrt(vv) * kRootTwoOverPi);
+        }
+      }
+    }
+    start += static_cast<double>(seg.steps) * seg.step;
+    if (seg.slot >= 0) write(static_cast<std::size_t>(seg.slot));
+  }
+  write(o.times.size());
   return out;
 }
 

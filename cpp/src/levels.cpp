@@ -28,11 +28,11 @@ void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int
   const int grids = o.grids();
   BlockFn block_fn = active_kernel().block_fn(o.method, o.displacement, o.distance, o.peaks,
                                               o.quadratic_variation);
+  std::vector<double> means;
   if (o.filtered()) {
-    if (controls_out) throw std::invalid_argument("run_samples: controls are not available with excitation 'filtered'");
     block_fn = &simulate_filtered_block;
-  }
-  if (controls_out) {
+    if (controls_out) means = ground_feature_means(plan);
+  } else if (controls_out) {
     if (o.method != Method::exact || !o.integrals())
       throw std::invalid_argument("run_samples: controls need the exact method and an observed integral");
     block_fn = active_kernel().controls_fn(o.displacement, o.distance, o.quadratic_variation);
@@ -58,6 +58,7 @@ void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int
         ws->sample_grids = grids;
         ws->controls = controls_out;
         ws->control_slots = chosen;
+        ws->control_means = means;
         return ws;
       },
       [&](Workspace& ws, long b) {

@@ -207,6 +207,13 @@ def filtered_grid(
     """(lengths, noises, z0) of a filtered plan's walked grid: every step's length and
     intensity, and the filter's start state."""
 
+#: The ground features per path and slot of a filtered plan's control sums.
+GROUND_FEATURES: int
+
+def ground_feature_means(plan: Plan) -> npt.NDArray[np.float64]:
+    """The exact means of a filtered plan's ground features, (times + 1) x GROUND_FEATURES
+    (the stop's row last)."""
+
 def split_parents(
     key: int, replica: int, iteration: int, survivors: int, count: int
 ) -> npt.NDArray[np.int64]:

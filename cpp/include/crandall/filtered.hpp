@@ -53,6 +53,23 @@ void extend_filtered_paths(const Plan& plan, double* states, std::size_t rows_to
                            const std::uint64_t* streams, std::size_t count, std::uint64_t key,
                            int threads);
 
+// Control variates of the base level of a run to an accuracy (run_samples with controls;
+// docs/filtered.md, "Control variates"): per path and output slot, kGroundFeatures functions
+// of the ground motion alone over [0, u], u = min(the slot's time, switch_off) (the stop's:
+// the switch-off), on the walked grid's points t_k (k >= 1) with their steps h_k as weights:
+//   0  sum h a_g^2        1  sum h vg^2     2  vg(u)^2     3  sum h |a_g|    4  sum h |vg|
+//   5  vg(u)              6  dg(u)          7  dg(u)^2     8  sum h dg^2
+// with vg = int a_g and dg = int vg the ground's velocity and displacement from 0 (exact: the
+// skeleton's G and D). They are functions of a Gaussian process whose law the plan knows, so
+// their means are exact: ground_feature_means propagates the mean and covariance of (z, vg,
+// dg) step by step with the skeleton's own transitions, (times.size() + 1) x kGroundFeatures
+// doubles (the stop last). run_samples subtracts them, so each control has mean exactly 0.
+// Features 3 and 4 are 0 (value and mean) unless the filter starts at rest (z(0) = 0: every
+// mean then 0, and E|x| = sqrt(2 / pi) sd(x) needs no exp or erf). Throws
+// std::invalid_argument unless the plan is filtered.
+constexpr int kGroundFeatures = 9;
+std::vector<double> ground_feature_means(const Plan& plan);
+
 // The multiple of an interval's a_g spread (its bridge's standard deviation at the midpoint,
 // and the curvature of its mean) within which an event is taken as possible (the interval is
 // bisected); kEventMargin unless set. Returns the previous value. For the measurement that

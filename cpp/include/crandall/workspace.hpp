@@ -85,6 +85,9 @@ struct Workspace {
   // + j] for the slot control_slots[a]; and the lanes' buffer.
   double* controls = nullptr;
   std::vector<std::size_t> control_slots;
+  // A filtered plan's: the exact means of its ground features per slot (filtered.hpp,
+  // ground_feature_means), subtracted from each path's.
+  std::vector<double> control_means;
   std::vector<double> control_lanes;
   void record(std::size_t slot, int grid, std::uint64_t path0, const double* a, const double* b,
               const double* c, int lanes) const {

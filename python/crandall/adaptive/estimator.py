@@ -94,9 +94,11 @@ class _Engine(_Features, _Schedule, Estimator):
         #: frictionless scene (mu = 0, h = 1, t = 0.5) the mean distance with the controls came
         #: out 0.66 reported errors low on average over 20 seeds (without them: 0.14 +- 0.18),
         #: a shift not understood yet (docs/methods/adaptive.md, "Limits").
-        #: Nor for a filtered excitation: they are the white-noise skeleton's.
-        self.use_controls = (USE_CONTROLS and self.integrals and scene.drift > 0
-                             and not self.filtered)
+        #: A filtered excitation has its own: features of the ground motion alone (its
+        #: intensity, velocity and displacement up to each slot's time) minus their exact
+        #: means (docs/filtered.md, "Control variates"), with or without friction.
+        self.use_controls = USE_CONTROLS and (
+            self.filtered or (self.integrals and scene.drift > 0))
         self.beta = None
         self.sums_width = sum(w + w * (w + 1) // 2 for w in self.widths)
         #: What is left of the current round: [level, paths] to grow to, in order.

@@ -1,0 +1,145 @@
+"""Control variates of a filtered excitation's runs to an accuracy (docs/filtered.md, "Control
+variates"): per path, features of the ground motion alone minus their exact means. Here the
+exact means are checked against an independent construction (SciPy's expm of the continuous
+filter, not the core's transition tables), the controls' sample means against 0, and a run
+against a run without them."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg
+
+import crandall
+from crandall import KanaiTajimi, Scene, _core, adaptive, engine, envelopes
+from crandall.spec import RunSpec
+
+ZETA = 0.6
+
+
+def _plan(scene, paths=1 << 12, seed=5):
+    return _core.Plan(engine.plan_options(RunSpec.create(scene, paths=paths, seed=seed)))
+
+
+def _reference_means(scene, plan):
+    """The features' means by SciPy: the state (z, vg, dg) with dz = A z dt + b dW, dvg = c.z
+    dt, ddg = vg dt, stepped over the plan's own grid (lengths and intensities) by Van Loan's
+    block exponential of the continuous system."""
+    opts = scene.excitation.core_options()
+    n = len(opts["filter_b"])
+    a = np.array(opts["filter_a"]).reshape(n, n)
+    b = np.array(opts["filter_b"])
+    c = np.array(opts["filter_c"])
+    m = n + 2
+    f = np.zeros((m, m))
+    f[:n, :n] = a
+    f[n, :n] = c
+    f[n + 1, n] = 1.0
+    bb = np.zeros((m, m))
+    bb[:n, :n] = np.outer(b, b)
+    lengths, noises, z0 = _core.filtered_grid(plan)
+    cache = {}
+    mean = np.zeros(m)
+    mean[:n] = z0
+    cov = np.zeros((m, m))
+    sums = np.zeros(5)
+    t = 0.0
+    rows = {}
+    want = list(scene.times) + [scene.t0]
+    for h, sigma in zip(lengths, noises):
+        if t >= scene.t0 * (1 - 1e-12):
+            break
+        if h not in cache:
+            big = np.zeros((2 * m, 2 * m))
+            big[:m, :m], big[:m, m:], big[m:, m:] = -f, bb, f.T
+            e = scipy.linalg.expm(big * h)
+            phi = e[m:, m:].T
+            cache[h] = (phi, phi @ e[:m, m:])
+        phi, q = cache[h]
+        mean = phi @ mean
+        cov = phi @ cov @ phi.T + sigma ** 2 * q
+        t += h
+        va, vv, vd = c @ cov[:n, :n] @ c, cov[n, n], cov[n + 1, n + 1]
+        ma = c @ mean[:n]
+        sums += h * np.array([ma ** 2 + va, mean[n] ** 2 + vv, mean[n + 1] ** 2 + vd,
+                              math.sqrt(va * 2 / math.pi), math.sqrt(vv * 2 / math.pi)])
+        for i, u in enumerate(want):
+            if abs(t - min(u, scene.t0)) < 1e-9 and i not in rows:
+                rows[i] = [sums[0], sums[1], mean[n] ** 2 + vv, sums[3], sums[4], mean[n],
+                           mean[n + 1], mean[n + 1] ** 2 + vd, sums[2]]
+    for i, u in enumerate(want):  # slots after the switch-off keep its values
+        rows.setdefault(i, rows[len(want) - 1] if u >= scene.t0 else None)
+    return np.array([rows[i] for i in range(len(want))])
+
+
+@pytest.mark.parametrize("excitation, envelope", [
+    (KanaiTajimi(omega=2.0, zeta=ZETA, h=1.0), None),
+    (crandall.CloughPenzien(omega=5.0, zeta=ZETA, omega_f=0.5, zeta_f=0.7, h=1.0), None),
+    (KanaiTajimi(omega=2.0, zeta=ZETA),
+     envelopes.from_function(lambda s: math.sin(math.pi * s / 4.0) ** 2, 4.0, pieces=4)),
+])
+def test_the_exact_means_agree_with_an_independent_van_loan(excitation, envelope):
+    sc = Scene(mu=0.5, g=1.0, excitation=excitation, envelope=envelope,
+               t0=None if envelope is not None else 3.0, times=[1.0, 2.5, 6.0],
+               observe=["distance", "displacement", "stop"])
+    plan = _plan(sc)
+    got = _core.ground_feature_means(plan)
+    assert got.shape == (4, _core.GROUND_FEATURES)
+    ref = _reference_means(sc, plan)
+    # Both exact up to rounding (different constructions: Taylor/double-double tables in the
+    # core, SciPy's Pade expm here): agreement to 1e-9 relative to each column's scale.
+    scale = np.maximum(np.abs(ref).max(axis=0), 1e-300)
+    assert np.all(np.abs(got - ref) <= 1e-9 * scale), (got, ref)
+
+
+def test_the_controls_have_mean_zero_and_explain_the_distance():
+    sc = Scene(mu=1.0, g=1.0, excitation=KanaiTajimi(omega=0.5, zeta=ZETA, h=1.0), t0=5.0,
+               times=[5.0], observe=["distance", "stop"])
+    n = 4096
+    plan = _plan(sc, paths=n, seed=21)
+    values, ctl = _core.run_samples(plan, 0, n, 2, True)
+    assert ctl.shape == (n, 2, _core.CONTROLS)
+    assert np.all(ctl[:, :, _core.GROUND_FEATURES:] == 0.0)
+    x = ctl[:, :, :_core.GROUND_FEATURES].reshape(n, -1)
+    # Each control's sample mean within 4.5 standard errors of 0 (18 of them: a false failure
+    # has probability about 1e-4).
+    se = x.std(axis=0, ddof=1) / math.sqrt(n)
+    assert np.all(np.abs(x.mean(axis=0)) <= 4.5 * se), x.mean(axis=0) / se
+    # Slot 1 (the stop) ran to the switch-off, as slot 0 (t = t0): the same features.
+    assert np.array_equal(ctl[:, 0], ctl[:, 1])
+    # The distance at the stop is mostly the ground motion's doing at omega t* = 1: its
+    # fitted share on one half, measured on the other, is large (0.9 measured in
+    # bench/filtered_controls.py; 0.7 leaves room for the sample's spread of a few 0.01).
+    s = values[:, 1, 0, 2]  # (path, slot, grid, variable): the distance at the stop
+    design = np.column_stack([np.ones(n), ctl[:, 1, :_core.GROUND_FEATURES]])
+    half = n // 2
+    beta, *_ = np.linalg.lstsq(design[:half], s[:half], rcond=None)
+    rest = s[half:] - design[half:] @ beta
+    assert 1.0 - rest.var() / s[half:].var() > 0.7
+    # The values are those of a run without controls, bit for bit.
+    plain = _core.run_samples(plan, 0, n, 1, False)
+    assert plain.tobytes() == values.tobytes()
+
+
+def test_a_run_to_an_accuracy_uses_them_and_agrees_with_one_without(monkeypatch):
+    sc = Scene(mu=1.0, g=1.0, excitation=KanaiTajimi(omega=0.5, zeta=ZETA, h=1.0), t0=5.0,
+               times=[5.0], observe=["distance", "stop"])
+    stats = ["distance_at_stop:mean", "distance_at_stop:var"]
+    runs = []
+    for use in (True, False):
+        monkeypatch.setattr(adaptive.estimator, "USE_CONTROLS", use)
+        runs.append(crandall.simulate(sc, rel_error=0.03, seed=31, threads=2, statistics=stats))
+    with_controls, without = runs
+    for stat in ("mean", "var"):
+        get = (lambda r: r.mean("distance_at_stop")) if stat == "mean" else (
+            lambda r: r.var("distance_at_stop"))
+        ea, eb = (r.error("distance_at_stop", stat) for r in runs)
+        # They share the finer levels' paths and the base level's first paths, so their
+        # difference is at most about their errors combined: 4 of them.
+        assert abs(get(with_controls) - get(without)) <= 4 * math.hypot(ea, eb), stat
+    # The controls take the base level's spread down (here the variance sets its paths: at
+    # seed 31 and rel_error 0.02, 106,496 base paths with them and 208,896 without).
+    assert with_controls.levels[0]["paths"] < 0.75 * without.levels[0]["paths"]
+    assert with_controls.error("distance_at_stop") < 0.75 * without.error("distance_at_stop")
