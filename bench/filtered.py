@@ -21,8 +21,12 @@ kinetic friction, the shaking ending at t0; the body's time scale t* = 2 h^2 / (
      those whose own estimated bias is at most eps |value| / 2 (a longer step with one more
      bisection reaches the same finest substep with fewer skeleton steps), its time the paths
      needed for a standard error of eps |value| / 2 times its time per path. No outside
-     reference enters the choice. The default step and depth's time and ratio are kept beside
-     it (the script says when even that bias is above eps |value| / 2);
+     reference enters the choice. Every pilot is also taken with the ground-motion control
+     variates (controls_run: what a run to an accuracy applies on its base level), whose
+     spread is measured on half the pilot's paths after a fit on the other half, at the
+     plain pilot's time times the measured cost of forming them. The default step and
+     depth's time and ratio (without controls) are kept beside it (the script says when even
+     that bias is above eps |value| / 2);
    - Euler: its step bias from the same paths at dt and 2 dt (dt = 4, 2, 1 ms; their paired
      difference is c dt for a first-order bias), c fitted where resolved; the dt that brings
      it to eps |value| / 2, the paths for the standard error, and its measured time per path
@@ -52,6 +56,8 @@ sys.path.insert(0, str(HERE))
 from _publish import write  # noqa: E402
 
 import crandall  # noqa: E402
+from crandall import _core, engine  # noqa: E402
+from crandall.spec import RunSpec  # noqa: E402
 from peers import numba_kt  # noqa: E402
 
 ZETA, MU_G, H, T0 = 0.6, 1.0, 1.0, 10.0
@@ -129,20 +135,67 @@ def euler_run(wt: float, dt: float, paths: int, seed: int):
     return out
 
 
-PILOTS = [(f, d) for f in STEP_FACTORS for d in DEPTHS]
-DEFAULT_PILOT = (1, DEFAULT_DEPTH)
+def controls_run(wt: float, paths: int, seed: int, depth: int, factor: int, plain,
+                 repeats: int = 1):
+    """The same pilot's paths with the ground-motion control variates (docs/filtered.md,
+    "Control variates"; what a run to an accuracy applies on its base level): the per-path
+    spread of S and of (S - mean S)^2 after subtracting the controls' multiples, the
+    coefficients fitted by least squares on the first half of the paths and the spread
+    measured on the second (so no fit to the same paths shrinks it). Its time is the plain
+    pilot's times the ratio of ``_core.run_samples``' time with the controls to without (the
+    fastest of ``repeats`` each, alternated): the cost of forming them, on top of the plain
+    run's whole cost (its bias estimate included). The bias is the plain pilot's (the controls
+    leave every path's value as it is)."""
+    sc = scene(wt)
+    spec = RunSpec.create(sc, paths=paths, seed=seed, dt=plain["dt"] if factor != 1 else None,
+                          event_depth=None if depth == DEFAULT_DEPTH else depth)
+    plan = _core.Plan(engine.plan_options(spec))
+    with_ctl, without = [], []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        values, ctl = _core.run_samples(plan, 0, paths, 1, True)
+        with_ctl.append(time.perf_counter() - start)
+        start = time.perf_counter()
+        _core.run_samples(plan, 0, paths, 1, False)
+        without.append(time.perf_counter() - start)
+    s = values[:, -1, 0, 2]  # the stop's slot: (time, U, S)
+    x = np.column_stack([np.ones(paths), ctl[:, -1, :_core.GROUND_FEATURES]])
+    half = paths // 2
+    factor_time = min(with_ctl) / min(without)
+    out = {"dt": plain["dt"], "step_factor": factor, "paths": paths, "event_depth": depth,
+           "controls": True, "seconds": plain["seconds"] * factor_time,
+           "controls_time_factor": factor_time, "run_samples_seconds": [with_ctl, without]}
+    for stat in ("mean", "var"):
+        y = s if stat == "mean" else (s - s.mean()) ** 2
+        beta, *_ = np.linalg.lstsq(x[:half], y[:half], rcond=None)
+        rest = y[half:] - x[half:] @ beta
+        spread = float(rest.std(ddof=1))
+        out[stat] = {"value": plain[stat]["value"], "stderr": spread / math.sqrt(paths),
+                     "explained": float(1.0 - rest.var() / y[half:].var()),
+                     "bias": plain[stat]["bias"], "bias_is_bound": plain[stat]["bias_is_bound"]}
+    return out
+
+
+PLAIN_PILOTS = [(f, d) for f in STEP_FACTORS for d in DEPTHS]
+#: Every pilot without and with the control variates.
+PILOTS = [(f, d, c) for c in (False, True) for f, d in PLAIN_PILOTS]
+DEFAULT_PILOT = (1, DEFAULT_DEPTH, False)
 
 
 def pilots(wt: float, paths: int, seed: int, repeats: int):
     """One pilot per (step factor, depth) of PILOTS (the same seed), each timed as the
     fastest of ``repeats`` runs taken in turn over the pilots (so the machine's load falls
     alike on them); the statistics and bias estimates are those of one run."""
-    runs = {p: crandall_run(wt, paths, seed, p[1], factor=p[0]) for p in PILOTS}
+    runs = {p + (False,): crandall_run(wt, paths, seed, p[1], factor=p[0])
+            for p in PLAIN_PILOTS}
     for _ in range(repeats - 1):
-        for p in PILOTS:
+        for p in PLAIN_PILOTS:
             again = crandall_run(wt, paths, seed, p[1], factor=p[0])
-            runs[p]["all_seconds"] += again["all_seconds"]
-            runs[p]["seconds"] = min(runs[p]["all_seconds"])
+            run = runs[p + (False,)]
+            run["all_seconds"] += again["all_seconds"]
+            run["seconds"] = min(run["all_seconds"])
+    for f, d in PLAIN_PILOTS:
+        runs[(f, d, True)] = controls_run(wt, paths, seed, d, f, runs[(f, d, False)], repeats)
     return runs
 
 
@@ -152,7 +205,8 @@ def crandall_time(pilot, stat: str, half: float):
     spread = ref["stderr"] * math.sqrt(pilot["paths"])  # NaN: too few carrying paths
     paths = math.ceil((spread / half) ** 2) if math.isfinite(spread) else math.nan
     return {"event_depth": pilot["event_depth"], "dt": pilot["dt"],
-            "step_factor": pilot["step_factor"], "paths": paths,
+            "step_factor": pilot["step_factor"], "controls": pilot.get("controls", False),
+            "paths": paths,
             "seconds": paths * pilot["seconds"] / pilot["paths"], "bias": ref["bias"],
             "bias_is_bound": ref["bias_is_bound"], "bias_within": ref["bias"] <= half}
 
@@ -190,6 +244,7 @@ def cost(wt, runs, euler_runs):
                          "crandall_depth": chosen["event_depth"],
                          "crandall_chosen_dt": chosen["dt"],
                          "crandall_step_factor": chosen["step_factor"],
+                         "crandall_controls": chosen["controls"],
                          "crandall_paths": chosen["paths"],
                          "crandall_seconds": chosen["seconds"],
                          "crandall_bias": chosen["bias"],
@@ -230,12 +285,13 @@ def plot(data, path):
     for r in rows:
         labels.append(f"{r['stat']} eps={r['eps']:g}\nwt*={r['omega_t_star']:g} "
                       f"d={r.get('crandall_depth', DEFAULT_DEPTH)} "
-                      f"dt x{r.get('crandall_step_factor', 1)}")
+                      f"dt x{r.get('crandall_step_factor', 1)}"
+                      f"{' cv' if r.get('crandall_controls') else ''}")
         ratios.append(r["ratio"])
         defaults.append(r.get("default_depth", {}).get("ratio", r["ratio"]))
     x = np.arange(len(rows))
     b.bar(x - 0.2, defaults, width=0.4, label=f"default step, event depth {DEFAULT_DEPTH}")
-    b.bar(x + 0.2, ratios, width=0.4, label="chosen step and depth (d)")
+    b.bar(x + 0.2, ratios, width=0.4, label="chosen step, depth (d) and controls (cv)")
     b.legend(fontsize=7)
     b.set_yscale("log")
     b.set_xticks(x)
@@ -268,8 +324,9 @@ def main():
     rows = []
     for i, wt in enumerate(COST_AT):
         runs = pilots(wt, args.pilot, 200 + i, args.repeats)
-        for (f, d), run in runs.items():
-            print(f"omega t* = {wt:4g} dt {run['dt']:.3g} depth {d}: "
+        for (f, d, c), run in runs.items():
+            print(f"omega t* = {wt:4g} dt {run['dt']:.3g} depth {d}"
+                  f"{' controls' if c else ''}: "
                   f"{run['seconds'] / run['paths'] * 1e6:.1f} us "
                   f"per path, mean {run['mean']['value']:.5f} (bias {run['mean']['bias']:.2e}), "
                   f"var {run['var']['value']:.4f} (bias {run['var']['bias']:.2e})", flush=True)
@@ -280,7 +337,8 @@ def main():
             base = row["default_depth"]
             print(f"omega t* = {wt:4g} {row['stat']:4s} eps {row['eps']:g}: crandall "
                   f"{row['crandall_seconds']:.3g} s at dt {row['crandall_chosen_dt']:.3g}, "
-                  f"depth {row['crandall_depth']} "
+                  f"depth {row['crandall_depth']}"
+                  f"{', controls' if row['crandall_controls'] else ''} "
                   f"({row['crandall_paths']} paths"
                   f"{'' if row['crandall_bias_within'] else ', bias above eps/2'}; depth "
                   f"{DEFAULT_DEPTH} {base['crandall_seconds']:.3g} s), Euler "

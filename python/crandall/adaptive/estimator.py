@@ -23,9 +23,9 @@ from ..scene import Scene
 from ..streams import RANDOM_STREAM, check_random_stream
 from ..spec import check_scene, default_dt
 from .features import _control_slots, _Features
-from .levels import (_check_statistics, _Level, _sample_slots, _Sums, _targets, BASE_DT_FACTOR,
-                     BATCH_PATHS, FILTER_BASE_DT_FACTOR, FILTER_MAX_PATHS, MAX_SECONDS,
-                     levels_model)
+from .levels import (_check_statistics, _Level, _peaks_recorded, _sample_slots, _Sums, _targets,
+                     BASE_DT_FACTOR, BATCH_PATHS, FILTER_BASE_DT_FACTOR, FILTER_MAX_PATHS,
+                     MAX_SECONDS, levels_model)
 from .schedule import MAX_LEVEL_PATHS, _Schedule
 BATCH_BYTES = 64 << 20
 #: Path-steps of the measurement of a level's time per path before its first batch
@@ -85,6 +85,10 @@ class _Engine(_Features, _Schedule, Estimator):
         self.control_slots, self.control_of = _control_slots(scene, outputs)
         if self.quadratic:
             self.control_of.append(self.control_of[-1])
+        if _peaks_recorded(scene):
+            # A filtered run's peaks per output time and at the stop (the slots after the
+            # stop's) use their output's controls: the ground features up to the same time.
+            self.control_of.extend(self.control_of[:outputs])
         per_path = 8 * (slots * 2 * 3 + len(self.control_slots) * _core.CONTROLS
                         + 2 * len(self.widths))
         self.batch = int(min(BATCH_PATHS, max(256, BATCH_BYTES // per_path // 256 * 256)))
