@@ -63,7 +63,7 @@ def test_tail_and_fragility_refuse_the_same(refused):
     tail = ["tail", "crate", "--levels", "1", "--seed", "1"]
     for extra, option in ((["--out", "o"], "--out"), (["--force"], "--overwrite (--force)"),
                           (["--format", "svg"], "--format"), (["--dpi", "100"], "--dpi"),
-                          (["--mc-paths", "100"], "--mc-paths")):
+                          (["--mc-paths", "0"], "--mc-paths")):
         refused(tail + ["--quantity", "stop_time", "--no-files"] + extra,
                 f"{option} has no effect with --no-files")
     # The curve of the velocity has no plain Monte Carlo part, with files or without.

@@ -359,7 +359,8 @@ def resolve(args: argparse.Namespace) -> argparse.Namespace:
         if not getattr(args, flag_name):
             continue
         for option, name in options:
-            if getattr(args, name) not in (None, False):
+            value = getattr(args, name)
+            if value is not None and value is not False:  # given (0 is a value: not False)
                 spelled = "--overwrite (--force)" if option == "--overwrite" else option
                 raise ParameterError(option, f"{spelled} has no effect with {flag} ({effect}); "
                                              f"leave out one of them")
