@@ -31,6 +31,10 @@ DEFAULT_OUT = "crandall-out"
 DEFAULT_TAIL_OUT = "crandall-tail-out"
 
 
+#: Paths of the plain Monte Carlo part of ``crandall tail``'s curve without ``--mc-paths``.
+DEFAULT_MC_PATHS = 20_000
+
+
 #: The list of files a run wrote into its output folder (JSON), so that a later run with
 #: ``--overwrite`` removes exactly those and nothing of the user's; ``crandall tail`` keeps its
 #: own list, so that it never removes what ``crandall run`` wrote into the same folder.

@@ -8,8 +8,10 @@ from typing import List
 from .. import paper, plots
 from .._version import __version__
 from ..methods import DEFAULT_METHOD, MAX_EVENT_DEPTH, METHODS, MIN_EVENT_DEPTH
+from ..errors import ParameterError
 from ..records import POLARITIES
-from .outputs import DEFAULT_FILE_PATHS, DEFAULT_OUT, DEFAULT_TAIL_OUT, PAPER_SEED
+from .outputs import (DEFAULT_FILE_PATHS, DEFAULT_MC_PATHS, DEFAULT_OUT, DEFAULT_TAIL_OUT,
+                      PAPER_SEED)
 
 
 def _positive_int(text: str) -> int:
@@ -116,7 +118,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--max-seconds", type=_float, metavar="S",
                      help="with --error / --rel-error: stop, quoting the estimate, once the "
                           "time spent and the estimated time left pass S (default 3600)")
-    run.add_argument("--out", default=DEFAULT_OUT, metavar="DIR",
+    run.add_argument("--out", metavar="DIR",
                      help=f"output folder (default: ./{DEFAULT_OUT}); one that holds another "
                           "run's files is refused unless --overwrite")
     run.add_argument("--overwrite", "--force", dest="overwrite", action="store_true",
@@ -127,16 +129,20 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--scheduler", metavar="ADDRESS",
                      help="run on a Dask distributed cluster, e.g. tcp://host:8786 "
                           "(pip install 'crandall[distributed]')")
-    run.add_argument("--no-figures", action="store_true", help="do not draw the figures")
-    run.add_argument("--format", dest="figure_format", choices=plots.FORMATS, default="png",
+    run.add_argument("--no-figures", action="store_true",
+                     help="do not draw the figures (--format, --dpi and --units are then "
+                          "refused: they would have no effect)")
+    run.add_argument("--format", dest="figure_format", choices=plots.FORMATS,
                      help="the figures' file format (default: png)")
-    run.add_argument("--dpi", type=_positive_int, default=150, metavar="N",
+    run.add_argument("--dpi", type=_positive_int, metavar="N",
                      help="the resolution of png figures (default: 150)")
-    run.add_argument("--units", dest="figure_units", choices=plots.UNITS, default="scene",
+    run.add_argument("--units", dest="figure_units", choices=plots.UNITS,
                      help="draw the figures in the scene's units (default) or the paper's "
                           "scaled units")
     run.add_argument("--no-files", action="store_true",
-                     help="print only: write no results or figures")
+                     help="print only: write no results or figures (--out, --overwrite, "
+                          "--format, --dpi and --units are then refused: they would have no "
+                          "effect)")
     _progress_options(run)
 
     tl = sub.add_parser(
@@ -167,18 +173,24 @@ def _parser() -> argparse.ArgumentParser:
                     help="bound on the run's time, pilots included (default 3600)")
     tl.add_argument("--checkpoint", metavar="PATH",
                     help="keep finished samples in PATH; rerunning the same command resumes")
-    tl.add_argument("--mc-paths", type=_positive_int, default=20_000, metavar="N",
-                    help="paths of the plain Monte Carlo part of the curve (default 20000)")
-    tl.add_argument("--out", default=DEFAULT_TAIL_OUT, metavar="DIR",
+    tl.add_argument("--mc-paths", type=_positive_int, metavar="N",
+                    help="paths of the plain Monte Carlo part of the curve (default "
+                         f"{DEFAULT_MC_PATHS}; "
+                         "a quantity at the stop only: stop_time, distance_at_stop, "
+                         "dissipated_energy_at_stop, displacement_at_stop, "
+                         "residual_displacement)")
+    tl.add_argument("--out", metavar="DIR",
                     help=f"output folder (default: ./{DEFAULT_TAIL_OUT}); one that holds an "
                          "earlier tail run's files is refused unless --overwrite")
     tl.add_argument("--overwrite", "--force", dest="overwrite", action="store_true",
                     help="replace the files an earlier crandall tail wrote in --out (only "
                          "those: crandall run's results and other files are kept)")
-    tl.add_argument("--no-files", action="store_true", help="print only")
-    tl.add_argument("--format", dest="figure_format", choices=plots.FORMATS, default="png",
+    tl.add_argument("--no-files", action="store_true",
+                    help="print only (--out, --overwrite, --format, --dpi and --mc-paths are "
+                         "then refused: they would have no effect)")
+    tl.add_argument("--format", dest="figure_format", choices=plots.FORMATS,
                     help="the figure's file format (default: png)")
-    tl.add_argument("--dpi", type=_positive_int, default=150, metavar="N",
+    tl.add_argument("--dpi", type=_positive_int, metavar="N",
                     help="the resolution of a png figure (default: 150)")
     _progress_options(tl)
 
@@ -221,8 +233,9 @@ def _parser() -> argparse.ArgumentParser:
                          "(m s^-3/2, increasing) and the annual rate of shaking stronger than "
                          "it (non-increasing); '#' lines and one header line skipped. Prints "
                          "the annual rate of exceeding each threshold with its 95 %% interval")
-    hz.add_argument("--hazard-use", choices=("fit", "estimates"), default="fit",
-                    help="integrate the lognormal fit (default) or the grid's own estimates")
+    hz.add_argument("--hazard-use", choices=("fit", "estimates"),
+                    help="with --hazard: integrate the lognormal fit (default) or the grid's "
+                         "own estimates")
     hz.add_argument("--hazard-save", metavar="PATH",
                     help="write the annual rates (CSV: threshold, rate, stderr, 95 %% interval)")
     _progress_options(fr)
@@ -308,6 +321,56 @@ def _parser() -> argparse.ArgumentParser:
                                                      "(crandall.io.load_newmark reads it)")
     nm.add_argument("--threads", type=_positive_int, help="threads for a sweep (default: all)")
     return parser
+
+
+#: What each command writes, and so the options that only shape what it writes: refused
+#: beside the flag that writes none of it (given, they would be silently ignored). The parser
+#: leaves them None (False for --overwrite) so that one given can be told from one left out;
+#: :func:`resolve` fills in the defaults. (flag's attribute, flag, what it leaves out,
+#: options as (flag, attribute)).
+_FIGURE_OPTIONS = (("--format", "figure_format"), ("--dpi", "dpi"), ("--units", "figure_units"))
+_IGNORED = {
+    "run": (("no_files", "--no-files", "nothing is written",
+             (("--out", "out"), ("--overwrite", "overwrite")) + _FIGURE_OPTIONS),
+            ("no_figures", "--no-figures", "no figures are drawn", _FIGURE_OPTIONS)),
+    "tail": (("no_files", "--no-files", "nothing is written",
+              (("--out", "out"), ("--overwrite", "overwrite"), ("--format", "figure_format"),
+               ("--dpi", "dpi"), ("--mc-paths", "mc_paths"))),),
+}
+_DEFAULTS = {
+    "run": {"out": DEFAULT_OUT, "figure_format": "png", "dpi": 150, "figure_units": "scene"},
+    # --mc-paths: tail_command's default, which also refuses it for a quantity without a plain
+    # Monte Carlo part.
+    "tail": {"out": DEFAULT_TAIL_OUT, "figure_format": "png", "dpi": 150},
+    "fragility": {"hazard_use": "fit"},
+}
+
+
+def resolve(args: argparse.Namespace) -> argparse.Namespace:
+    """Check the parsed ``args`` beyond what argparse does and fill in the defaults it left
+    None: an option that the command would ignore beside ``--no-files`` or ``--no-figures``
+    (or ``--hazard-use`` without ``--hazard``) is refused with a ParameterError naming both,
+    so that nothing a user asked for is silently dropped."""
+    command = args.command
+    dpi = getattr(args, "dpi", None)
+    if dpi is not None and not 50 <= dpi <= 1200:
+        raise ParameterError("--dpi", f"--dpi must be between 50 and 1200, got {dpi}")
+    for flag_name, flag, effect, options in _IGNORED.get(command, ()):
+        if not getattr(args, flag_name):
+            continue
+        for option, name in options:
+            value = getattr(args, name)
+            if value is not None and value is not False:  # given (0 is a value: not False)
+                spelled = "--overwrite (--force)" if option == "--overwrite" else option
+                raise ParameterError(option, f"{spelled} has no effect with {flag} ({effect}); "
+                                             f"leave out one of them")
+    if command == "fragility" and args.hazard_use is not None and args.hazard is None:
+        raise ParameterError("--hazard-use", "--hazard-use has no effect without --hazard FILE "
+                                             "(no hazard curve is integrated)")
+    for name, value in _DEFAULTS.get(command, {}).items():
+        if getattr(args, name) is None:
+            setattr(args, name, value)
+    return args
 
 
 def _version() -> str:

@@ -16,6 +16,7 @@ from ..quantities import quantity
 from ..model import ANALYTIC, holds
 from ..scene import Scene
 from ..simulate import simulate
+from ..spec import (MAX_PATHS, check_event_depth, check_int, check_method, check_positive)
 from ..errors import ParameterError
 from .outputs import DEFAULT_FILE_PATHS, DEFAULT_OUT, PAPER_SEED, _check_out, _write_and_tell
 
@@ -83,10 +84,11 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
         raise ParameterError("--max-seconds", "--max-seconds: only with --error or --rel-error")
     if statistics is not None:
         raise ParameterError("--statistics", "--statistics: only with --error or --rel-error")
-    for key, value in (("paths", paths), ("seed", seed), ("dt", dt), ("method", method),
-                       ("event_depth", event_depth)):
-        if value is not None:
-            settings[key] = value
+    given = {key: value for key, value in (("paths", paths), ("seed", seed), ("dt", dt),
+                                           ("method", method), ("event_depth", event_depth))
+             if value is not None}
+    settings.update(given)
+    _check_run_settings(scene, settings, given, scene_path)
     n = settings.get("paths", DEFAULT_FILE_PATHS)
     print(f"crandall: {scene!r}")
     where = f" on {scheduler}" if scheduler else ""
@@ -123,6 +125,43 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
         if files:
             _write_and_tell(result, out, figures, earlier, figure_options)
     return 0
+
+
+#: The checks of a fixed-step run's settings that a scene file's [run] table cannot make on
+#: its own (a bound of simulate's, or the scene's: a filtered excitation runs with method
+#: 'exact' only, white noise has no event depth), in simulate's order, with what a file's
+#: field can do about it.
+_RUN_CHECKS = (
+    ("paths", lambda value, scene: check_int("paths", value, 1, MAX_PATHS),
+     "lower it or give --paths"),
+    ("dt", lambda value, scene: check_positive("dt", value), "change it or give --dt"),
+    ("method", check_method, "change it or give --method"),
+    ("event_depth", check_event_depth, "remove it from the file's [run] table"),
+)
+
+
+def _check_run_settings(scene: Scene, settings, given, file: Optional[str]) -> None:
+    """Before anything is printed: the run's settings as ``simulate`` would check them, a
+    refusal naming where the value came from: the option (``given``: ``--event-depth: ...``)
+    or the scene file's field (``FILE: [run] event_depth = 4: ...``)."""
+    for key, check, remedy in _RUN_CHECKS:
+        if key not in settings:
+            continue
+        value = settings[key]
+        try:
+            check(value, scene)
+        except ParameterError as exc:
+            reason = str(exc)
+            for head in (f"{key}: ", f"{key} "):  # the message names the argument: reworded
+                if reason.startswith(head):
+                    reason = reason[len(head):]
+                    break
+            if key in given or file is None:
+                option = "--" + key.replace("_", "-")
+                sep = " " if reason.startswith("must") else ": "
+                raise ParameterError(option, f"{option}{sep}{reason}") from None
+            raise ParameterError(f"run.{key}", f"{file}: [run] {key} = {value!r}: {reason}; "
+                                               f"{remedy}") from None
 
 
 def _client(scheduler: Optional[str]):
