@@ -33,10 +33,14 @@ kinetic friction, the shaking ending at t0; the body's time scale t* = 2 h^2 / (
      step.
    Both times are extrapolated from measured rates (a run of 1e-3 would take hours for the
    peer); the JSON holds every input, the pilots of every depth included.
+3. With --direct, what a user runs is timed too: ``simulate(scene, error=EPS)`` (its own
+   levels, event depth and control variates) for the pairs of DIRECT, EPS = eps |value| /
+   sqrt 2 (the root-mean-square of the peer's two halves), against the same Euler time.
 
 Writes bench/out/filtered.{json,png} (bench/results/ with --publish).
 
-    .venv/bin/python bench/filtered.py [--paths 20000] [--pilot 20000] [--repeats 2] [--publish]
+    .venv/bin/python bench/filtered.py [--paths 20000] [--pilot 20000] [--repeats 2] [--direct]
+        [--publish]
 """
 
 from __future__ import annotations
@@ -264,6 +268,26 @@ def cost(wt, runs, euler_runs):
     return rows
 
 
+#: The runs to an accuracy timed directly (--direct): (statistic, eps) pairs. The variance to
+#: 1e-3 is left out: it would take tens of minutes a case.
+DIRECT = (("mean", 1e-2), ("mean", 1e-3), ("var", 1e-2))
+
+
+def direct_run(wt: float, stat: str, eps: float, value: float, seed: int):
+    """What a user runs for eps: ``simulate(scene, error=EPS)`` with EPS = eps |value| /
+    sqrt 2, the root-mean-square error of a bias and a standard error of eps |value| / 2 each
+    (the peer's criterion), one thread, its control variates and levels as it chooses them."""
+    target = eps * abs(value) / math.sqrt(2.0)
+    start = time.perf_counter()
+    r = crandall.simulate(scene(wt), error=target, seed=seed, threads=1,
+                          statistics=[f"distance_at_stop:{stat}"])
+    seconds = time.perf_counter() - start
+    got = r.mean("distance_at_stop") if stat == "mean" else r.var("distance_at_stop")
+    return {"stat": stat, "eps": eps, "error_target": target, "seconds": seconds,
+            "value": float(got), "error": float(r.error("distance_at_stop", stat)),
+            "levels": r.levels}
+
+
 def plot(data, path):
     import matplotlib
     matplotlib.use("Agg")
@@ -309,6 +333,8 @@ def main():
     ap.add_argument("--euler-paths", type=int, default=20000)
     ap.add_argument("--repeats", type=int, default=2,
                     help="timed runs per pilot depth (the fastest counts)")
+    ap.add_argument("--direct", action="store_true",
+                    help="also time simulate(error=...) itself for DIRECT (several minutes)")
     ap.add_argument("--publish", action="store_true")
     args = ap.parse_args()
     numba_kt.warm_up()
@@ -333,6 +359,14 @@ def main():
         euler = [euler_run(wt, dt, args.euler_paths, 300 + 10 * i + j)
                  for j, dt in enumerate(EULER_DT)]
         for row in cost(wt, runs, euler):
+            if args.direct and (row["stat"], row["eps"]) in DIRECT:
+                d = direct_run(wt, row["stat"], row["eps"], row["value"], 400 + i)
+                d["ratio"] = row["euler_seconds"] / d["seconds"]
+                row["direct"] = d
+                print(f"omega t* = {wt:4g} {row['stat']:4s} eps {row['eps']:g}: "
+                      f"simulate(error={d['error_target']:.3g}) {d['seconds']:.3g} s "
+                      f"(value {d['value']:.5g} +- {d['error']:.2g}): ratio {d['ratio']:.3g}",
+                      flush=True)
             rows.append(row)
             base = row["default_depth"]
             print(f"omega t* = {wt:4g} {row['stat']:4s} eps {row['eps']:g}: crandall "

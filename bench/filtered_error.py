@@ -350,6 +350,89 @@ def euler_reference(recompute: bool = False):
     return data
 
 
+def finer_euler(blocks: int, paths: int, publish: bool):
+    """The Euler peer at half the reference's finest step (dt = EULER_DT[-1] / 2, paired with
+    EULER_DT[-1] on the same noise), in blocks of ``paths``: whether its step bias keeps
+    halving with dt, which the first-order extrapolation of the reference assumes. Per block
+    and pooled: the paired difference X(2 dt) - X(dt) (first order predicts half the
+    reference's at EULER_DT[-1]: its ``at_2dt - at_dt``) and the extrapolated value 2 X(dt) -
+    X(2 dt). Written after every block (an interrupted run keeps the blocks it finished)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from peers import numba_kt
+    numba_kt.warm_up()
+    ref = euler_reference()
+    dt = EULER_DT[-1] / 2
+    finest = ref["points"][-1]["stats"]
+    out = {"dt": dt, "paths_per_block": paths, "blocks": [],
+           "command": " ".join(["bench/filtered_error.py"] + sys.argv[1:])}
+    cols = [(name, stat, col) for name, stat, col, _ in FRICTION_STATS]
+    acc = {f"{n}_{s}": ([], []) for n, s, _ in cols}
+    for j in range(blocks):
+        start = time.perf_counter()
+        fine, coarse = numba_kt.coupled_at(paths, dt, FRICTION_TIME, t0=T0, omega=2.0,
+                                           zeta=ZETA, h=1.0, mu_g=1.0, seed=900 + j)
+        block = {"seed": 900 + j, "seconds": time.perf_counter() - start, "stats": {}}
+        for name, stat, col in cols:
+            k = f"{name}_{stat}"
+            v, se, f, c = _extrapolated(fine[:, col], coarse[:, col], stat)
+            if stat == "mean":
+                d = coarse[:, col] - fine[:, col]
+                diff, diff_se = float(d.mean()), float(d.std(ddof=1) / math.sqrt(paths))
+            else:
+                a, b = coarse[:, col] - coarse[:, col].mean(), fine[:, col] - fine[:, col].mean()
+                d = a * a - b * b
+                diff, diff_se = c - f, float(d.std(ddof=1) / math.sqrt(paths))
+            block["stats"][k] = {"extrapolated": v, "stderr": se, "at_dt": f, "at_2dt": c,
+                                 "difference": diff, "difference_se": diff_se}
+            acc[k][0].append((v, se))
+            acc[k][1].append((diff, diff_se))
+        out["blocks"].append(block)
+        pooled = {}
+        for k, (vals, diffs) in acc.items():
+            w = [1 / se ** 2 for _, se in vals]
+            wd = [1 / se ** 2 for _, se in diffs]
+            prev = finest[k]["at_2dt"] - finest[k]["at_dt"]
+            pooled[k] = {"extrapolated": sum(x * wi for (x, _), wi in zip(vals, w)) / sum(w),
+                         "stderr": 1 / math.sqrt(sum(w)),
+                         "difference": sum(x * wi for (x, _), wi in zip(diffs, wd)) / sum(wd),
+                         "difference_se": 1 / math.sqrt(sum(wd)),
+                         "reference_difference_at_2dt": prev,
+                         "first_order_prediction": prev / 2,
+                         "reference": ref["references"][k]["value"],
+                         "reference_se": ref["references"][k]["stderr"]}
+        out["pooled"] = pooled
+        print(f"block {j}: {block['seconds']:.0f} s; " + "; ".join(
+            f"{k} difference {p['difference']:.5f} +- {p['difference_se']:.5f} (first order "
+            f"{p['first_order_prediction']:.5f}), extrapolated {p['extrapolated']:.5f} +- "
+            f"{p['stderr']:.5f} (reference {p['reference']:.5f})" for k, p in pooled.items()),
+            file=sys.stderr, flush=True)
+        write("filtered_error_friction_finer", out, _plot_finer, publish=publish)
+
+
+def _plot_finer(data, path):
+    """The pooled paired differences at half the finest step against first order's halving."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    keys = list(data["pooled"])
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    x = np.arange(len(keys))
+    got = [data["pooled"][k]["difference"] / data["pooled"][k]["first_order_prediction"]
+           for k in keys]
+    err = [1.96 * data["pooled"][k]["difference_se"]
+           / abs(data["pooled"][k]["first_order_prediction"]) for k in keys]
+    ax.errorbar(x, got, yerr=err, fmt="o", capsize=3)
+    ax.axhline(1.0, color="k", lw=0.8, ls="--", label="first order (half the previous)")
+    ax.set_xticks(x)
+    ax.set_xticklabels(keys, fontsize=7)
+    ax.set_ylabel("paired difference / first-order prediction")
+    ax.set_title(f"Euler at dt = {data['dt']:g} s and twice it ({len(data['blocks'])} blocks)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
 def reference_check(blocks: int):
     """More independent blocks of EULER_PATHS paths at the coarsest step (its extrapolation
     agreed with the finer ones), added to the cache as "check_blocks": a tighter reference
@@ -617,8 +700,15 @@ def main():
     ap.add_argument("--recount", default=None, metavar="STEM",
                     help="only recount bench/results/STEM.json's per-seed values against the "
                          "pooled Euler reference (writes STEM_recount)")
+    ap.add_argument("--finer-euler", type=int, default=0, metavar="K",
+                    help="only run K blocks of --finer-paths Euler paths at half the "
+                         "reference's finest step (a check of its first-order extrapolation)")
+    ap.add_argument("--finer-paths", type=int, default=250_000)
     ap.add_argument("--publish", action="store_true")
     a = ap.parse_args()
+    if a.finer_euler:
+        finer_euler(a.finer_euler, a.finer_paths, a.publish)
+        return
     if a.check_reference:
         reference_check(a.check_reference)
         return
