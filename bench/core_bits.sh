@@ -9,8 +9,9 @@
 # the second under qemu-user, and compares the dumps line by line. Natively it runs the best
 # kernel variant of the CPU and the baseline one (the variants' claim, on the same machine), and
 # the x86-64 build under qemu-x86_64 on a CPU without AVX or FMA (Nehalem), where glibc's exp,
-# log1p and hypot take their code without FMA. The C library's functions the core calls are
-# checked too (one hash of a million results each; splitting's log1p(-k / n) value by value).
+# log1p and hypot take their code without FMA. The C library's functions the core called are
+# checked too (one hash of a million results each; splitting's log1p(-k / n) value by value),
+# and the core's own exp, log1p, log and log erfc that replace them (bench/detfunc_bits.cpp).
 # A third build, for aarch64, appends GCC's default -ffp-contract=fast to every compilation of
 # the core (and builds the driver at -O3 without -ffp-contract=off): what the results would be
 # if the build let GCC fuse a * b + c into fused multiply-adds, which aarch64 has and baseline
