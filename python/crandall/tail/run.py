@@ -180,6 +180,8 @@ def _check_samples(samples: Sequence[Dict[str, Any]], job: Dict[str, Any], most:
             bound = 1.0
             for _ in range(iterations):
                 bound = bound * ((n - kill) / n)
+                if bound == 0.0:
+                    break  # (a few thousand iterations at most: the factor is below 0.95)
             if est[-1] > bound * (1.0 + 1e-9):
                 raise ValueError(f"samples[{i}].estimates: {float(est[-1])!r} at the last "
                                  f"level, above the weight {iterations} iterations leave")
