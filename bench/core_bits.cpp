@@ -17,7 +17,9 @@
 #include <vector>
 
 #include "crandall/branch.hpp"
+#include "crandall/detfunc.hpp"
 #include "crandall/dispatch.hpp"
+#include "crandall/exact_step.hpp"
 #include "crandall/filter.hpp"
 #include "crandall/levels.hpp"
 #include "crandall/newmark.hpp"
@@ -247,12 +249,13 @@ void records() {
   }
 }
 
-// The C library's functions the core calls (nm -u on the library): exp and log1p (splitting's
+// The C library's functions the core called (nm -u on the library): exp and log1p (splitting's
 // weights, split.cpp) and hypot (the exact step's scaled form, exact_step.hpp, for step lengths
-// beyond the regular range). None is correctly rounded by contract, so their bits are the C
-// library's: checked here over many arguments (exact doubles made from integers), one hash of
-// the results' bits per function (FNV-1a) and, for the splitting weights' log1p(-k / n), every
-// value of the particle counts used.
+// beyond the regular range); now replaced by the core's own (detfunc.hpp, scaled_root). None is
+// correctly rounded by contract, so their bits are the C library's: checked here over many
+// arguments (exact doubles made from integers), one hash of the results' bits per function
+// (FNV-1a) and, for the splitting weights' log1p(-k / n), every value of the particle counts
+// used, beside the core's own detfunc::log1p and scaled_root (which must not differ).
 std::uint64_t fnv(std::uint64_t h, double x) {
   std::uint64_t bits;
   std::memcpy(&bits, &x, sizeof bits);
@@ -270,7 +273,7 @@ void libm() {
     return x;
   };
   const std::size_t n = 1000000;
-  std::uint64_t he = basis, hh = basis, hl = basis;
+  std::uint64_t he = basis, hh = basis, hl = basis, hs = basis;
   for (std::size_t i = 0; i < n; ++i) {
     // exp over [-745, 0] and [0, 709] in steps of 2^-40; log1p over (-1, 1] in steps of 2^-52;
     // hypot of (-64, 64) in steps of 2^-40 and [0, 64) in steps of 2^-46.
@@ -281,15 +284,21 @@ void libm() {
     const double a = static_cast<double>(next() % (128ull << 40)) / 1099511627776.0 - 64.0;
     const double b = static_cast<double>(next() % (64ull << 46)) / 70368744177664.0;
     hh = fnv(hh, std::hypot(a, b));
+    hs = fnv(hs, crandall::scaled_root(a, b));
   }
   std::printf("libm exp %zu arguments: hash %016" PRIx64 "\n", n, he);
   std::printf("libm log1p %zu arguments: hash %016" PRIx64 "\n", n, hl);
   std::printf("libm hypot %zu arguments: hash %016" PRIx64 "\n", n, hh);
+  std::printf("scaled_root %zu arguments: hash %016" PRIx64 "\n", n, hs);
   for (std::size_t particles : {100, 200, 500, 1000, 2000, 5000, 10000}) {
     std::vector<double> v;
     for (std::size_t k = 1; k < particles; ++k)
       v.push_back(std::log1p(-double(k) / double(particles)));
     print("libm log1p(-k/" + std::to_string(particles) + ")", v);
+    v.clear();
+    for (std::size_t k = 1; k < particles; ++k)
+      v.push_back(crandall::detfunc::log1p(-double(k) / double(particles)));
+    print("detfunc log1p(-k/" + std::to_string(particles) + ")", v);
   }
 }
 

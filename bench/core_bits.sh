@@ -9,8 +9,9 @@
 # the second under qemu-user, and compares the dumps line by line. Natively it runs the best
 # kernel variant of the CPU and the baseline one (the variants' claim, on the same machine), and
 # the x86-64 build under qemu-x86_64 on a CPU without AVX or FMA (Nehalem), where glibc's exp,
-# log1p and hypot take their code without FMA. The C library's functions the core calls are
-# checked too (one hash of a million results each; splitting's log1p(-k / n) value by value).
+# log1p and hypot take their code without FMA. The C library's functions the core called are
+# checked too (one hash of a million results each; splitting's log1p(-k / n) value by value),
+# and the core's own exp, log1p, log and log erfc that replace them (bench/detfunc_bits.cpp).
 # A third build, for aarch64, appends GCC's default -ffp-contract=fast to every compilation of
 # the core (and builds the driver at -O3 without -ffp-contract=off): what the results would be
 # if the build let GCC fuse a * b + c into fused multiply-adds, which aarch64 has and baseline
@@ -70,6 +71,23 @@ for p in nehalem aarch64; do
   cmp -l "$out/libm_x86_64.bin" "$out/libm_$p.bin" | awk -v p="$p" '
     { r = int(($1 - 1) / 8); if (r != last) { n[r % 3]++; last = r } }
     END { printf "libm on %s: other bits for %d exp, %d log1p, %d hypot of 1000000\n", p, n[0], n[1], n[2] }' || true
+done
+# The core's own exp, log1p, log and log erfc (cpp/src/detfunc.cpp, the tail estimators'
+# weights) at a million arguments each (bench/detfunc_bits.cpp): they must have the same bits
+# everywhere, whatever the target's instruction set (-march=native lets GCC use FMA, which
+# -ffp-contract=off keeps out of a * b + c).
+detflags="-O2 -ffp-contract=off -fno-math-errno -Icpp/include"
+g++ $detflags bench/detfunc_bits.cpp cpp/src/detfunc.cpp -o "$out/detfunc_bits_x86_64"
+g++ $detflags -O3 -march=native bench/detfunc_bits.cpp cpp/src/detfunc.cpp -o "$out/detfunc_bits_native"
+aarch64-linux-gnu-g++ $detflags bench/detfunc_bits.cpp cpp/src/detfunc.cpp -o "$out/detfunc_bits_aarch64"
+"$out/detfunc_bits_x86_64" > "$out/detfunc_x86_64.bin"
+"$out/detfunc_bits_native" > "$out/detfunc_native.bin"
+qemu-x86_64 -cpu Nehalem "$out/detfunc_bits_x86_64" > "$out/detfunc_nehalem.bin"
+qemu-aarch64 -L /usr/aarch64-linux-gnu "$out/detfunc_bits_aarch64" > "$out/detfunc_aarch64.bin"
+for p in native nehalem aarch64; do
+  cmp -l "$out/detfunc_x86_64.bin" "$out/detfunc_$p.bin" | awk -v p="$p" '
+    { r = int(($1 - 1) / 8); if (r != last) { n[r % 4]++; last = r } }
+    END { printf "detfunc on %s: other bits for %d exp, %d log1p, %d log, %d log_erfc of 1000000\n", p, n[0], n[1], n[2], n[3] }' || true
 done
 [ "$units" = units ] || exit 0
 objects="$out/contract-build/CMakeFiles/crandall_core.dir/cpp/src"

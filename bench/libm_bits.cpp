@@ -1,5 +1,6 @@
-// Writes the C library's exp, log1p and hypot (the only libm functions the core calls, nm -u:
-// split.cpp's splitting weights, exact_step.hpp's scaled step) at a million arguments each, as
+// Writes the C library's exp, log1p and hypot (the libm functions the core called, nm -u:
+// split.cpp's splitting weights, exact_step.hpp's scaled step; now replaced by the core's own,
+// bench/detfunc_bits.cpp and exact_step.hpp's scaled_root) at a million arguments each, as
 // raw doubles: (exp, log1p, hypot) per argument, to stdout. The arguments are exact doubles made
 // from integers (the same as bench/core_bits.cpp's hashes), so that bench/core_bits.sh can count
 // the results whose bits differ between platforms, function by function.

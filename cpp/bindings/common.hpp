@@ -30,6 +30,7 @@ void register_diagnostics(py::module_& m);  // exact_steps, random_floor, build_
 void register_levels(py::module_& m);       // run_samples, sum_products (adaptive runs)
 void register_branch(py::module_& m);       // extend_paths (rare-event estimators)
 void register_newmark(py::module_& m);      // newmark_exact, newmark_slammer, newmark_sweep
+void register_detfunc(py::module_& m);      // det_exp, det_log, det_log1p, det_log_erfc
 
 namespace bindings {
 

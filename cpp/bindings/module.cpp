@@ -20,4 +20,5 @@ PYBIND11_MODULE(_core, m) {
   register_levels(m);
   register_branch(m);
   register_newmark(m);
+  register_detfunc(m);
 }

@@ -11,6 +11,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "crandall/detfunc.hpp"
 #include "crandall/dispatch.hpp"
 #include "crandall/rng.hpp"
 #include "crandall/run.hpp"
@@ -240,7 +241,7 @@ class Replica {
     while (done_ < order_.size() && run_.thresholds[order_[done_]] <= z) {
       std::size_t above = 0;
       for (std::size_t i = 0; i < n_; ++i) above += value_[i] > run_.levels[order_[done_]];
-      out_.estimates[order_[done_]] = std::exp(out_.log_weight) * (double(above) / double(n_));
+      out_.estimates[order_[done_]] = out_.weight * (double(above) / double(n_));
       ++done_;
     }
     if (done_ == order_.size()) return false;
@@ -258,7 +259,8 @@ class Replica {
     if (out_.iterations >= run_.max_iterations)
       throw std::runtime_error("splitting did not reach the level after " +
                                std::to_string(out_.iterations) + " iterations");
-    out_.log_weight += std::log1p(-double(killed_.size()) / double(n_));
+    out_.weight = out_.weight * (double(n_ - killed_.size()) / double(n_));
+    out_.log_weight += detfunc::log1p(-double(killed_.size()) / double(n_));
     const std::size_t kc = killed_.size();
     picks_.resize(kc);
     from_.resize(kc);

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <functional>
 #include <random>
 #include <vector>
@@ -251,6 +253,41 @@ TEST(ExactStep, NoNoiseAndTinySteps) {
   const auto r = crandall::exact_step(-0.7, 3.0, 0.0, 0.0, 0.3, 1.0, true);
   EXPECT_EQ(r.velocity, -0.7);
   EXPECT_FALSE(r.touched);
+}
+
+// The scaled step's sqrt(delta^2 + 2E) (scaled_root, +, -, *, / and sqrt only, in place of the
+// C library's hypot): within 0.5 ulp of long double over a million arguments of the ranges the
+// step meets (and far beyond), measured 0.500 (normal results); no overflow or underflow at
+// the ends.
+TEST(ExactStep, ScaledRootWithinHalfAnUlp) {
+  std::mt19937_64 gen(20261127);
+  std::uniform_real_distribution<double> mant(1.0, 2.0);
+  std::uniform_int_distribution<int> ex(-1070, 1020);
+  double worst = 0.0;
+  auto check = [&](double x, double y) {
+    const long double want = std::sqrt(static_cast<long double>(x) * x + static_cast<long double>(y) * y);
+    int e;
+    std::frexp(static_cast<double>(want), &e);
+    const double err = static_cast<double>(std::fabs(crandall::scaled_root(x, y) - want) /
+                                           std::ldexp(1.0L, std::max(e, -1021) - 53));
+    // Subnormal results are rounded twice (to 53 bits, then to the subnormal's): 1 ulp there.
+    if (want >= 0x1p-1022L) worst = std::max(worst, err);
+    else EXPECT_LE(err, 1.0) << x << " " << y;
+  };
+  for (int i = 0; i < 500000; ++i) {
+    check(mant(gen) * 64.0 - 160.0, std::sqrt(2.0 * mant(gen) * 20.0));  // delta, sqrt(2E)
+    const int k = ex(gen);
+    check(std::ldexp(mant(gen), k), std::ldexp(mant(gen), k + ex(gen) % 40));
+  }
+  std::printf("scaled_root: worst %.4f ulp\n", worst);
+  EXPECT_LE(worst, 0.5 + 1e-3);
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(crandall::scaled_root(-inf, 3.0), inf);
+  EXPECT_EQ(crandall::scaled_root(0.0, 0.0), 0.0);
+  EXPECT_EQ(crandall::scaled_root(3 * 0x1p900, 4 * 0x1p900), 5 * 0x1p900);
+  EXPECT_EQ(crandall::scaled_root(3 * 0x1p-1070, 4 * 0x1p-1070), 5 * 0x1p-1070);
+  EXPECT_EQ(crandall::scaled_root(3 * 0x1p-600, -4 * 0x1p-600), 5 * 0x1p-600);
+  EXPECT_TRUE(std::isnan(crandall::scaled_root(std::nan(""), 1.0)));
 }
 
 }  // namespace

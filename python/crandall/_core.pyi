@@ -214,6 +214,20 @@ def ground_feature_means(plan: Plan) -> npt.NDArray[np.float64]:
     """The exact means of a filtered plan's ground features, (times + 1) x GROUND_FEATURES
     (the stop's row last)."""
 
+def det_exp(x: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """exp(x) elementwise with the same bits on every CPU (fdlibm's algorithm with +, -, *, /
+    only): +inf above 709.78, 0 below -745.13, NaN for NaN."""
+
+def det_log(x: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """log(x) elementwise with the same bits on every CPU: -inf at 0, ValueError below 0."""
+
+def det_log1p(x: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """log(1 + x) elementwise with the same bits on every CPU: -inf at -1, ValueError below."""
+
+def det_log_erfc(x: npt.ArrayLike) -> npt.NDArray[np.float64]:
+    """log(erfc(x)) elementwise with the same bits on every CPU, without underflow for large x
+    (-inf only where -x^2 overflows)."""
+
 def split_parents(
     key: int, replica: int, iteration: int, survivors: int, count: int
 ) -> npt.NDArray[np.int64]:

@@ -93,8 +93,14 @@ struct SplitOutcome {
   std::vector<double> estimates;  // per level; NaN where not reached (a time-out)
   std::int64_t iterations = 0;
   std::int64_t steps = 0;
+  // prod_j (n - K_j) / n over the iterations so far (K_j killed at iteration j): each factor a
+  // correctly rounded division, multiplied in iteration order, so the estimates (weight times
+  // the fraction above the level) are the same bits on every CPU. It stays a normal double
+  // down to about 1e-308 (each factor is at least 1/n).
+  double weight = 1.0;
+  // sum_j log1p(-K_j / n) with detfunc::log1p (the same bits on every CPU): for messages.
   double log_weight = 0.0;
-  bool extinct = false;  // log_weight is then the extinction's
+  bool extinct = false;  // weight and log_weight are then the extinction's
   bool timed_out = false;
 };
 

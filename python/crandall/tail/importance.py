@@ -10,6 +10,7 @@ from typing import List, Optional
 import numpy as np
 
 from ..model import TAIL_MODEL, require
+from . import detmath as dm
 from .problem import _coarse, _extend, _grid_for, _Law, _Problem, log_transition_density
 
 
@@ -97,7 +98,7 @@ def _importance_batch(problem, law, levels, paths, key, first, threads):
         value, logw = _resigned(problem, states, touched, levels, key, first)
         log_pq = _log_weights_touched(problem, states, touched, law)
         if own:
-            log_pq = -np.logaddexp(math.log(DEFENSIVE), math.log1p(-DEFENSIVE) - log_pq)
+            log_pq = -dm.logaddexp(_LOG_DEFENSIVE, _LOG_OTHERS - log_pq)
         logw = logw + log_pq
     else:
         if law.slow is not None:
@@ -113,10 +114,10 @@ def _importance_batch(problem, law, levels, paths, key, first, threads):
         value = problem.value(problem.score(states))
         logw = _log_weights(problem, states, law.drifts)
         if own:
-            logw = -np.logaddexp(math.log(DEFENSIVE) - _log_weights(problem, states, law.full),
-                                 math.log1p(-DEFENSIVE) - logw)
+            logw = -dm.logaddexp(_LOG_DEFENSIVE - _log_weights(problem, states, law.full),
+                                 _LOG_OTHERS - logw)
     hits = value[:, None] > levels[None, :]
-    return np.where(hits, np.exp(logw)[:, None], 0.0)
+    return np.where(hits, dm.exp(logw)[:, None], 0.0)
 
 
 # -- importance sampling of the displacement: the signs re-drawn ----------------------------
@@ -132,6 +133,9 @@ def _importance_batch(problem, law, levels, paths, key, first, threads):
 #: has a relative variance per path of 14 with a share of 0.1, 18 with 0.3, where either alone
 #: has 91 and 29.
 DEFENSIVE = 0.1
+#: log DEFENSIVE and log(1 - DEFENSIVE), with the same bits on every CPU (detmath.py).
+_LOG_DEFENSIVE = dm.scalar(dm.log, DEFENSIVE)
+_LOG_OTHERS = dm.scalar(dm.log1p, -DEFENSIVE)
 #: Their proposals' speed thresholds, in units of the stationary mean speed sigma^2 / (2 c).
 SLOW_FACTORS = (0.0, 1.0)
 #: Their proposals' frictions, in units of c (see _choose_proposal).
@@ -171,8 +175,7 @@ def _log_weights_touched(problem: _Problem, states: np.ndarray, touched: np.ndar
 
 
 def _log_cosh(x: np.ndarray) -> np.ndarray:
-    ax = np.abs(x)
-    return ax + np.log1p(np.exp(-2.0 * ax)) - math.log(2.0)
+    return dm.log_cosh(x)
 
 
 def _tilt(fixed: np.ndarray, parts: np.ndarray, top: np.ndarray, target: float,
@@ -184,7 +187,7 @@ def _tilt(fixed: np.ndarray, parts: np.ndarray, top: np.ndarray, target: float,
     scale = np.where(top > 0, top, 1.0)
     for _ in range(64):
         mid = 0.5 * (lo + hi)
-        mean = fixed + sign * np.sum(parts * np.tanh(mid[:, None] * parts / scale[:, None]), axis=1)
+        mean = fixed + sign * np.sum(parts * dm.tanh(mid[:, None] * parts / scale[:, None]), axis=1)
         short = sign * mean < sign * target
         lo, hi = np.where(short, mid, lo), np.where(short, hi, mid)
     theta = hi / scale
@@ -227,12 +230,13 @@ def _resigned(problem: _Problem, states: np.ndarray, touched: np.ndarray,
     for i, (th, d) in enumerate(parts):
         theta = np.where(which == i, th, theta)
         towards = np.where(which == i, d, towards)
-    p = 0.5 * (1.0 + np.tanh(theta[:, None] * free))
+    p = 0.5 * (1.0 + dm.tanh(theta[:, None] * free))
     signs = np.where(draws < p, 1.0, -1.0) * towards[:, None]
     total = np.sum(signs * free, axis=1)
-    log_q = np.stack([math.log(w) + d * th * total - np.sum(_log_cosh(th[:, None] * free), axis=1)
+    log_q = np.stack([dm.scalar(dm.log, w) + d * th * total
+                      - np.sum(_log_cosh(th[:, None] * free), axis=1)
                       for w, (th, d) in zip(share, parts)])
-    log_q = np.logaddexp.reduce(log_q, axis=0)
+    log_q = dm.logaddexp_reduce(log_q)
     value = fixed + total
     if magnitude:
         value = np.abs(value)
@@ -376,12 +380,11 @@ def pareto_shape(largest: np.ndarray) -> float:
     grid = 30 + int(math.sqrt(n))
     # Candidate values of theta = -k / sigma, spread by the quartile and the maximum.
     theta = 1.0 / x[-1] + (1.0 - np.sqrt(grid / (np.arange(1, grid + 1) - 0.5))) / (3.0 * x[max(int(n / 4 + 0.5) - 1, 0)])
-    k = np.mean(np.log1p(-theta[:, None] * x[None, :]), axis=1)
-    loglik = n * (np.log(-theta / k) - k - 1.0)
-    with np.errstate(over="ignore"):
-        weight = 1.0 / np.exp(loglik[None, :] - loglik[:, None]).sum(axis=1)
+    k = np.mean(dm.log1p(-theta[:, None] * x[None, :]), axis=1)
+    loglik = n * (dm.log(-theta / k) - k - 1.0)
+    weight = 1.0 / dm.exp(loglik[None, :] - loglik[:, None]).sum(axis=1)
     keep = weight >= 10 * np.finfo(float).eps
     theta_hat = np.sum(theta[keep] * weight[keep]) / np.sum(weight[keep])
-    k_hat = np.mean(np.log1p(-theta_hat * x))
+    k_hat = np.mean(dm.log1p(-theta_hat * x))
     # The prior: shrink towards 0.5 as if 10 observations sat there.
     return float((n * k_hat + 10 * 0.5) / (n + 10))

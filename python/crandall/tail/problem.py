@@ -10,15 +10,13 @@ from typing import Any, Callable, Dict, Iterator, NamedTuple, Optional, Sequence
 import numpy as np
 
 from .. import _core, quantities
-from .._lazy import lazy_module
 from ..errors import ParameterError
 from ..model import (FILTERED_EXCITATION, ITO_DISTANCE, MOVING_AT_SWITCH_OFF, TAIL_MODEL,
                      TAIL_SPLITTING, holds)
 from ..quantities import Quantity
 from ..scene import Scene
 from ..spec import check_positive, check_scene, default_dt, is_real
-
-_schedule = lazy_module("crandall.analytic.schedule")
+from . import detmath
 
 
 class _TailQuantities(Mapping):
@@ -540,9 +538,9 @@ class _FilteredGrid:
 
 
 def log_transition_density(x, x0, t, c, sigma):
-    """The sign-drift diffusion's log transition density (crandall.analytic.schedule, loaded on
-    first use: ``import crandall`` stays free of scipy)."""
-    return _schedule.log_transition_density(x, x0, t, c, sigma)
+    """The sign-drift diffusion's log transition density (crandall.analytic.schedule's formula)
+    computed with the same bits on every CPU (detmath.py): importance sampling's weights."""
+    return detmath.log_transition_density(x, x0, t, c, sigma)
 
 
 class _Law(NamedTuple):

@@ -170,10 +170,19 @@ def _check_samples(samples: Sequence[Dict[str, Any]], job: Dict[str, Any], most:
             # A replica's steps: its n paths whole, then at most n - 1 continued per iteration.
             integer(i, "steps", n * steps, n * steps + iterations * (n - 1) * steps)
             # The last level's estimate is taken at the last iteration (or is 0): at most the
-            # weight, each iteration having killed at least a tenth of the particles (compared
-            # in logarithms, within the rounding of a sum of as many logarithms, below 1e-6).
+            # weight, each iteration having killed at least kill = n // 10 of the particles. The
+            # weight is a product of the iterations' (n - K_j) / n in order (splitting.py), and
+            # rounding is monotone, so it is at most the same product of (n - kill) / n: an
+            # exact comparison with +, -, *, / only, the same on every CPU. (The factor
+            # 1 + 1e-9 admits samples whose weight was an exp of a sum of logarithms, within a
+            # few ulps of the product: older checkpoints.)
             kill = max(1, n // 10)
-            if est[-1] > 0 and math.log(est[-1]) > iterations * math.log1p(-kill / n) + 1e-6:
+            bound = 1.0
+            for _ in range(iterations):
+                bound = bound * ((n - kill) / n)
+                if bound == 0.0:
+                    break  # (a few thousand iterations at most: the factor is below 0.95)
+            if est[-1] > bound * (1.0 + 1e-9):
                 raise ValueError(f"samples[{i}].estimates: {float(est[-1])!r} at the last "
                                  f"level, above the weight {iterations} iterations leave")
             continue

@@ -3,13 +3,13 @@
 
 from __future__ import annotations
 
-import math
 import time as _time
 from typing import Optional, Sequence
 
 import numpy as np
 
 from .. import _core
+from . import detmath
 from .problem import _extend, _Problem
 from .split_core import core_replicas
 #: A replica's path streams: replica r uses streams r * 2^40 + 0, 1, ...
@@ -73,6 +73,13 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     info says so (``timed_out``, with the iterations and log weight it reached); its estimates
     are then NaN and no sample. The info's ``extinct`` is the log weight at an extinction.
 
+    The weight prod_j (1 - K_j / n) is computed as the running product of the fractions
+    (n - K_j) / n, each a correctly rounded division, multiplied in iteration order: the same
+    bits on every CPU (an exp of a sum of logs would not be: library exp and log1p round
+    differently from one CPU to another). Each factor is at least 1 / n, so the product stays a
+    normal double down to about 1e-308, far below any level a run reaches. The log weight (for
+    messages and extinctions) is the sum of detmath.log1p(-K_j / n), the core's.
+
     The parents of iteration j's clones are ``_core.split_parents(key, replica, j, ...)``.
     A white-noise problem runs the same loop in the core (split_core.py; ``core=False``: this
     one, the reference the core's is tested against).
@@ -92,6 +99,7 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
     value = problem.value(plain)
     order = np.argsort(levels, kind="stable")
     estimates = np.full(len(levels), np.nan)
+    weight = 1.0
     log_weight = 0.0
     done = 0
     iterations = 0
@@ -102,7 +110,7 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
                                "log_weight": log_weight, "timed_out": True}
         z = np.partition(level, kill - 1)[kill - 1]
         while done < len(order) and thresholds[order[done]] <= z:
-            estimates[order[done]] = math.exp(log_weight) * np.mean(value > levels[order[done]])
+            estimates[order[done]] = weight * np.mean(value > levels[order[done]])
             done += 1
         if done == len(order):
             break
@@ -113,7 +121,8 @@ def _splitting_replica(problem: _Problem, levels: np.ndarray, particles: int, ki
             break
         if iterations >= max_iterations:
             raise RuntimeError(f"splitting did not reach the level after {iterations} iterations")
-        log_weight += math.log1p(-len(killed) / n)
+        weight = weight * ((n - len(killed)) / n)
+        log_weight += detmath.scalar(detmath.log1p, -len(killed) / n)
         survivors = np.flatnonzero(level > z)
         parents = survivors[_core.split_parents(key, replica, iterations, len(survivors),
                                                 len(killed))]
