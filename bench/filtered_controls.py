@@ -2,8 +2,15 @@
 the per-path variance of the distance at the stop S (and of (S - E S)^2, the variance's
 per-path term) that a linear regression on features of the ground acceleration explains.
 
-A measurement for the design of such controls, not a feature: crandall's filtered runs use
-none today. The features are functions of the ground acceleration a_g at the skeleton's grid
+A measurement made for the design of such controls, before crandall's runs to an accuracy
+had them (they now use the core's own ground features: docs/filtered.md, "Control
+variates"). With --estimator-check it checks those instead: on the base level of the
+friction calibration's scene (bench/filtered_error.py's friction_omega_tstar_4), BLOCKS
+independent blocks of a pilot of 4096 paths (the coefficients, by least squares) and 16384
+more (the estimate, minus the controls' multiples, and its standard error from their
+residuals), the estimator of a run to an accuracy's base level: the spread of the blocks'
+estimates over the mean reported standard error should be 1 (writes
+filtered_controls_check.{json,png}). The features are functions of the ground acceleration a_g at the skeleton's grid
 points up to the switch-off t0 alone, a Gaussian vector whose law the plan knows (the filter's
 transitions and Van Loan covariances), so each feature's mean is computable exactly and a
 regression on them estimates E S without bias (with coefficients fitted on other paths).
@@ -24,6 +31,7 @@ overfit cannot inflate it.
 Writes bench/out/filtered_controls.{json,png} (bench/results/ with --publish).
 
     .venv/bin/python bench/filtered_controls.py [--paths 4000] [--publish]
+    .venv/bin/python bench/filtered_controls.py --estimator-check [--blocks 200] [--publish]
 """
 
 from __future__ import annotations
@@ -104,11 +112,75 @@ def plot(data, path):
     fig.savefig(path, dpi=110)
 
 
+PILOT, BLOCK = 4096, 16384
+
+
+def estimator_check(blocks: int, publish: bool):
+    """The base level's control-variate estimator over independent blocks (module doc)."""
+    from crandall.adaptive.levels import FILTER_BASE_DT_FACTOR, _Level
+    from crandall.spec import default_dt
+    sc = crandall.Scene(mu=1.0, g=1.0, excitation=crandall.KanaiTajimi(omega=2.0, zeta=0.6,
+                                                                        h=1.0),
+                        t0=10.0, times=[5.0], observe=["distance", "velocity", "stop"])
+    lev = _Level(sc, 0, 7, FILTER_BASE_DT_FACTOR * default_dt(sc), 2, True)
+    size = PILOT + BLOCK
+    values, ctl = _core.run_samples(lev.plan, 0, blocks * size, 2, True)
+    rows = {}
+    for name, y_all, slot in (("distance_at_stop", values[:, 1, 0, 2], 1),
+                              ("distance@5", values[:, 0, 0, 2], 0)):
+        est, se, plain = [], [], []
+        for b in range(blocks):
+            y = y_all[b * size:(b + 1) * size]
+            c = ctl[b * size:(b + 1) * size, slot, :_core.GROUND_FEATURES]
+            x = np.column_stack([np.ones(size), c])
+            beta, *_ = np.linalg.lstsq(x[:PILOT], y[:PILOT], rcond=None)
+            r = y[PILOT:] - c[PILOT:] @ beta[1:]
+            est.append(float(r.mean()))
+            se.append(float(r.std(ddof=1) / np.sqrt(BLOCK)))
+            plain.append(float(y[PILOT:].std(ddof=1) / np.sqrt(BLOCK)))
+        est = np.array(est)
+        ratio = float(est.std(ddof=1) / np.mean(se))
+        rows[name] = {"spread_of_estimates": float(est.std(ddof=1)),
+                      "mean_reported_stderr": float(np.mean(se)),
+                      "ratio": ratio, "ratio_stderr": ratio / np.sqrt(2 * (blocks - 1)),
+                      "mean_plain_stderr": float(np.mean(plain)), "estimates": est.tolist()}
+        print(f"{name}: spread {est.std(ddof=1):.5f}, mean reported stderr {np.mean(se):.5f}: "
+              f"ratio {ratio:.3f} +- {rows[name]['ratio_stderr']:.3f} (without controls "
+              f"{np.mean(plain):.5f})", flush=True)
+    data = {"machine": platform.machine(), "crandall": crandall.__version__,
+            "command": " ".join(["bench/filtered_controls.py"] + sys.argv[1:]),
+            "blocks": blocks, "pilot": PILOT, "block": BLOCK,
+            "base_dt": lev.plan.options.dt, "rows": rows}
+
+    def plot_check(data, path):
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        names = list(data["rows"])
+        r = [data["rows"][n]["ratio"] for n in names]
+        e = [1.96 * data["rows"][n]["ratio_stderr"] for n in names]
+        ax.errorbar(range(len(names)), r, yerr=e, fmt="o", capsize=3)
+        ax.axhline(1.0, color="k", lw=0.8, ls="--")
+        ax.set_xticks(range(len(names)))
+        ax.set_xticklabels(names)
+        ax.set_ylabel("spread of estimates / reported stderr")
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+
+    print(write("filtered_controls_check", data, plot_check, publish=publish))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--paths", type=int, default=4000)
+    ap.add_argument("--estimator-check", action="store_true")
+    ap.add_argument("--blocks", type=int, default=200)
     ap.add_argument("--publish", action="store_true")
     args = ap.parse_args()
+    if args.estimator_check:
+        estimator_check(args.blocks, args.publish)
+        return
     cases = []
     for i, wt in enumerate(CASES):
         s, f = features(wt, args.paths, 500 + i)
