@@ -163,7 +163,7 @@ def controls_run(wt: float, paths: int, seed: int, depth: int, factor: int, plai
         _core.run_samples(plan, 0, paths, 1, False)
         without.append(time.perf_counter() - start)
     s = values[:, -1, 0, 2]  # the stop's slot: (time, U, S)
-    x = np.column_stack([np.ones(paths), ctl[:, -1, :_core.GROUND_FEATURES]])
+    x = np.column_stack([np.ones(paths), ctl[:, -1, :]])
     half = paths // 2
     factor_time = min(with_ctl) / min(without)
     out = {"dt": plain["dt"], "step_factor": factor, "paths": paths, "event_depth": depth,

@@ -131,7 +131,7 @@ def estimator_check(blocks: int, publish: bool):
         est, se, plain = [], [], []
         for b in range(blocks):
             y = y_all[b * size:(b + 1) * size]
-            c = ctl[b * size:(b + 1) * size, slot, :_core.GROUND_FEATURES]
+            c = ctl[b * size:(b + 1) * size, slot, :]
             x = np.column_stack([np.ones(size), c])
             beta, *_ = np.linalg.lstsq(x[:PILOT], y[:PILOT], rcond=None)
             r = y[PILOT:] - c[PILOT:] @ beta[1:]

@@ -198,7 +198,7 @@ class Walker {
         grids_(grids), group_(1 << (grids - 1)), drift_(o_.drift), static_(fm_.static_drift),
         margin_(event_margin.load()), peaks_(o_.peaks), features_(features), trace_(trace) {
     if (features_) {
-      feature_slots_.assign((o_.times.size() + 1) * kGroundFeatures, 0.0);
+      feature_slots_.assign((o_.times.size() + 1) * kFilteredControls, 0.0);
       folded_ = zero_start(fm_);
     }
     yield_ = {drift_, drift_, static_, static_};
@@ -225,6 +225,7 @@ class Walker {
     if (features_) {
       vg_ = dg_ = 0.0;
       for (double& x : sums_) x = 0.0;
+      for (double& x : martingale_) x = 0.0;
     }
     if (trace_) point(0.0, ground(z_), bodies_[0]);
     std::uint64_t k = 0;
@@ -260,7 +261,7 @@ class Walker {
   // With features: the ground-motion features of the last walk at output slot `slot` (the
   // stop: times.size()), kGroundFeatures of them (filtered.hpp).
   const double* features(std::size_t slot) const {
-    return feature_slots_.data() + slot * kGroundFeatures;
+    return feature_slots_.data() + slot * kFilteredControls;
   }
 
   // Continues a path of the walked grid (grids() == 1) from its state at grid point `from`,
@@ -356,8 +357,21 @@ class Walker {
       sums_[4] += h * std::abs(vg_);
     }
   }
+  // The body controls' sums (filtered.hpp): the walked grid's body at the step's start (a
+  // function of the earlier steps only) times the innovation of the step's G, sigma R_G xi.
+  void innovate(double e, double t) {
+    const Body& b = bodies_[0];
+    const double sv = b.v > 0.0 ? 1.0 : (b.v < 0.0 ? -1.0 : 0.0);
+    martingale_[0] += b.v * e;
+    martingale_[1] += (b.s * b.v) * e;
+    martingale_[2] += sv * e;
+    martingale_[3] += b.u * e;
+    martingale_[4] += ((o_.switch_off - t) * b.v) * e;
+    martingale_[5] += e;
+  }
   void snapshot(std::size_t slot) {
-    double* f = feature_slots_.data() + slot * kGroundFeatures;
+    double* f = feature_slots_.data() + slot * kFilteredControls;
+    for (int q = 0; q < kBodyControls; ++q) f[kGroundFeatures + q] = martingale_[q];
     f[0] = sums_[0];
     f[1] = sums_[1];
     f[2] = vg_ * vg_;
@@ -428,14 +442,16 @@ class Walker {
     } else {
       for (int i = 0; i < M; ++i) xi[i] = 0.0;
     }
-    double y[M];
+    double y[M], g_noise = 0.0;
     for (int r = 0; r < M; ++r) {
       double mean = 0.0, noise = 0.0;
       for (int c = 0; c < N; ++c) mean += phi[r * M + c] * z_[c];
       if (sigma != 0.0)  // (the tree's root: lower triangular)
         for (int c = 0; c <= r; ++c) noise += root[r * M + c] * xi[c];
       y[r] = mean + sigma * noise;
+      if (r == N) g_noise = sigma * noise;
     }
+    if (features_ && shaking_ && sigma != 0.0) innovate(g_noise, t0);
     for (int i = 0; i < N; ++i) {
       f.z0[i] = z_[i];
       f.z1[i] = z_[i] = y[i];
@@ -679,6 +695,7 @@ class Walker {
   bool shaking_ = false;  // the current segment is before the switch-off
   double vg_ = 0.0, dg_ = 0.0;  // the ground's velocity and displacement (from 0)
   double sums_[5] = {};          // the running sums of h a^2, h vg^2, h dg^2, h |a|, h |vg|
+  double martingale_[kBodyControls] = {};  // the body controls' sums (innovate)
   std::vector<double> feature_slots_;
   Trajectory* trace_;
   bool trace_grid_ = false;
@@ -728,7 +745,7 @@ void filtered_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
   const bool controls = ws.controls != nullptr;
   Walker<N> walker(plan, grids, nullptr, controls);
   const std::size_t chosen = ws.control_slots.size();
-  static_assert(kGroundFeatures <= kControls, "the features fit the control sums' width");
+  static_assert(kFilteredControls <= kControls, "the controls fit the control sums' width");
   std::vector<std::vector<Values>> outputs(static_cast<std::size_t>(grids),
                                            std::vector<Values>(slots));
   std::vector<Values> stops(static_cast<std::size_t>(grids));
@@ -763,7 +780,9 @@ void filtered_block(const Plan& plan, std::uint64_t first, std::uint64_t count, 
           const double* f = walker.features(slot);
           const double* mu = ws.control_means.data() + slot * kGroundFeatures;
           for (int q = 0; q < kControls; ++q)
-            row[a * kControls + q] = q < kGroundFeatures ? f[q] - mu[q] : 0.0;
+            row[a * kControls + q] = q < kGroundFeatures    ? f[q] - mu[q]
+                                     : q < kFilteredControls ? f[q]
+                                                             : 0.0;
         }
       }
       for (std::size_t k = 0; k < slots; ++k) {

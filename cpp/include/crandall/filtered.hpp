@@ -69,6 +69,15 @@ void extend_filtered_paths(const Plan& plan, double* states, std::size_t rows_to
 // std::invalid_argument unless the plan is filtered.
 constexpr int kGroundFeatures = 9;
 std::vector<double> ground_feature_means(const Plan& plan);
+// After the ground features, kBodyControls sums over the shaking's fine steps k before u of
+// the walked grid's body at the step's start (V, U, S there) times e_k = sigma R_G xi_k, the
+// innovation of the step's G = int a_g (its part not predicted by z at the step's start):
+//   9  sum V e     10  sum S V e     11  sum sgn(V) e     12  sum U e
+//   13 sum (switch_off - t_k) V e    14  sum e
+// The body's state at a step's start depends on the earlier steps' numbers only, and xi_k is
+// independent of them with mean 0, so each sum has mean exactly 0 (nothing to subtract).
+constexpr int kBodyControls = 6;
+constexpr int kFilteredControls = kGroundFeatures + kBodyControls;
 
 // The multiple of an interval's a_g spread (its bridge's standard deviation at the midpoint,
 // and the curvature of its mean) within which an event is taken as possible (the interval is

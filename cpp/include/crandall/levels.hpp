@@ -24,7 +24,7 @@ namespace crandall {
 // Written into out (count x sample_size(plan) doubles, every one of them written), and with
 // controls_out (exact method only, at least one integral observed) the control sums of
 // kernel_controls.hpp, or for a filtered plan its ground features minus their exact means
-// (filtered.hpp, kGroundFeatures of the kControls, the rest 0), at the slots control_slots
+// (filtered.hpp, kFilteredControls of the kControls, the rest 0), at the slots control_slots
 // (ascending, distinct; empty: every slot),
 // count x control_slots.size() x kControls doubles: a slot's sums are the same bits whichever
 // other slots are chosen. The caller's buffers are reused between calls: a fresh allocation
