@@ -141,6 +141,6 @@ def test_a_run_to_an_accuracy_uses_them_and_agrees_with_one_without(monkeypatch)
         # difference is at most about their errors combined: 4 of them.
         assert abs(get(with_controls) - get(without)) <= 4 * math.hypot(ea, eb), stat
     # The controls take the base level's spread down (here the variance sets its paths: at
-    # seed 31 and rel_error 0.02, 106,496 base paths with them and 208,896 without).
+    # seed 31 and rel_error 0.02, 94,208 base paths with them and 208,896 without).
     assert with_controls.levels[0]["paths"] < 0.75 * without.levels[0]["paths"]
     assert with_controls.error("distance_at_stop") < 0.75 * without.error("distance_at_stop")
