@@ -210,6 +210,9 @@ def filtered_grid(
 #: The ground features per path and slot of a filtered plan's control sums.
 GROUND_FEATURES: int
 
+def set_event_margin(margin: float) -> float:
+    """Sets the filtered event search's margin (a diagnostic); returns the previous one."""
+
 def ground_feature_means(plan: Plan) -> npt.NDArray[np.float64]:
     """The exact means of a filtered plan's ground features, (times + 1) x GROUND_FEATURES
     (the stop's row last)."""
