@@ -210,6 +210,7 @@ def crandall_time(pilot, stat: str, half: float):
     paths = math.ceil((spread / half) ** 2) if math.isfinite(spread) else math.nan
     return {"event_depth": pilot["event_depth"], "dt": pilot["dt"],
             "step_factor": pilot["step_factor"], "controls": pilot.get("controls", False),
+            "controls_time_factor": pilot.get("controls_time_factor"),
             "paths": paths,
             "seconds": paths * pilot["seconds"] / pilot["paths"], "bias": ref["bias"],
             "bias_is_bound": ref["bias_is_bound"], "bias_within": ref["bias"] <= half}
