@@ -409,6 +409,112 @@ def finer_euler(blocks: int, paths: int, publish: bool):
         write("filtered_error_friction_finer", out, _plot_finer, publish=publish)
 
 
+CONTROLLED_CACHE = Path(__file__).resolve().parent / "results" / \
+    "filtered_error_friction_controlled.json"
+
+
+def _controlled(y: np.ndarray, x: np.ndarray):
+    """The mean of ``y`` minus a multiple of the mean-0 controls ``x`` (columns), cross-fitted:
+    the coefficients are fitted by least squares on each half of the paths and applied to the
+    other, so that no path's own noise enters its coefficient and the estimate stays unbiased.
+    Returns the estimate, its standard error (from the residuals) and the share R^2 of y's
+    variance the controls explain."""
+    n = y.size
+    halves = (slice(0, n // 2), slice(n // 2, n))
+    resid = np.empty(n)
+    for fit, use in ((halves[0], halves[1]), (halves[1], halves[0])):
+        xf, yf = x[fit], y[fit]
+        beta, *_ = np.linalg.lstsq(xf - xf.mean(0), yf - yf.mean(), rcond=None)
+        resid[use] = y[use] - x[use] @ beta
+    return float(resid.mean()), float(resid.std(ddof=1) / math.sqrt(n)), \
+        float(1.0 - resid.var() / y.var())
+
+
+def controlled_euler(blocks: int, paths: int, dt: float):
+    """The friction references again, from the Euler peer with control variates
+    (numba_kt.coupled_at_controls: sums of functions of the Euler filter's a_g, ground
+    velocity and displacement, with exact means from the recursion's covariance, and sums of
+    each step's noise times the body's state before it, with mean 0), at dt and 2 dt on the
+    same noise, extrapolated per path at first order as ``euler_reference`` does. The controls
+    leave each block's expectation unchanged and shrink its standard error 2-7x (R^2 0.55-0.98),
+    so a few blocks pin the reference down. Blocks are added to CONTROLLED_CACHE after each
+    one (an interrupted run keeps those it finished); each block also records every control's
+    sample mean in standard errors (a check of the exact means)."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from peers import numba_kt
+    numba_kt.warm_up()
+    data = (json.loads(CONTROLLED_CACHE.read_text()) if CONTROLLED_CACHE.exists()
+            else {"how": controlled_euler.__doc__.split("\n\n")[0].replace("\n    ", " "),
+                  "omega": 2.0, "zeta": ZETA, "h": 1.0, "mu_g": 1.0, "t0": T0,
+                  "output_time": FRICTION_TIME, "controls": list(numba_kt.CONTROL_NAMES),
+                  "blocks": []})
+    for _ in range(blocks):
+        seed = 1300 + len(data["blocks"])
+        start = time.perf_counter()
+        fine, coarse, x = numba_kt.coupled_at_controls(
+            paths, dt, FRICTION_TIME, t0=T0, omega=2.0, zeta=ZETA, h=1.0, mu_g=1.0, seed=seed)
+        block = {"dt": dt, "paths": paths, "seed": seed,
+                 "seconds": time.perf_counter() - start, "stats": {},
+                 "control_mean_z": [float(v) for v in
+                                    x.mean(0) / (x.std(0, ddof=1) / math.sqrt(paths))]}
+        for name, stat, col, _ in FRICTION_STATS:
+            f, c = fine[:, col], coarse[:, col]
+            if stat == "mean":
+                y = 2.0 * f - c
+            else:
+                a, b = f - f.mean(), c - c.mean()
+                y = 2.0 * a * a - b * b  # the influence function of 2 Var(dt) - Var(2 dt)
+            v, se, r2 = _controlled(y, x)
+            plain_v, plain_se = _extrapolated(f, c, stat)[:2]
+            if stat == "var":
+                v += plain_v - float(y.mean())  # the unbiased (ddof 1) variances' value
+            block["stats"][f"{name}_{stat}"] = {"extrapolated": v, "stderr": se, "r2": r2,
+                                                 "plain": plain_v, "plain_stderr": plain_se}
+        data["blocks"].append(block)
+        data["pooled"] = _pool_controlled(data["blocks"])
+        data["command"] = " ".join(["bench/filtered_error.py"] + sys.argv[1:])
+        CONTROLLED_CACHE.write_text(json.dumps(data, indent=1))
+        pooled = data["pooled"][f"{dt:g}"]
+        print(f"controlled block seed {seed} ({block['seconds']:.0f} s): " + "; ".join(
+            f"{k} {b['extrapolated']:.5f} +- {b['stderr']:.5f} (R^2 {b['r2']:.2f}), pooled "
+            f"at dt {dt:g} {pooled[k]['value']:.5f} +- {pooled[k]['stderr']:.5f}"
+            for k, b in block["stats"].items()), file=sys.stderr, flush=True)
+
+
+def _pool_controlled(blocks):
+    """Per step dt (a key "%g"), each friction statistic's inverse-variance weighted mean of
+    the controlled blocks at that dt, its standard error, and the chi^2 of their spread."""
+    out = {}
+    for dt in sorted({b["dt"] for b in blocks}):
+        at = [b for b in blocks if b["dt"] == dt]
+        pooled = {}
+        for name, stat, _, _ in FRICTION_STATS:
+            k = f"{name}_{stat}"
+            w = np.array([1.0 / b["stats"][k]["stderr"] ** 2 for b in at])
+            xs = np.array([b["stats"][k]["extrapolated"] for b in at])
+            value = float(np.sum(w * xs) / np.sum(w))
+            chi2 = float(np.sum(w * (xs - value) ** 2))
+            pooled[k] = {"value": value, "stderr": float(1.0 / math.sqrt(np.sum(w))),
+                         "blocks": len(xs), "chi2": chi2,
+                         "chi2_p": float(scipy.stats.chi2.sf(chi2, len(xs) - 1))
+                         if len(xs) > 1 else None}
+        out[f"{dt:g}"] = pooled
+    return out
+
+
+def controlled_reference():
+    """The friction references from the controlled Euler blocks at their finest step (each
+    statistic's pooled value and standard error), or None without the cache. The pooled
+    extrapolations at the coarser steps check the first-order extrapolation: they must agree
+    with it within their errors (docs/methods/adaptive.md)."""
+    if not CONTROLLED_CACHE.exists():
+        return None
+    blocks = json.loads(CONTROLLED_CACHE.read_text())["blocks"]
+    pooled = _pool_controlled(blocks)
+    finest = f"{min(b['dt'] for b in blocks):g}"
+    return pooled[finest]
+
+
 def _plot_finer(data, path):
     """The pooled paired differences at half the finest step against first order's halving."""
     import matplotlib
@@ -480,13 +586,15 @@ def pooled_reference():
     return out
 
 
-def recount(stem: str, publish: bool):
+def recount(stem: str, publish: bool, against: str = "pooled"):
     """The coverage of a friction calibration's stored per-seed values and errors against
-    the pooled Euler reference (pooled_reference) instead of the finest step's alone."""
+    the pooled Euler reference (pooled_reference) instead of the finest step's alone, or
+    (``against="controlled"``) against the controlled Euler blocks' (controlled_reference)."""
     src = Path(__file__).resolve().parent / "results" / f"{stem}.json"
     data = json.loads(src.read_text())
-    pooled = pooled_reference()
-    out = {"source": str(src.name), "pooled_reference": pooled, "cases": {}}
+    pooled = controlled_reference() if against == "controlled" else pooled_reference()
+    out = {"source": str(src.name), "reference_kind": against, "pooled_reference": pooled,
+           "cases": {}}
     for cname, c in data["cases"].items():
         if not cname.startswith("friction_"):  # (the pooled reference is the friction case's)
             continue
@@ -509,14 +617,15 @@ def recount(stem: str, publish: bool):
                            "rms_z": float(np.sqrt(np.mean(z * z))), "mean_z": float(np.mean(z)),
                            "mean_difference": float(np.mean(v - ref["value"])),
                            "mean_difference_se": float(np.std(v, ddof=1) / math.sqrt(n))}
-            print(f"{cname} {rname:24s} pooled ref {ref['value']:.5f} +- {ref['stderr']:.5f} "
-                  f"(chi2 p {ref['chi2_p']:.2f}): coverage {inside / n:.3f} (with ref se "
+            print(f"{cname} {rname:24s} {against} ref {ref['value']:.5f} +- {ref['stderr']:.5f} "
+                  f"(chi2 p {ref['chi2_p'] or 1.0:.2f}): coverage {inside / n:.3f} (with ref se "
                   f"{inside_se / n:.3f}, CP {rows[rname]['coverage_with_reference_se_interval'][0]:.3f}-"
                   f"{rows[rname]['coverage_with_reference_se_interval'][1]:.3f}), mean z "
                   f"{np.mean(z):+.2f}, {n} seeds")
         out["cases"][cname] = {"seeds": c["seeds"], "rows": rows}
     out["command"] = " ".join(["bench/filtered_error.py"] + sys.argv[1:])
-    write(f"{stem}_recount", out, plot, publish=publish)
+    write(f"{stem}_recount" + ("_controlled" if against == "controlled" else ""), out, plot,
+          publish=publish)
 
 
 def cases(recompute_reference: bool = False):
@@ -583,7 +692,8 @@ def cases(recompute_reference: bool = False):
                      times=[FRICTION_TIME], observe=["distance", "velocity", "stop"])
 
     def friction_refs():
-        r = euler_reference(recompute_reference)["references"]
+        # The controlled Euler blocks' (standard errors 3-7x smaller), where they exist.
+        r = controlled_reference() or euler_reference(recompute_reference)["references"]
         return {(name, stat, i): (r[f"{name}_{stat}"]["value"], r[f"{name}_{stat}"]["stderr"])
                 for name, stat, _, i in FRICTION_STATS}
 
@@ -706,8 +816,19 @@ def main():
                     help="only run K blocks of --finer-paths Euler paths at half the "
                          "reference's finest step (a check of its first-order extrapolation)")
     ap.add_argument("--finer-paths", type=int, default=250_000)
+    ap.add_argument("--against", choices=("pooled", "controlled"), default="pooled",
+                    help="--recount's reference: the pooled Euler blocks or the controlled ones")
+    ap.add_argument("--controlled-euler", type=int, default=0, metavar="K",
+                    help="only add K blocks of the Euler peer with control variates to "
+                         "results/filtered_error_friction_controlled.json (a tighter "
+                         "reference for the friction statistics)")
+    ap.add_argument("--controlled-paths", type=int, default=500_000)
+    ap.add_argument("--controlled-dt", type=float, default=1e-3)
     ap.add_argument("--publish", action="store_true")
     a = ap.parse_args()
+    if a.controlled_euler:
+        controlled_euler(a.controlled_euler, a.controlled_paths, a.controlled_dt)
+        return
     if a.finer_euler:
         finer_euler(a.finer_euler, a.finer_paths, a.publish)
         return
@@ -715,7 +836,7 @@ def main():
         reference_check(a.check_reference)
         return
     if a.recount:
-        recount(a.recount, a.publish)
+        recount(a.recount, a.publish, a.against)
         return
     t = time.perf_counter()
     deadline = None

@@ -154,6 +154,142 @@ def _coupled_at(rng, paths, dt, t0, n_out, omega, zeta, h, mu_g, mus_g, fine, co
         coarse[p, 0] = sc
 
 
+#: The control variates of ``coupled_at_controls``, per horizon (the output time, then t0):
+#: sums over the fine steps before it of dt a_g^2, dt G^2, dt |a_g|, dt |G|, dt D^2 (G and D
+#: the ground's velocity and displacement, integrals of a_g by the same Euler steps), then
+#: G, G^2, D, D^2 at the horizon, then sums of the step's noise times V, S, sign V, 1 and
+#: (horizon - t) V (the body before the step).
+CONTROL_NAMES = ("sum_a2", "sum_g2", "sum_abs_a", "sum_abs_g", "sum_d2", "g", "g2", "d", "d2",
+                 "noise_v", "noise_s", "noise_sign_v", "noise", "noise_left_v")
+N_CONTROLS = len(CONTROL_NAMES)
+
+
+@njit(cache=False)
+def _coupled_at_controls(rng, paths, dt, t0, n_out, omega, zeta, h, mu_g, mus_g, fine, coarse,
+                         controls):
+    """``_coupled_at`` that also keeps, per path, the control variates of CONTROL_NAMES on the
+    fine steps: columns 0-13 up to the output time, 14-27 up to t0."""
+    w2 = omega * omega
+    c1 = 2.0 * zeta * omega
+    sq = h * math.sqrt(dt)
+    n0 = int(round(t0 / dt))
+    nc = N_CONTROLS
+    for p in range(paths):
+        x = xd = v = s = 0.0
+        g = d = 0.0
+        xc = xdc = vc = sc = 0.0
+        for j in range(2 * nc):
+            controls[p, j] = 0.0
+        k = 0
+        while k < n0:
+            n1 = sq * rng.standard_normal()
+            n2 = sq * rng.standard_normal()
+            for noise in (n1, n2):
+                ag = -(c1 * xd + w2 * x)
+                t = k * dt
+                sgn = 0.0 if v == 0.0 else (1.0 if v > 0.0 else -1.0)
+                for hz in range(2):
+                    if hz == 0 and k >= n_out:
+                        continue
+                    o = hz * nc
+                    left = (n_out * dt if hz == 0 else t0) - t
+                    controls[p, o + 0] += dt * ag * ag
+                    controls[p, o + 1] += dt * g * g
+                    controls[p, o + 2] += dt * abs(ag)
+                    controls[p, o + 3] += dt * abs(g)
+                    controls[p, o + 4] += dt * d * d
+                    controls[p, o + 9] += noise * v
+                    controls[p, o + 10] += noise * s
+                    controls[p, o + 11] += noise * sgn
+                    controls[p, o + 12] += noise
+                    controls[p, o + 13] += noise * left * v
+                v, s, _ = _body(x, xd, v, s, ag, mu_g, mus_g, dt)
+                xn = x + xd * dt
+                xd = xd + (-w2 * x - c1 * xd) * dt - noise
+                x = xn
+                d += g * dt
+                g += ag * dt
+                k += 1
+                if k == n_out or k == n0:
+                    o = 0 if k == n_out else nc
+                    controls[p, o + 5] = g
+                    controls[p, o + 6] = g * g
+                    controls[p, o + 7] = d
+                    controls[p, o + 8] = d * d
+            ag = -(c1 * xdc + w2 * xc)
+            vc, sc, _ = _body(xc, xdc, vc, sc, ag, mu_g, mus_g, 2 * dt)
+            xn = xc + xdc * 2 * dt
+            xdc = xdc + (-w2 * xc - c1 * xdc) * 2 * dt - (n1 + n2)
+            xc = xn
+            if k == n_out:
+                fine[p, 1] = s
+                fine[p, 2] = v
+                coarse[p, 1] = sc
+                coarse[p, 2] = vc
+        while v != 0.0:
+            v, s, _ = _body(x, xd, v, s, 0.0, mu_g, mus_g, dt)
+        while vc != 0.0:
+            vc, sc, _ = _body(xc, xdc, vc, sc, 0.0, mu_g, mus_g, 2 * dt)
+        fine[p, 0] = s
+        coarse[p, 0] = sc
+
+
+def control_means(dt: float, t_out: float, *, t0: float, omega: float, zeta: float,
+                  h: float) -> np.ndarray:
+    """The exact means of ``coupled_at_controls``' controls: the fine steps' state (x, x', G, D)
+    is a linear Gaussian recursion z' = F z + noise, whose covariance P' = F P F^T + Q is
+    propagated here step by step from P = 0; a_g = c.z, so E a_g^2 = c P c^T and E |a_g| =
+    sqrt(2 / pi) sqrt(c P c^T) (a centred Gaussian), and likewise for G and D. The noise
+    sums have mean 0: each step's noise is independent of the body before the step."""
+    w2, c1 = omega * omega, 2.0 * zeta * omega
+    f = np.array([[1.0, dt, 0.0, 0.0],
+                  [-w2 * dt, 1.0 - c1 * dt, 0.0, 0.0],
+                  [-w2 * dt, -c1 * dt, 1.0, 0.0],
+                  [0.0, 0.0, dt, 1.0]])
+    q = np.zeros((4, 4))
+    q[1, 1] = h * h * dt
+    c = np.array([-w2, -c1, 0.0, 0.0])
+    n0, n_out = int(round(t0 / dt)), int(round(t_out / dt))
+    out = np.zeros(2 * N_CONTROLS)
+    p = np.zeros((4, 4))
+    root = math.sqrt(2.0 / math.pi)
+    for k in range(n0 + 1):
+        if k == n_out or k == n0:
+            o = 0 if k == n_out else N_CONTROLS
+            out[o + 6], out[o + 8] = p[2, 2], p[3, 3]
+        if k == n0:
+            break
+        va = c @ p @ c
+        step = np.array([dt * va, dt * p[2, 2], dt * root * math.sqrt(max(va, 0.0)),
+                         dt * root * math.sqrt(max(p[2, 2], 0.0)), dt * p[3, 3]])
+        out[N_CONTROLS:N_CONTROLS + 5] += step
+        if k < n_out:
+            out[:5] += step
+        p = f @ p @ f.T + q
+    return out
+
+
+def coupled_at_controls(paths: int, dt: float, t_out: float, *, t0: float, omega: float,
+                        zeta: float, h: float, mu_g: float, mus_g: float = None,
+                        seed: int = 0):
+    """``coupled_at`` and, per path, the control variates of CONTROL_NAMES (columns 0-13 up
+    to t_out, 14-27 up to t0) minus their exact means (``control_means``): each column has
+    mean 0, so any multiple of it subtracted from a path's values leaves their mean
+    unchanged and, with the regression's coefficients, shrinks its variance."""
+    for name, t in (("t0", t0), ("t_out", t_out)):
+        if abs(round(t / (2 * dt)) * 2 * dt - t) > 1e-9 * t:
+            raise ValueError(f"{name} must be a multiple of 2 dt")
+    if not 0.0 < t_out < t0:
+        raise ValueError("t_out must lie in (0, t0)")
+    rng = np.random.default_rng(seed)
+    fine, coarse = np.empty((paths, 3)), np.empty((paths, 3))
+    controls = np.empty((paths, 2 * N_CONTROLS))
+    _coupled_at_controls(rng, paths, dt, t0, int(round(t_out / dt)), omega, zeta, h, mu_g,
+                         mu_g if mus_g is None else mus_g, fine, coarse, controls)
+    controls -= control_means(dt, t_out, t0=t0, omega=omega, zeta=zeta, h=h)
+    return fine, coarse, controls
+
+
 def coupled_at(paths: int, dt: float, t_out: float, *, t0: float, omega: float, zeta: float,
                h: float, mu_g: float, mus_g: float = None, seed: int = 0):
     """``coupled`` with the distance and the velocity at an output time t_out < t0 as well:
