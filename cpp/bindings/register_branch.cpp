@@ -162,6 +162,7 @@ void def_filtered_grid(py::module_& m) {
       "time and one for the stop (the last), GROUND_FEATURES columns: run_samples' control sums "
       "on a filtered plan are these features minus this row.");
   m.attr("GROUND_FEATURES") = crandall::kGroundFeatures;
+  m.attr("BODY_CONTROLS") = crandall::kBodyControls;
   m.def("set_event_margin", &crandall::set_event_margin, py::arg("margin"),
         "Sets the multiple of an interval's a_g spread within which a filtered walk takes an "
         "event as possible (filtered.hpp, kEventMargin) for the process; returns the previous "

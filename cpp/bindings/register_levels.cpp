@@ -67,6 +67,7 @@ void def_run_samples(py::module_& m) {
       "ascending slots control_slots only, shape (count, len(control_slots), CONTROLS). out and "
       "controls_out: arrays of exactly those shapes to write into (reused between calls).");
   m.attr("CONTROLS") = crandall::control_count();
+  m.attr("WHITE_CONTROLS") = crandall::white_control_count();
 }
 
 void def_FeatureColumns(py::module_& m) {

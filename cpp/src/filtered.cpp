@@ -226,6 +226,7 @@ class Walker {
       vg_ = dg_ = 0.0;
       for (double& x : sums_) x = 0.0;
       for (double& x : martingale_) x = 0.0;
+      for (double& x : covariation_) x = 0.0;
     }
     if (trace_) point(0.0, ground(z_), bodies_[0]);
     std::uint64_t k = 0;
@@ -359,19 +360,24 @@ class Walker {
   }
   // The body controls' sums (filtered.hpp): the walked grid's body at the step's start (a
   // function of the earlier steps only) times the innovation of the step's G, sigma R_G xi.
-  void innovate(double e, double t) {
+  // With var_e the innovation's variance, also the quadratic covariations of the products'
+  // sums (filtered.hpp, kBodyProducts).
+  void innovate(double e, double var_e, double t) {
     const Body& b = bodies_[0];
     const double sv = b.v > 0.0 ? 1.0 : (b.v < 0.0 ? -1.0 : 0.0);
-    martingale_[0] += b.v * e;
-    martingale_[1] += (b.s * b.v) * e;
-    martingale_[2] += sv * e;
-    martingale_[3] += b.u * e;
-    martingale_[4] += ((o_.switch_off - t) * b.v) * e;
-    martingale_[5] += e;
+    const double x[kBodyControls] = {b.v, b.s * b.v, sv, b.u, (o_.switch_off - t) * b.v, 1.0};
+    for (int q = 0; q < kBodyControls; ++q) martingale_[q] += x[q] * e;
+    covariation_[0] += (b.v * b.v) * var_e;
+    covariation_[1] += (b.v * sv) * var_e;
+    covariation_[2] += (sv * sv) * var_e;
   }
   void snapshot(std::size_t slot) {
     double* f = feature_slots_.data() + slot * kFilteredControls;
     for (int q = 0; q < kBodyControls; ++q) f[kGroundFeatures + q] = martingale_[q];
+    double* products = f + kGroundFeatures + kBodyControls;
+    products[0] = martingale_[0] * martingale_[0] - covariation_[0];
+    products[1] = martingale_[0] * martingale_[2] - covariation_[1];
+    products[2] = martingale_[2] * martingale_[2] - covariation_[2];
     f[0] = sums_[0];
     f[1] = sums_[1];
     f[2] = vg_ * vg_;
@@ -442,7 +448,7 @@ class Walker {
     } else {
       for (int i = 0; i < M; ++i) xi[i] = 0.0;
     }
-    double y[M], g_noise = 0.0;
+    double y[M], g_noise = 0.0, g_var = 0.0;
     for (int r = 0; r < M; ++r) {
       double mean = 0.0, noise = 0.0;
       for (int c = 0; c < N; ++c) mean += phi[r * M + c] * z_[c];
@@ -451,7 +457,10 @@ class Walker {
       y[r] = mean + sigma * noise;
       if (r == N) g_noise = sigma * noise;
     }
-    if (features_ && shaking_ && sigma != 0.0) innovate(g_noise, t0);
+    if (features_ && shaking_ && sigma != 0.0) {
+      for (int c = 0; c <= N; ++c) g_var += root[N * M + c] * root[N * M + c];
+      innovate(g_noise, (sigma * sigma) * g_var, t0);
+    }
     for (int i = 0; i < N; ++i) {
       f.z0[i] = z_[i];
       f.z1[i] = z_[i] = y[i];
@@ -696,6 +705,7 @@ class Walker {
   double vg_ = 0.0, dg_ = 0.0;  // the ground's velocity and displacement (from 0)
   double sums_[5] = {};          // the running sums of h a^2, h vg^2, h dg^2, h |a|, h |vg|
   double martingale_[kBodyControls] = {};  // the body controls' sums (innovate)
+  double covariation_[kBodyProducts] = {};  // their quadratic covariations (innovate)
   std::vector<double> feature_slots_;
   Trajectory* trace_;
   bool trace_grid_ = false;

@@ -15,6 +15,7 @@
 namespace crandall {
 
 int control_count() { return kControls; }
+int white_control_count() { return kWhiteControls; }
 
 void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int threads,
                  double* out, double* controls_out, const CancelCheck& cancel,

@@ -209,6 +209,7 @@ def filtered_grid(
 
 #: The ground features per path and slot of a filtered plan's control sums.
 GROUND_FEATURES: int
+BODY_CONTROLS: int
 
 def set_event_margin(margin: float) -> float:
     """Sets the filtered event search's margin (a diagnostic); returns the previous one."""
@@ -283,6 +284,7 @@ def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
 RANDOM_STREAM: int
 #: Control sums per path and slot of run_samples(controls=True).
 CONTROLS: int
+WHITE_CONTROLS: int
 
 def build_info() -> dict[str, Union[int, str, list[str]]]:
     """What runs: the kernel variant in use (isa: CRANDALL_ISA or the best the CPU supports), the

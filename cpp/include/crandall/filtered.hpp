@@ -77,7 +77,17 @@ std::vector<double> ground_feature_means(const Plan& plan);
 // The body's state at a step's start depends on the earlier steps' numbers only, and xi_k is
 // independent of them with mean 0, so each sum has mean exactly 0 (nothing to subtract).
 constexpr int kBodyControls = 6;
-constexpr int kFilteredControls = kGroundFeatures + kBodyControls;
+// Then, for the sums of V e (9) and sgn(V) e (11), M_i M_j - sum_k X_i,k X_j,k var(e_k) for
+// (i, j) = (9, 9), (9, 11), (11, 11): the product of the two sums minus their quadratic
+// covariation, with X_i,k the body factor of sum i at step k and var(e_k) = sigma^2 |R_G|^2
+// the innovation's variance. The sums are martingales (X at the step's start, e_k independent
+// of it with mean 0), so E[M_i M_j] = E[sum_k X_i,k X_j,k] var(e_k) and these have mean exactly
+// 0 too. They let the variance's per-path term, (S - c)^2, borrow the body's own randomness
+// (docs/filtered.md, "Control variates"). The other sums' products are left out: their tails
+// are so heavy (S V, U and (switch_off - t) V squared) that a pilot of 4096 paths fits them
+// worse than not at all.
+constexpr int kBodyProducts = 3;
+constexpr int kFilteredControls = kGroundFeatures + kBodyControls + kBodyProducts;
 
 // The multiple of an interval's a_g spread (its bridge's standard deviation at the midpoint,
 // and the curvature of its mean) within which an event is taken as possible (the interval is

@@ -1,7 +1,7 @@
 // The exact method's path loop with control variates (docs/methods/adaptive.md, "Control
 // variates"): the base level of a run to a requested accuracy. It is simulate_block<Exact, ...>
 // itself (the same draws and the same steps, so the same values, bit for bit) with ControlSums
-// observing its steps: per path and per output slot, kControls sums over the steps before that
+// observing its steps: per path and per output slot, kWhiteControls sums over the steps before that
 // slot's time of g_k(state at the step start) times dB, the step's Brownian increment
 // sqrt(step) Z. Each has mean exactly 0 whatever g_k (Z is independent of the past):
 // subtracting any fixed multiple leaves an estimator unbiased.
@@ -17,7 +17,11 @@ namespace crandall {
 // it), k = min(a / c, r) (the time to stop, capped at r), sB = sign(X) dB:
 // dB, a dB, r dB, k dB, U3 a dB, U3 k dB, a^2 k dB, U3 dB, sB, r sB, k sB, U2 sB, U2 k sB,
 // X a k sB, U2 r sB.
-constexpr int kControls = 15;
+constexpr int kWhiteControls = 15;
+// The width of a path's row of control sums per slot (Workspace::controls): the larger of the
+// white kernel's kWhiteControls and the filtered walker's (filtered.hpp, kFilteredControls);
+// a kernel that has fewer fills the rest with 0.
+constexpr int kControls = 18;
 
 }  // namespace crandall
 
@@ -44,7 +48,7 @@ class ControlSums : public Unobserving {
     const Options& o = plan.options();
     for (std::size_t j = 0; j < slots_; ++j)
       if (chosen_[j] < o.times.size()) until_[j] = std::min(o.times[chosen_[j]], o.switch_off);
-    acc_.assign(slots_ * kControls * kLanes, 0.0);
+    acc_.assign(slots_ * kWhiteControls * kLanes, 0.0);
   }
 
   void begin(const Options&) {
@@ -64,7 +68,7 @@ class ControlSums : public Unobserving {
     }
     for (std::size_t j = pending_; j < slots_; ++j) {
       const double r = until_[j] - time;
-      double* g = acc_.data() + j * kControls * kLanes;
+      double* g = acc_.data() + j * kWhiteControls * kLanes;
 #pragma omp simd
       for (int l = 0; l < kLanes; ++l) {
         const double kk = std::min(a[l] * inv_drift_, r);
@@ -98,7 +102,7 @@ class ControlSums : public Unobserving {
       for (std::size_t j = 0; j < slots_; ++j)
         for (int q = 0; q < kControls; ++q)
           ws_.controls[((path0 + l - ws_.sample_first) * slots_ + j) * kControls + q] =
-              acc_[(j * kControls + q) * kLanes + l];
+              q < kWhiteControls ? acc_[(j * kWhiteControls + q) * kLanes + l] : 0.0;
   }
 
  private:
@@ -106,7 +110,7 @@ class ControlSums : public Unobserving {
   const std::vector<std::size_t>& chosen_;
   std::size_t slots_;
   std::vector<double> until_;
-  std::vector<double>& acc_;  // the lanes' sums: acc_[(j * kControls + q) * kLanes + l]
+  std::vector<double>& acc_;  // the lanes' sums: acc_[(j * kWhiteControls + q) * kLanes + l]
   double inv_drift_;
   std::size_t pending_ = 0;  // chosen slots before this one are behind the path
 };

@@ -36,6 +36,9 @@ void run_samples(const Plan& plan, std::uint64_t first, std::uint64_t count, int
 std::size_t sample_size(const Plan& plan);
 // Number of control sums per path and slot.
 int control_count();
+// Of them, those the white-noise kernel fills (kWhiteControls, kernel_controls.hpp; the rest
+// are 0 on its plans); a filtered plan fills all (filtered.hpp, kFilteredControls).
+int white_control_count();
 
 // The feature columns of a run to an accuracy (python/crandall/adaptive/), one entry per
 // column. A column's value on a grid is its target's: the sample x = samples[slot, grid,

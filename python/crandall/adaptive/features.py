@@ -140,7 +140,10 @@ class _Features:
         (which the estimates then leave out, so that the coefficients are independent of the
         paths they are applied to)."""
         raw = self._features(block, 0)
-        n, k = len(raw), controls.shape[2]
+        # The controls the plan's kernel fills (the white kernel leaves the rest of a row 0):
+        # only they are fitted, and the rest of each column's coefficients are 0.
+        n = len(raw)
+        k = controls.shape[2] if self.filtered else _core.WHITE_CONTROLS
         width = k + 1
         flat_width = width + width * (width + 1) // 2
         # Many columns' [feature, controls of its slot] in one call: each group's sums are
@@ -154,7 +157,7 @@ class _Features:
             stop = min(start + per_call, len(self.cols))
             g = m[:, :stop - start]
             g[:, :, 0] = raw[:, start:stop]
-            g[:, :, 1:] = controls[:, anchor[start:stop], :]
+            g[:, :, 1:] = controls[:, anchor[start:stop], :k]
             flat = _core.sum_products(np.ascontiguousarray(g.reshape(n, -1)),
                                       [width] * (stop - start), self.threads)
             # As a level's sums would hold them (0 plus the sums), then their covariances.
@@ -169,5 +172,5 @@ class _Features:
         for cs in by_slot.values():
             xs = _solve_many(covs[cs[0]][1:, 1:], covs[cs, 1:, 0])
             for c, x in zip(cs, xs):
-                beta[c] = x
+                beta[c] = list(x) + [0.0] * (controls.shape[2] - k)
         self.beta = beta
