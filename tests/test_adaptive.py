@@ -465,6 +465,47 @@ def test_a_checkpoint_that_summed_the_variance_at_the_stop_otherwise_is_refused(
         crandall.simulate(sc, checkpoint=path, **kw)
 
 
+def test_a_checkpoint_whose_coefficients_cover_only_the_white_controls_resumes(tmp_path):
+    # The control row holds the white kernel's 15 sums and zeros after them (for a filtered
+    # plan's 18); a checkpoint written when it held 15 (their coefficients only) resumes to
+    # the same result as the one written now, the missing coefficients being 0.
+    import json as _json
+    from crandall import _core, adaptive
+
+    def cut(state):
+        state["beta"] = [row[:_core.WHITE_CONTROLS] for row in state["beta"]]
+        assert all(v == 0.0 for row in state["beta"] for v in row[_core.WHITE_CONTROLS:])
+    sc, bad = _edited(tmp_path, cut, reseal=True)
+    with np.load(bad) as data:
+        assert len(_json.loads(str(data["state"]))["beta"][0]) == _core.WHITE_CONTROLS
+    resumed = crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=bad)
+    fresh = crandall.simulate(sc, error=5e-2, seed=1, threads=1)
+    assert resumed.mean("distance").tobytes() == fresh.mean("distance").tobytes()
+    assert resumed.error("distance").tobytes() == fresh.error("distance").tobytes()
+
+
+def test_a_filtered_checkpoint_of_another_event_depth_is_refused(tmp_path):
+    # A filtered run's identity names its levels' event depth and control count: a
+    # checkpoint without them (written when the levels searched to depth 8 and fitted 15
+    # controls) belongs to another run.
+    import json as _json
+    sc = crandall.Scene(mu=1.0, g=1.0, excitation=crandall.KanaiTajimi(omega=2.0, zeta=0.6,
+                                                                        h=1.0),
+                        t0=2.0, times=[2.0], observe=["distance"])
+    kw = dict(rel_error=0.2, seed=1, threads=1)
+    path = tmp_path / "f.ckpt"
+    crandall.simulate(sc, checkpoint=path, **kw)
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    ident = _json.loads(str(arrays["identity"]))
+    assert ident["event_depth"] == 4 and ident["controls"] == crandall._core.CONTROLS
+    del ident["event_depth"]
+    with open(path, "wb") as f:
+        np.savez(f, **{**arrays, "identity": np.array(_json.dumps(ident))})
+    with pytest.raises(ValueError, match=r"belongs to a different run \(.*event_depth"):
+        crandall.simulate(sc, checkpoint=path, **kw)
+
+
 def test_cli_error(tmp_path, capsys):
     from crandall import cli
     scene = tmp_path / "s.toml"

@@ -39,8 +39,27 @@ def test_the_range_is_the_cores():
         with pytest.raises(crandall.ParameterError, match="event_depth must be") as info:
             crandall.simulate(SCENE, paths=10, seed=1, event_depth=bad)
         assert match in str(info.value)
-    with pytest.raises(crandall.ParameterError, match="event_depth: not with"):
+    with pytest.raises(crandall.ParameterError, match="event_depth: not with") as info:
         crandall.simulate(SCENE, rel_error=0.1, event_depth=4)
+    assert "depth 4" in str(info.value)
+
+
+def test_a_run_to_an_accuracy_searches_every_level_to_its_own_depth(monkeypatch):
+    # Every level of a filtered run to an accuracy bisects to FILTER_EVENT_DEPTH (4), not the
+    # fixed-step default (8): the finer levels correct what the shallow search leaves.
+    from crandall.adaptive import levels
+    assert levels.FILTER_EVENT_DEPTH == 4
+    seen = []
+    made = levels._Level.__init__
+
+    def spy(self, *args, **kw):
+        made(self, *args, **kw)
+        seen.append(self.plan.options.event_depth)
+
+    monkeypatch.setattr(levels._Level, "__init__", spy)
+    r = crandall.simulate(SCENE, rel_error=0.1, seed=2, threads=1,
+                          statistics=["distance_at_stop:mean"])
+    assert len(seen) == len(r.levels) >= 3 and set(seen) == {4}
 
 
 def test_the_default_depth_is_the_cores_and_leaves_the_spec_as_it_was():

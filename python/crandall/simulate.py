@@ -485,8 +485,8 @@ def _simulate(scene: Scene, *, paths, seed, dt, method, threads, checkpoint, cli
                                  "grids and paths itself)")
         if event_depth is not None:
             raise ParameterError("event_depth", "event_depth: not with error= or rel_error= (their "
-                                 "levels keep the default depth 8, at which their coverage "
-                                 "was calibrated)")
+                                 "levels search events to depth 4, at which their coverage "
+                                 "was calibrated, and correct what it leaves)")
         check_client(client)
         if checkpoint is not None and not isinstance(checkpoint, (str, os.PathLike)):
             raise ParameterError("checkpoint", f"checkpoint must be a path, got {checkpoint!r}")

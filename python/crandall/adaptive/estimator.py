@@ -26,6 +26,7 @@ from .features import _control_slots, _Features
 from .levels import (_check_statistics, _Level, _peaks_recorded, _sample_slots, _Sums, _targets,
                      BASE_DT_FACTOR, BATCH_PATHS, FILTER_BASE_DT_FACTOR, FILTER_MAX_PATHS,
                      MAX_SECONDS, levels_model)
+from . import levels as _levels
 from .schedule import MAX_LEVEL_PATHS, _Schedule
 BATCH_BYTES = 64 << 20
 #: Path-steps of the measurement of a level's time per path before its first batch
@@ -280,6 +281,11 @@ class _Engine(_Features, _Schedule, Estimator):
         isometry = [f"{t.name}:{t.stat}" for t in self.targets if t.isometry]
         if isometry:
             spec["isometry"] = isometry
+        if self.filtered:
+            # The levels' event depth and the controls (a checkpoint of a run whose paths
+            # searched deeper, or whose coefficients fitted other controls, is another run).
+            spec["event_depth"] = _levels.FILTER_EVENT_DEPTH
+            spec["controls"] = _core.CONTROLS
         return spec
 
 

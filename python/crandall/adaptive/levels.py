@@ -39,6 +39,12 @@ FILTER_BASE_DT_FACTOR = 4
 #: slides shorter than a substep, docs/filtered.md), so two noisy finest levels do not measure
 #: what is left, and no reference independent of the core exists to calibrate it against.
 FILTER_LEFT_OUT = ("stop_time",)
+#: The event depth of every level of a filtered excitation's run to an accuracy: the finer
+#: levels measure and correct what a shallow search leaves, so the core's default depth 8
+#: (made for fixed-step runs, where nothing corrects it) is not needed, and depth 4 costs
+#: 2-4x less per path (bench/filtered.py; the calibration, bench/filtered_error.py, is at
+#: this depth).
+FILTER_EVENT_DEPTH = 4
 #: The filtered core's bound on a plan's paths (cpp/src/filter.cpp).
 FILTER_MAX_PATHS = 1 << 40
 #: Paths per call of the core (fewer when a path's values and features would take more than
@@ -224,6 +230,8 @@ class _Level:
         o.seed = level_key(seed, level)
         #: The paths the level's plan can draw (the filtered core's plans fewer).
         self.max_paths = FILTER_MAX_PATHS if FILTERED_EXCITATION in scene.effects else 1 << 62
+        if FILTERED_EXCITATION in scene.effects and FILTER_EVENT_DEPTH is not None:
+            o.event_depth = FILTER_EVENT_DEPTH
         o.paths = self.max_paths
         try:
             self.plan = _core.Plan(o)
