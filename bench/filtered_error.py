@@ -484,21 +484,24 @@ def controlled_euler(blocks: int, paths: int, dt: float):
 def _pool_controlled(blocks):
     """Per step dt (a key "%g"), each friction statistic's inverse-variance weighted mean of
     the controlled blocks at that dt, its standard error, and the chi^2 of their spread."""
+    return {f"{dt:g}": _pool([b for b in blocks if b["dt"] == dt])
+            for dt in sorted({b["dt"] for b in blocks})}
+
+
+def _pool(blocks):
+    """Each friction statistic's inverse-variance weighted mean of the blocks' extrapolated
+    values, its standard error, and the chi^2 of their spread about it (with its p-value)."""
     out = {}
-    for dt in sorted({b["dt"] for b in blocks}):
-        at = [b for b in blocks if b["dt"] == dt]
-        pooled = {}
-        for name, stat, _, _ in FRICTION_STATS:
-            k = f"{name}_{stat}"
-            w = np.array([1.0 / b["stats"][k]["stderr"] ** 2 for b in at])
-            xs = np.array([b["stats"][k]["extrapolated"] for b in at])
-            value = float(np.sum(w * xs) / np.sum(w))
-            chi2 = float(np.sum(w * (xs - value) ** 2))
-            pooled[k] = {"value": value, "stderr": float(1.0 / math.sqrt(np.sum(w))),
-                         "blocks": len(xs), "chi2": chi2,
-                         "chi2_p": float(scipy.stats.chi2.sf(chi2, len(xs) - 1))
-                         if len(xs) > 1 else None}
-        out[f"{dt:g}"] = pooled
+    for name, stat, _, _ in FRICTION_STATS:
+        k = f"{name}_{stat}"
+        w = np.array([1.0 / b["stats"][k]["stderr"] ** 2 for b in blocks])
+        x = np.array([b["stats"][k]["extrapolated"] for b in blocks])
+        value = float(np.sum(w * x) / np.sum(w))
+        chi2 = float(np.sum(w * (x - value) ** 2))
+        out[k] = {"value": value, "stderr": float(1.0 / math.sqrt(np.sum(w))),
+                  "blocks": len(blocks), "chi2": chi2,
+                  "chi2_p": float(scipy.stats.chi2.sf(chi2, len(blocks) - 1))
+                  if len(blocks) > 1 else None}
     return out
 
 
@@ -572,18 +575,7 @@ def pooled_reference():
     extrapolation in the cache (the three steps and the check blocks), with its standard
     error: the extrapolations agree across dt (their paired differences halve with dt)."""
     data = euler_reference()
-    blocks = data["points"] + data.get("check_blocks", [])
-    out = {}
-    for name, stat, _, _ in FRICTION_STATS:
-        k = f"{name}_{stat}"
-        w = np.array([1.0 / b["stats"][k]["stderr"] ** 2 for b in blocks])
-        x = np.array([b["stats"][k]["extrapolated"] for b in blocks])
-        value = float(np.sum(w * x) / np.sum(w))
-        chi2 = float(np.sum(w * (x - value) ** 2))
-        out[k] = {"value": value, "stderr": float(1.0 / math.sqrt(np.sum(w))),
-                  "blocks": len(blocks), "chi2": chi2,
-                  "chi2_p": float(scipy.stats.chi2.sf(chi2, len(blocks) - 1))}
-    return out
+    return _pool(data["points"] + data.get("check_blocks", []))
 
 
 def recount(stem: str, publish: bool, against: str = "pooled"):

@@ -112,48 +112,6 @@ def _coupled(rng, paths, dt, t0, omega, zeta, h, mu_g, mus_g, fine, coarse):
         coarse[p] = sc
 
 
-@njit(cache=False)
-def _coupled_at(rng, paths, dt, t0, n_out, omega, zeta, h, mu_g, mus_g, fine, coarse):
-    """``_coupled`` that also keeps, per path, the distance and the velocity at fine step
-    ``n_out`` (an even number of fine steps, so a coarse step ends there too): columns 0, 1,
-    2 of ``fine`` and ``coarse`` are the distance at the stop, the distance at the output time
-    and the velocity there."""
-    w2 = omega * omega
-    c1 = 2.0 * zeta * omega
-    sq = h * math.sqrt(dt)
-    n0 = int(round(t0 / dt))
-    for p in range(paths):
-        x = xd = v = s = 0.0
-        xc = xdc = vc = sc = 0.0
-        k = 0
-        while k < n0:
-            n1 = sq * rng.standard_normal()
-            n2 = sq * rng.standard_normal()
-            for noise in (n1, n2):
-                ag = -(c1 * xd + w2 * x)
-                v, s, _ = _body(x, xd, v, s, ag, mu_g, mus_g, dt)
-                xn = x + xd * dt
-                xd = xd + (-w2 * x - c1 * xd) * dt - noise
-                x = xn
-            ag = -(c1 * xdc + w2 * xc)
-            vc, sc, _ = _body(xc, xdc, vc, sc, ag, mu_g, mus_g, 2 * dt)
-            xn = xc + xdc * 2 * dt
-            xdc = xdc + (-w2 * xc - c1 * xdc) * 2 * dt - (n1 + n2)
-            xc = xn
-            k += 2
-            if k == n_out:
-                fine[p, 1] = s
-                fine[p, 2] = v
-                coarse[p, 1] = sc
-                coarse[p, 2] = vc
-        while v != 0.0:
-            v, s, _ = _body(x, xd, v, s, 0.0, mu_g, mus_g, dt)
-        while vc != 0.0:
-            vc, sc, _ = _body(xc, xdc, vc, sc, 0.0, mu_g, mus_g, 2 * dt)
-        fine[p, 0] = s
-        coarse[p, 0] = sc
-
-
 #: The control variates of ``coupled_at_controls``, per horizon (the output time, then t0):
 #: sums over the fine steps before it of dt a_g^2, dt G^2, dt |a_g|, dt |G|, dt D^2 (G and D
 #: the ground's velocity and displacement, integrals of a_g by the same Euler steps), then
@@ -165,10 +123,13 @@ N_CONTROLS = len(CONTROL_NAMES)
 
 
 @njit(cache=False)
-def _coupled_at_controls(rng, paths, dt, t0, n_out, omega, zeta, h, mu_g, mus_g, fine, coarse,
-                         controls):
-    """``_coupled_at`` that also keeps, per path, the control variates of CONTROL_NAMES on the
-    fine steps: columns 0-13 up to the output time, 14-27 up to t0."""
+def _coupled_at(rng, paths, dt, t0, n_out, omega, zeta, h, mu_g, mus_g, fine, coarse,
+                controls, keep):
+    """``_coupled`` that also keeps, per path, the distance and the velocity at fine step
+    ``n_out`` (an even number of fine steps, so a coarse step ends there too): columns 0, 1,
+    2 of ``fine`` and ``coarse`` are the distance at the stop, the distance at the output time
+    and the velocity there; with ``keep``, also the control variates of CONTROL_NAMES on the
+    fine steps in ``controls``: columns 0-13 up to the output time, 14-27 up to t0."""
     w2 = omega * omega
     c1 = 2.0 * zeta * omega
     sq = h * math.sqrt(dt)
@@ -178,8 +139,9 @@ def _coupled_at_controls(rng, paths, dt, t0, n_out, omega, zeta, h, mu_g, mus_g,
         x = xd = v = s = 0.0
         g = d = 0.0
         xc = xdc = vc = sc = 0.0
-        for j in range(2 * nc):
-            controls[p, j] = 0.0
+        if keep:
+            for j in range(2 * nc):
+                controls[p, j] = 0.0
         k = 0
         while k < n0:
             n1 = sq * rng.standard_normal()
@@ -188,7 +150,7 @@ def _coupled_at_controls(rng, paths, dt, t0, n_out, omega, zeta, h, mu_g, mus_g,
                 ag = -(c1 * xd + w2 * x)
                 t = k * dt
                 sgn = 0.0 if v == 0.0 else (1.0 if v > 0.0 else -1.0)
-                for hz in range(2):
+                for hz in range(2 if keep else 0):
                     if hz == 0 and k >= n_out:
                         continue
                     o = hz * nc
@@ -210,7 +172,7 @@ def _coupled_at_controls(rng, paths, dt, t0, n_out, omega, zeta, h, mu_g, mus_g,
                 d += g * dt
                 g += ag * dt
                 k += 1
-                if k == n_out or k == n0:
+                if keep and (k == n_out or k == n0):
                     o = 0 if k == n_out else nc
                     controls[p, o + 5] = g
                     controls[p, o + 6] = g * g
@@ -269,13 +231,8 @@ def control_means(dt: float, t_out: float, *, t0: float, omega: float, zeta: flo
     return out
 
 
-def coupled_at_controls(paths: int, dt: float, t_out: float, *, t0: float, omega: float,
-                        zeta: float, h: float, mu_g: float, mus_g: float = None,
-                        seed: int = 0):
-    """``coupled_at`` and, per path, the control variates of CONTROL_NAMES (columns 0-13 up
-    to t_out, 14-27 up to t0) minus their exact means (``control_means``): each column has
-    mean 0, so any multiple of it subtracted from a path's values leaves their mean
-    unchanged and, with the regression's coefficients, shrinks its variance."""
+def _run_at(paths, dt, t_out, t0, omega, zeta, h, mu_g, mus_g, seed, keep):
+    """The coupled paths with an output time (``_coupled_at``): (fine, coarse, controls)."""
     for name, t in (("t0", t0), ("t_out", t_out)):
         if abs(round(t / (2 * dt)) * 2 * dt - t) > 1e-9 * t:
             raise ValueError(f"{name} must be a multiple of 2 dt")
@@ -283,9 +240,21 @@ def coupled_at_controls(paths: int, dt: float, t_out: float, *, t0: float, omega
         raise ValueError("t_out must lie in (0, t0)")
     rng = np.random.default_rng(seed)
     fine, coarse = np.empty((paths, 3)), np.empty((paths, 3))
-    controls = np.empty((paths, 2 * N_CONTROLS))
-    _coupled_at_controls(rng, paths, dt, t0, int(round(t_out / dt)), omega, zeta, h, mu_g,
-                         mu_g if mus_g is None else mus_g, fine, coarse, controls)
+    controls = np.empty((paths if keep else 1, 2 * N_CONTROLS))
+    _coupled_at(rng, paths, dt, t0, int(round(t_out / dt)), omega, zeta, h, mu_g,
+                mu_g if mus_g is None else mus_g, fine, coarse, controls, keep)
+    return fine, coarse, controls
+
+
+def coupled_at_controls(paths: int, dt: float, t_out: float, *, t0: float, omega: float,
+                        zeta: float, h: float, mu_g: float, mus_g: float = None,
+                        seed: int = 0):
+    """``coupled_at`` and, per path, the control variates of CONTROL_NAMES (columns 0-13 up
+    to t_out, 14-27 up to t0) minus their exact means (``control_means``): each column has
+    mean 0, so any multiple of it subtracted from a path's values leaves their mean
+    unchanged and, with the regression's coefficients, shrinks its variance."""
+    fine, coarse, controls = _run_at(paths, dt, t_out, t0, omega, zeta, h, mu_g, mus_g, seed,
+                                     True)
     controls -= control_means(dt, t_out, t0=t0, omega=omega, zeta=zeta, h=h)
     return fine, coarse, controls
 
@@ -295,16 +264,7 @@ def coupled_at(paths: int, dt: float, t_out: float, *, t0: float, omega: float, 
     """``coupled`` with the distance and the velocity at an output time t_out < t0 as well:
     arrays (paths, 3) at dt and at 2 dt of the distance at the stop, the distance at t_out and
     the velocity at t_out, on the same noise."""
-    for name, t in (("t0", t0), ("t_out", t_out)):
-        if abs(round(t / (2 * dt)) * 2 * dt - t) > 1e-9 * t:
-            raise ValueError(f"{name} must be a multiple of 2 dt")
-    if not 0.0 < t_out < t0:
-        raise ValueError("t_out must lie in (0, t0)")
-    rng = np.random.default_rng(seed)
-    fine, coarse = np.empty((paths, 3)), np.empty((paths, 3))
-    _coupled_at(rng, paths, dt, t0, int(round(t_out / dt)), omega, zeta, h, mu_g,
-                mu_g if mus_g is None else mus_g, fine, coarse)
-    return fine, coarse
+    return _run_at(paths, dt, t_out, t0, omega, zeta, h, mu_g, mus_g, seed, False)[:2]
 
 
 def coupled(paths: int, dt: float, *, t0: float, omega: float, zeta: float, h: float,
