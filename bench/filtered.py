@@ -315,8 +315,10 @@ def plot(data, path):
         ratios.append(r["ratio"])
         defaults.append(r.get("default_depth", {}).get("ratio", r["ratio"]))
     x = np.arange(len(rows))
-    b.bar(x - 0.2, defaults, width=0.4, label=f"default step, event depth {DEFAULT_DEPTH}")
-    b.bar(x + 0.2, ratios, width=0.4, label="chosen step, depth (d) and controls (cv)")
+    direct = [r.get("direct", {}).get("ratio", np.nan) for r in rows]
+    b.bar(x - 0.27, defaults, width=0.27, label=f"default step, event depth {DEFAULT_DEPTH}")
+    b.bar(x, ratios, width=0.27, label="chosen step, depth (d) and controls (cv)")
+    b.bar(x + 0.27, direct, width=0.27, label="simulate(error=) itself (--direct)")
     b.legend(fontsize=7)
     b.set_yscale("log")
     b.set_xticks(x)

@@ -507,15 +507,24 @@ def _pool(blocks):
 
 def controlled_reference():
     """The friction references from the controlled Euler blocks at their finest step (each
-    statistic's pooled value and standard error), or None without the cache. The pooled
-    extrapolations at the coarser steps check the first-order extrapolation: they must agree
-    with it within their errors (docs/methods/adaptive.md)."""
+    statistic's pooled value), or None without the cache. The first-order extrapolation
+    leaves a term of second order, c dt^2 at dt and 4 c dt^2 at 2 dt: where blocks at twice
+    the finest step exist, a third of the difference of the two steps' pooled values estimates
+    it at the finest, and the reference's standard error ("stderr") is its statistical one and
+    that estimate in quadrature ("statistical_stderr" and "extrapolation" keep both)."""
     if not CONTROLLED_CACHE.exists():
         return None
     blocks = json.loads(CONTROLLED_CACHE.read_text())["blocks"]
     pooled = _pool_controlled(blocks)
-    finest = f"{min(b['dt'] for b in blocks):g}"
-    return pooled[finest]
+    dt = min(b["dt"] for b in blocks)
+    out = pooled[f"{dt:g}"]
+    coarser = pooled.get(f"{2 * dt:g}")
+    for k, ref in out.items():
+        ref["statistical_stderr"] = ref["stderr"]
+        ref["extrapolation"] = (abs(coarser[k]["value"] - ref["value"]) / 3.0
+                                if coarser is not None else 0.0)
+        ref["stderr"] = math.hypot(ref["stderr"], ref["extrapolation"])
+    return out
 
 
 def _plot_finer(data, path):
