@@ -146,3 +146,29 @@ def test_estimators_on_the_white_noise_model_refuse_a_filtered_scene(call):
     with pytest.raises(ParameterError, match="filtered_excitation") as exc:
         call(sc)
     assert exc.value.name == "scene"
+
+
+def test_every_filter_of_a_grid_of_parameters_makes_a_plan_with_a_stop():
+    # A plan observing the stop bounds the ring-down through the filter's Lyapunov matrix,
+    # whose eigenvalues the core finds by Jacobi sweeps: Clough-Penzien (3, 0.6, 0.5, 0.7),
+    # whose damping 2 zeta omega = 3.6 arrives as 3.5999999999999996, was refused as "not
+    # positive definite" (the sweeps ran past convergence into NaN; its eigenvalues are 0.14
+    # to 8.9). Every plan of this grid must build.
+    import itertools
+    from crandall import _core, engine
+    from crandall.spec import RunSpec
+    grid = [CloughPenzien(omega=w, zeta=z, omega_f=wf, zeta_f=zf, h=1.0)
+            for w, z, wf, zf in itertools.product((0.3, 3.0, 15.6, 40.0), (0.1, 0.6, 0.9),
+                                                  (0.05, 0.5, 1.5), (0.3, 0.7, 0.9))
+            if wf < w]
+    grid += [KanaiTajimi(omega=w, zeta=z, h=1.0)
+             for w, z in itertools.product((0.3, 3.0, 15.6, 100.0), (0.05, 0.6, 0.99))]
+    for kind in grid:
+        sc = Scene(mu=0.5, g=1.0, excitation=kind, t0=6.0, times=[3.0],
+                   observe=["distance", "stop"])
+        _core.Plan(engine.plan_options(RunSpec.create(sc, paths=10, seed=1)))
+    sc = Scene(mu=0.5, g=1.0, excitation=CloughPenzien(omega=3.0, zeta=0.6, omega_f=0.5,
+                                                       zeta_f=0.7, h=1.0),
+               t0=6.0, times=[3.0], observe=["distance", "stop"])
+    r = crandall.simulate(sc, paths=200, seed=1, threads=1)
+    assert np.isfinite(r.mean("distance_at_stop")) and r.mean("distance_at_stop") > 0.0

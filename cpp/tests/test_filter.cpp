@@ -360,6 +360,17 @@ TEST(FilterDecay, BoundHoldsOnTheFlow) {
       }
     }
   }
+  // A Clough-Penzien filter whose Lyapunov matrix (eigenvalues 0.14 to 8.9) was refused as
+  // not definite: the eigenvalues' Jacobi sweeps ran on past convergence into NaN.
+  LinearFilter near;
+  near.n = 4;
+  near.a = {0, 1, 0, 0, -9, -3.5999999999999996, 0, 0, 0, 0, 0, 1, -9, -3.5999999999999996, -0.25, -0.7};
+  near.b = {0, -1, 0, 0};
+  near.c = {-9, -3.5999999999999996, -0.25, -0.7};
+  const auto dn = crandall::decay_bound(near);
+  EXPECT_TRUE(std::isfinite(dn.gain) && dn.gain > 0.0);
+  // rate = 1 / (2 max eigenvalue of P): 8.9145298 by SciPy's solve_continuous_lyapunov.
+  EXPECT_NEAR(dn.rate, 0.5 / 8.91452984, 1e-8);
   const auto unstable = crandall::kanai_tajimi(2.0, -0.1);
   EXPECT_FALSE(crandall::hurwitz(unstable.a, 2));
   EXPECT_THROW(crandall::decay_bound(unstable), std::invalid_argument);
