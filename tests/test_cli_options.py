@@ -7,6 +7,7 @@ import importlib
 
 import pytest
 
+import crandall
 from crandall import cli
 
 WHITE = '[scene]\nunits = "scaled"\ntau0 = 1.0\ntimes = [0.5, 2.0]\n[run]\npaths = 500\nseed = 1\n'
@@ -72,6 +73,29 @@ def test_tail_and_fragility_refuse_the_same(refused):
     refused(["fragility", "crate", "--quantity", "stop_time", "--thresholds", "2.5",
              "--intensities", "1.5,2", "--hazard-use", "estimates"],
             "--hazard-use has no effect without --hazard")
+
+
+def test_run_from_python_refuses_the_same(tmp_path, monkeypatch):
+    # crandall.cli.run, called from Python with what the parser refuses beside --no-files or
+    # --no-figures, names the argument before loading anything; defaults given pass.
+    monkeypatch.chdir(tmp_path)
+    from crandall.cli import simulation
+    monkeypatch.setattr(simulation, "simulate", lambda *a, **k: (_ for _ in ()).throw(
+        AssertionError("ran although refused")))
+    scene = tmp_path / "w.toml"
+    scene.write_text(WHITE)
+    for kw, name in ((dict(files=False, out="o"), "out"),
+                     (dict(files=False, overwrite=True), "overwrite"),
+                     (dict(files=False, figure_options={"dpi": 300}), "figure_options"),
+                     (dict(figures=False, figure_options={"format": "svg"}), "figure_options")):
+        with pytest.raises(crandall.ParameterError, match=f"^{name}: ") as info:
+            cli.run(str(scene), threads=1, **kw)
+        assert info.value.name == name
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["w.toml"]
+    monkeypatch.undo()
+    monkeypatch.chdir(tmp_path)
+    assert cli.run(str(scene), threads=1, files=False,
+                   figure_options={"format": "png", "dpi": 150, "units": "scene"}) == 0
 
 
 def test_the_allowed_combinations_still_run(tmp_path, monkeypatch, capsys):

@@ -70,6 +70,8 @@ def run(scene_path: Optional[str] = None, *, paths=None, seed=None, threads=None
     OSError
         Writing the outputs failed after the simulation (e.g. the disk is full).
     """
+    _refuse_ignored(out=out, overwrite=overwrite, files=files, figures=figures,
+                    figure_options=figure_options)
     scene, settings, is_paper = _load_scene(scene_path)
     earlier = _check_out(out, overwrite) if files else []
     if error is not None or rel_error is not None:
@@ -197,6 +199,28 @@ def _file_run_with_error(file: str, settings) -> None:
         print(f"crandall: note: {file}: [run] {' and '.join(unused)} not used: a run to an "
               "accuracy chooses its grids and paths itself; run without --error / --rel-error "
               "to use them", file=sys.stderr)
+
+
+#: The figure options' defaults (as the command line fills them in).
+FIGURE_DEFAULTS = {"format": "png", "dpi": 150, "units": "scene"}
+
+
+def _refuse_ignored(*, out, overwrite, files, figures, figure_options) -> None:
+    """What ``run`` would silently ignore, refused naming it (the command line's parser refuses
+    the same beside --no-files and --no-figures; a Python caller gets it here): an output
+    folder, ``overwrite`` or figure options with ``files=False``, figure options with
+    ``figures=False``. Figure options equal to their defaults change nothing and pass."""
+    given = {k: v for k, v in (figure_options or {}).items() if FIGURE_DEFAULTS.get(k, k) != v}
+    if not files:
+        for name, value in (("out", out != DEFAULT_OUT), ("overwrite", bool(overwrite)),
+                            ("figure_options", bool(given))):
+            if value:
+                raise ParameterError(name, f"{name}: has no effect with files=False (nothing is "
+                                           "written); leave out one of them")
+    elif not figures and given:
+        raise ParameterError("figure_options", "figure_options: "
+                             f"{', '.join(sorted(given))} has no effect with figures=False (no "
+                             "figures are drawn); leave out one of them")
 
 
 def note_unused_run_table(file: str, settings, command: str) -> None:
