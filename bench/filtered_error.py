@@ -41,15 +41,23 @@ References, none from the code under test:
   influence function 2 (X - mean)^2 - (X' - mean')^2) at dt = 2e-3, 1e-3 and 5e-4 s; the
   finest is the reference, its standard error counted as above, the coarser two check the
   first-order extrapolation. Cached in bench/results/filtered_error_friction_reference.json
-  (--recompute-reference to redo it).
+  (--recompute-reference to redo it). Where bench/results/filtered_error_friction_controlled.json
+  exists (--controlled-euler K: the same peer with control variates of its own,
+  numba_kt.coupled_at_controls, cross-fitted; --controlled-dt for its step), its pooled
+  blocks at the finest step are the reference instead (controlled_reference: standard errors
+  3-7x smaller, plus a third of the difference to the blocks at twice that step, the
+  extrapolation's second-order rest); ``friction_omega_tstar_4_means_error_0.004`` runs the
+  two means alone against it.
 
 Writes bench/out/filtered_error.{json,png} (bench/results/ with --publish).
 
     OMP_NUM_THREADS=1 .venv/bin/python bench/filtered_error.py [--seeds 200] [--threads 2] [--cases a,b]
         [--stem filtered_error] [--deadline HH:MM] [--recompute-reference] [--publish]
     .venv/bin/python bench/filtered_error.py --check-reference K   (K more Euler blocks)
-    .venv/bin/python bench/filtered_error.py --recount STEM [--publish]
-        (STEM's stored per-seed values against the pooled Euler reference)
+    .venv/bin/python bench/filtered_error.py --recount STEM [--against controlled] [--publish]
+        (STEM's stored per-seed values against the pooled Euler reference, or the controlled one)
+    .venv/bin/python bench/filtered_error.py --controlled-euler K [--controlled-paths N]
+        [--controlled-dt DT]   (K more controlled Euler blocks)
 """
 
 from __future__ import annotations
