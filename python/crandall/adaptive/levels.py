@@ -51,6 +51,12 @@ FILTER_MAX_PATHS = 1 << 40
 #: BATCH_BYTES in a batch: scenes with many output times); and the pilot of a new level.
 BATCH_PATHS = 1 << 16
 PILOT_PATHS = 4096
+#: A filtered excitation's pilot on the levels after the base (and the whole batches they grow
+#: by): their differences cost 2 grids of 2^l times the base's steps each, and the base level's
+#: spread sets the error, so 4096 of them were most of a loose target's time (docs/methods/
+#: adaptive.md, "A filtered excitation"). The base level keeps PILOT_PATHS (its controls'
+#: coefficients are fitted on them).
+FILTER_LEVEL_PILOT = 1024
 #: The default bound on a run's estimated time (s): past it the run stops with the estimate
 #: (simulate's ``max_seconds`` raises it).
 MAX_SECONDS = 3600.0

@@ -19,7 +19,7 @@ from ..driver import Progress
 from ..errors import ParameterError
 from ..methods import ORDERS
 from ..quantities import quantity
-from .levels import _Level, _Sums, PILOT_PATHS
+from .levels import _Level, _Sums, FILTER_LEVEL_PILOT, PILOT_PATHS
 #: Levels beyond the base (the finest grid is 2^MAX_LEVELS times finer than the base).
 MAX_LEVELS = 14
 #: Paths a level can draw (its Philox counters run to 2^62).
@@ -99,6 +99,16 @@ class _Schedule:
                 self.levels[0].controls = True
                 self.levels[0].control_slots = self.control_slots
         return self.levels[level]
+
+    def _pilot(self, level: int) -> int:
+        """A level's pilot paths (and the whole batches it grows by): PILOT_PATHS, but
+        FILTER_LEVEL_PILOT on a filtered excitation's levels after the base."""
+        return FILTER_LEVEL_PILOT if self.filtered and level > 0 else PILOT_PATHS
+
+    def _pilot_text(self) -> str:
+        if self._pilot(1) == PILOT_PATHS:
+            return f"{PILOT_PATHS} paths per level"
+        return f"{PILOT_PATHS} paths on the base level and {self._pilot(1)} on each finer one"
 
     def _grow(self, level: int, target: int):
         lev = self._level(level)
@@ -226,13 +236,13 @@ class _Schedule:
         if self.pending is None:
             # A filtered excitation's velocity has a grid bias too (model.FILTERED_LEVELS).
             deepest = (2 if self.level_targets and (self.integrals or self.filtered) else 0)
-            self.pending = [[level, PILOT_PATHS] for level in range(deepest + 1)]
+            self.pending = [[level, self._pilot(level)] for level in range(deepest + 1)]
             # The first estimate comes after the pilot: a scene whose pilot alone would
             # outlast max_seconds at a rate no machine reaches is refused before it starts.
-            pilot = sum(PILOT_PATHS * self._level(level).cost for level, _ in self.pending)
+            pilot = sum(n * self._level(level).cost for level, n in self.pending)
             if pilot / FASTEST_RATE > self.max_seconds:
                 raise ParameterError(
-                    "max_seconds", f"max_seconds: the pilot alone ({PILOT_PATHS} paths per level, "
+                    "max_seconds", f"max_seconds: the pilot alone ({self._pilot_text()}, "
                     f"{pilot:.3g} path-steps) would take at least {pilot / FASTEST_RATE:.3g} s "
                     f"even at {FASTEST_RATE:.0e} path-steps per second, beyond max_seconds="
                     f"{self.max_seconds:g}; give shorter times or t0, or observe only velocity, "
@@ -258,7 +268,7 @@ class _Schedule:
                 if time.perf_counter() - started + seconds > self.max_seconds:
                     raise self._too_long(seconds, steps,
                                          "the round in progress alone" if self.round_count
-                                         else f"the pilot alone, {PILOT_PATHS} paths per level")
+                                         else f"the pilot alone, {self._pilot_text()}")
         while True:
             while self.pending:
                 level, target = self.pending[0]
@@ -329,7 +339,7 @@ class _Schedule:
                 raise self._too_long(seconds, left, f"after {self.round_count} rounds",
                                      self._drivers(asks))
             if deeper and len(self.levels) <= MAX_LEVELS:
-                self.pending = [[len(self.levels), PILOT_PATHS]]
+                self.pending = [[len(self.levels), self._pilot(len(self.levels))]]
                 continue
             if deeper:
                 raise ParameterError(
@@ -340,7 +350,8 @@ class _Schedule:
                 have = self.levels[level].sums.n
                 n = min(n, have * MAX_GROWTH)
                 # Whole batches beyond the pilot, so that small increments do not cost a call.
-                n = -(-n // PILOT_PATHS) * PILOT_PATHS
+                unit = self._pilot(level)
+                n = -(-n // unit) * unit
                 if n > have:
                     self.pending.append([level, n])
 
