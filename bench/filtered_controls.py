@@ -30,8 +30,14 @@ overfit cannot inflate it.
 
 Writes bench/out/filtered_controls.{json,png} (bench/results/ with --publish).
 
+With --shares, what the core's controls themselves explain on a run to an accuracy's base level
+(its step, depth and plan), fitted as the run fits them (pilots of 4096 paths), measured on a
+held-out half of --paths paths: the first 15 controls (ground features and body sums), 18 (and
+the products), all 22 (and the second-order sums); writes filtered_controls_shares.{json,png}.
+
     .venv/bin/python bench/filtered_controls.py [--paths 4000] [--publish]
     .venv/bin/python bench/filtered_controls.py --estimator-check [--blocks 200] [--publish]
+    .venv/bin/python bench/filtered_controls.py --shares --paths 100000 [--pilots 40] [--publish]
 """
 
 from __future__ import annotations
@@ -171,15 +177,98 @@ def estimator_check(blocks: int, publish: bool):
     print(write("filtered_controls_check", data, plot_check, publish=publish))
 
 
+#: The control groups of --shares: the row's first 15 (ground features and body sums), 18
+#: (and the three products), 22 (and the four second-order sums): _core.CONTROLS.
+GROUPS = (15, 18, 22)
+
+
+def shares(paths: int, pilots: int, publish: bool):
+    """How much of S at the stop and of (S - E S)^2 the core's controls explain on the base
+    level of a run to an accuracy (its step and event depth, its plan: adaptive.levels._Level),
+    as the run uses them: coefficients fitted on a pilot of 4096 paths. `pilots` such pilots
+    drawn from the first half of `paths` paths, each share measured on the second half (heavy
+    tails make a small held-out sample too noisy to tell the groups apart): mean, min and max
+    over the pilots, per group of GROUPS."""
+    from crandall.adaptive.levels import FILTER_BASE_DT_FACTOR, _Level
+    from crandall.spec import default_dt
+
+    assert _core.CONTROLS == GROUPS[-1]
+    rng = np.random.default_rng(2026)
+    cases = []
+    for i, wt in enumerate(CASES):
+        sc = scene(wt)
+        base_dt = FILTER_BASE_DT_FACTOR * default_dt(sc)
+        lev = _Level(sc, 0, 700 + i, base_dt, 2, True)
+        slot = len(sc.times)  # the stop's
+        lev.controls, lev.control_slots = True, [slot]
+        lev.batch = paths
+        values, ctl = lev.samples(0, paths)
+        s = values[:, slot, 0, 2].copy()
+        x = ctl[:, 0, :].copy()
+        half = paths // 2
+        row = {"omega_t_star": wt, "paths": paths, "pilots": pilots, "pilot_paths": PILOT,
+               "base_dt": base_dt}
+        for label, y in (("mean", s), ("variance", (s - s.mean()) ** 2)):
+            out = {}
+            for k in GROUPS:
+                design = np.column_stack([np.ones(paths), x[:, :k]])
+                got = []
+                for _ in range(pilots):
+                    fit = rng.choice(half, PILOT, replace=False)
+                    beta, *_ = np.linalg.lstsq(design[fit], y[fit], rcond=None)
+                    rest = y[half:] - design[half:] @ beta
+                    got.append(1.0 - rest.var() / y[half:].var())
+                got = np.array(got)
+                out[str(k)] = {"mean": float(got.mean()), "min": float(got.min()),
+                               "max": float(got.max())}
+            row[label] = out
+        cases.append(row)
+        print(f"omega t* = {wt:4g}: S " + ", ".join(
+            f"{k}: {row['mean'][str(k)]['mean']:.3f}" for k in GROUPS) + "; (S - E S)^2 " +
+            ", ".join(f"{k}: {row['variance'][str(k)]['mean']:.3f}" for k in GROUPS), flush=True)
+    data = {"machine": platform.machine(), "crandall": crandall.__version__,
+            "command": "bench/filtered_controls.py --shares" + (" --publish" if publish else ""),
+            "groups": list(GROUPS), "cases": cases}
+
+    def plot_shares(data, path):
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, ax = plt.subplots(figsize=(7, 4))
+        rows = data["cases"]
+        x = np.arange(len(rows))
+        for j, k in enumerate(GROUPS):
+            for lab, off, alpha in (("mean", 0, 1.0), ("variance", 3, 0.6)):
+                r = [c[lab][str(k)] for c in rows]
+                ax.bar(x + (j + off - 2.5) * 0.13, [v["mean"] for v in r], width=0.13,
+                       yerr=[[v["mean"] - v["min"] for v in r], [v["max"] - v["mean"] for v in r]],
+                       alpha=alpha, label=f"{'S' if lab == 'mean' else '(S - E S)^2'}: first {k}")
+        ax.set_xticks(x)
+        ax.set_xticklabels([f"omega t* = {c['omega_t_star']:g}" for c in rows])
+        ax.set_ylabel("share explained (held-out half; pilots of 4096)")
+        ax.set_ylim(0, 1.25)
+        ax.legend(fontsize=7, ncol=3, loc="upper center")
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+
+    print(write("filtered_controls_shares", data, plot_shares, publish=publish))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--paths", type=int, default=4000)
+    ap.add_argument("--shares", action="store_true")
+    ap.add_argument("--pilots", type=int, default=40)
     ap.add_argument("--estimator-check", action="store_true")
     ap.add_argument("--blocks", type=int, default=200)
     ap.add_argument("--publish", action="store_true")
     args = ap.parse_args()
     if args.estimator_check:
         estimator_check(args.blocks, args.publish)
+        return
+    if args.shares:
+        shares(args.paths, args.pilots, args.publish)
         return
     cases = []
     for i, wt in enumerate(CASES):

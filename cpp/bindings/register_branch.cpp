@@ -163,6 +163,8 @@ void def_filtered_grid(py::module_& m) {
       "on a filtered plan are these features minus this row.");
   m.attr("GROUND_FEATURES") = crandall::kGroundFeatures;
   m.attr("BODY_CONTROLS") = crandall::kBodyControls;
+  m.attr("BODY_PRODUCTS") = crandall::kBodyProducts;
+  m.attr("BODY_SECOND_ORDER") = crandall::kBodySecondOrder;
   m.def("set_event_margin", &crandall::set_event_margin, py::arg("margin"),
         "Sets the multiple of an interval's a_g spread within which a filtered walk takes an "
         "event as possible (filtered.hpp, kEventMargin) for the process; returns the previous "

@@ -227,6 +227,7 @@ class Walker {
       for (double& x : sums_) x = 0.0;
       for (double& x : martingale_) x = 0.0;
       for (double& x : covariation_) x = 0.0;
+      for (double& x : second_) x = 0.0;
     }
     if (trace_) point(0.0, ground(z_), bodies_[0]);
     std::uint64_t k = 0;
@@ -361,7 +362,7 @@ class Walker {
   // The body controls' sums (filtered.hpp): the walked grid's body at the step's start (a
   // function of the earlier steps only) times the innovation of the step's G, sigma R_G xi.
   // With var_e the innovation's variance, also the quadratic covariations of the products'
-  // sums (filtered.hpp, kBodyProducts).
+  // sums (filtered.hpp, kBodyProducts) and the second-order sums (kBodySecondOrder).
   void innovate(double e, double var_e, double t) {
     const Body& b = bodies_[0];
     const double sv = b.v > 0.0 ? 1.0 : (b.v < 0.0 ? -1.0 : 0.0);
@@ -370,6 +371,11 @@ class Walker {
     covariation_[0] += (b.v * b.v) * var_e;
     covariation_[1] += (b.v * sv) * var_e;
     covariation_[2] += (sv * sv) * var_e;
+    const double av = sv * b.v, excess = e * e - var_e;
+    second_[0] += (b.v * av) * e;
+    second_[1] += excess;
+    second_[2] += (b.v * b.v) * excess;
+    second_[3] += av * excess;
   }
   void snapshot(std::size_t slot) {
     double* f = feature_slots_.data() + slot * kFilteredControls;
@@ -378,6 +384,7 @@ class Walker {
     products[0] = martingale_[0] * martingale_[0] - covariation_[0];
     products[1] = martingale_[0] * martingale_[2] - covariation_[1];
     products[2] = martingale_[2] * martingale_[2] - covariation_[2];
+    for (int q = 0; q < kBodySecondOrder; ++q) products[kBodyProducts + q] = second_[q];
     f[0] = sums_[0];
     f[1] = sums_[1];
     f[2] = vg_ * vg_;
@@ -706,6 +713,7 @@ class Walker {
   double sums_[5] = {};          // the running sums of h a^2, h vg^2, h dg^2, h |a|, h |vg|
   double martingale_[kBodyControls] = {};  // the body controls' sums (innovate)
   double covariation_[kBodyProducts] = {};  // their quadratic covariations (innovate)
+  double second_[kBodySecondOrder] = {};     // the second-order sums (innovate)
   std::vector<double> feature_slots_;
   Trajectory* trace_;
   bool trace_grid_ = false;

@@ -210,6 +210,8 @@ def filtered_grid(
 #: The ground features per path and slot of a filtered plan's control sums.
 GROUND_FEATURES: int
 BODY_CONTROLS: int
+BODY_PRODUCTS: int
+BODY_SECOND_ORDER: int
 
 def set_event_margin(margin: float) -> float:
     """Sets the filtered event search's margin (a diagnostic); returns the previous one."""

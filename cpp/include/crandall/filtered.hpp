@@ -87,7 +87,15 @@ constexpr int kBodyControls = 6;
 // are so heavy (S V, U and (switch_off - t) V squared) that a pilot of 4096 paths fits them
 // worse than not at all.
 constexpr int kBodyProducts = 3;
-constexpr int kFilteredControls = kGroundFeatures + kBodyControls + kBodyProducts;
+// Then four more martingales over the same steps, for the energy balance's second-order part
+// (the realised intensity of the innovations, which the ground features on the grid points
+// see only in part) and the variance's per-path term:
+//   18 sum V |V| e     19 sum (e^2 - var(e))     20 sum V^2 (e^2 - var(e))
+//   21 sum |V| (e^2 - var(e))
+// e_k is Gaussian with variance var(e_k) given everything before the step, so e_k^2 - var(e_k)
+// has mean 0 given it too, and each has mean exactly 0 (docs/filtered.md, "Control variates").
+constexpr int kBodySecondOrder = 4;
+constexpr int kFilteredControls = kGroundFeatures + kBodyControls + kBodyProducts + kBodySecondOrder;
 
 // The multiple of an interval's a_g spread (its bridge's standard deviation at the midpoint,
 // and the curvature of its mean) within which an event is taken as possible (the interval is

@@ -21,7 +21,7 @@ constexpr int kWhiteControls = 15;
 // The width of a path's row of control sums per slot (Workspace::controls): the larger of the
 // white kernel's kWhiteControls and the filtered walker's (filtered.hpp, kFilteredControls);
 // a kernel that has fewer fills the rest with 0.
-constexpr int kControls = 18;
+constexpr int kControls = 22;
 
 }  // namespace crandall
 

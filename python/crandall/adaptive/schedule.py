@@ -429,10 +429,12 @@ class _Schedule:
         if st["beta"] is not None:
             beta = [[float(v) for v in row] for row in st["beta"]]
             if not self.filtered:
-                # The white kernel's controls, as a checkpoint written when the row held only
-                # them has them: the rest of the row is 0, and so are their coefficients.
+                # The white kernel's controls, as a checkpoint written when the row was
+                # narrower has them (only them, or them and zeros: 15 or 18 wide): the rest of
+                # the row is 0, and so are their coefficients.
                 beta = [r + [0.0] * (_core.CONTROLS - len(r))
-                        if len(r) == _core.WHITE_CONTROLS else r for r in beta]
+                        if _core.WHITE_CONTROLS <= len(r) < _core.CONTROLS
+                        and not any(r[_core.WHITE_CONTROLS:]) else r for r in beta]
             if len(beta) != len(self.cols) or any(len(r) != _core.CONTROLS for r in beta) \
                     or not all(math.isfinite(v) for r in beta for v in r):
                 raise ValueError("beta")
