@@ -465,19 +465,23 @@ def test_a_checkpoint_that_summed_the_variance_at_the_stop_otherwise_is_refused(
         crandall.simulate(sc, checkpoint=path, **kw)
 
 
-def test_a_checkpoint_whose_coefficients_cover_only_the_white_controls_resumes(tmp_path):
+@pytest.mark.parametrize("width", [15, 18])
+def test_a_checkpoint_whose_coefficients_cover_only_the_white_controls_resumes(tmp_path, width):
     # The control row holds the white kernel's 15 sums and zeros after them (for a filtered
-    # plan's 18); a checkpoint written when it held 15 (their coefficients only) resumes to
-    # the same result as the one written now, the missing coefficients being 0.
+    # plan's 22); a checkpoint written when it held 15 (their coefficients only) or 18 (and
+    # zeros) resumes to the same result as the one written now, the missing coefficients
+    # being 0.
     import json as _json
     from crandall import _core, adaptive
 
+    assert _core.WHITE_CONTROLS == 15 < 18 < _core.CONTROLS
+
     def cut(state):
-        state["beta"] = [row[:_core.WHITE_CONTROLS] for row in state["beta"]]
         assert all(v == 0.0 for row in state["beta"] for v in row[_core.WHITE_CONTROLS:])
+        state["beta"] = [row[:width] for row in state["beta"]]
     sc, bad = _edited(tmp_path, cut, reseal=True)
     with np.load(bad) as data:
-        assert len(_json.loads(str(data["state"]))["beta"][0]) == _core.WHITE_CONTROLS
+        assert len(_json.loads(str(data["state"]))["beta"][0]) == width
     resumed = crandall.simulate(sc, error=5e-2, seed=1, threads=1, checkpoint=bad)
     fresh = crandall.simulate(sc, error=5e-2, seed=1, threads=1)
     assert resumed.mean("distance").tobytes() == fresh.mean("distance").tobytes()
