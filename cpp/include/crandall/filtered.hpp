@@ -95,7 +95,7 @@ constexpr int kBodyProducts = 3;
 // e_k is Gaussian with variance var(e_k) given everything before the step, so e_k^2 - var(e_k)
 // has mean 0 given it too, and each has mean exactly 0 (docs/filtered.md, "Control variates")
 // up to the generator's own discretisation: Box-Muller's radius from 2^32 midpoints gives
-// E xi^2 = 1 - 1e-10 (the first-order sums' symmetric normals have mean 0 exactly).
+// E xi^2 = 1 - 8.1e-11 (the first-order sums' symmetric normals have mean 0 exactly).
 constexpr int kBodySecondOrder = 4;
 constexpr int kFilteredControls = kGroundFeatures + kBodyControls + kBodyProducts + kBodySecondOrder;
 
