@@ -503,11 +503,16 @@ def test_a_filtered_checkpoint_of_another_event_depth_is_refused(tmp_path):
         arrays = {k: data[k] for k in data.files}
     ident = _json.loads(str(arrays["identity"]))
     assert ident["event_depth"] == 4 and ident["controls"] == crandall._core.CONTROLS
-    del ident["event_depth"]
-    with open(path, "wb") as f:
-        np.savez(f, **{**arrays, "identity": np.array(_json.dumps(ident))})
-    with pytest.raises(ValueError, match=r"belongs to a different run \(.*event_depth"):
-        crandall.simulate(sc, checkpoint=path, **kw)
+    assert ident["refit"] == [crandall.adaptive.levels.REFIT_PILOT,
+                              crandall.adaptive.levels.REFIT_RATIO]
+    # Without the refit's rule (written before long runs refitted their coefficients), or
+    # without the depth.
+    for field in ("refit", "event_depth"):
+        edited = {k: v for k, v in ident.items() if k != field}
+        with open(path, "wb") as f:
+            np.savez(f, **{**arrays, "identity": np.array(_json.dumps(edited))})
+        with pytest.raises(ValueError, match=rf"belongs to a different run \(.*{field}"):
+            crandall.simulate(sc, checkpoint=path, **kw)
 
 
 def test_cli_error(tmp_path, capsys):

@@ -262,3 +262,57 @@ def test_checkpoint_resume_is_bitwise(tmp_path, monkeypatch):
                                                                                   name)
         assert resumed.cost["paths"] == whole.cost["paths"]
         assert resumed.cost["path_steps"] == whole.cost["path_steps"]
+
+
+def test_a_long_run_refits_its_controls_and_resumes_to_its_bits(tmp_path, monkeypatch):
+    # A refit (levels.REFIT_PILOT) forced on a short run: a pilot of 16384 paths (4 first
+    # pilots, the least a refit takes) whenever the base level is asked for 4096 (its first
+    # round asks for 5784 here).
+    sc = Scene(mu=1.0, g=1.0, excitation=_kt(), t0=T0, times=[2.0],
+               observe=["velocity", "distance"])
+    args = dict(rel_error=0.01, seed=21, statistics=["velocity:var", "distance:mean"])
+    monkeypatch.setattr(adaptive.schedule, "REFIT_PILOT", 4 * adaptive.PILOT_PATHS)
+    monkeypatch.setattr(adaptive.schedule, "REFIT_RATIO", 0.25)
+    monkeypatch.setattr(adaptive.entry, "CHECKPOINT_SECONDS", 0.0)
+    fits = []
+    real_fit = adaptive.features._Features._fit_controls
+
+    def fit(self, block, controls):
+        fits.append(len(block))
+        return real_fit(self, block, controls)
+
+    monkeypatch.setattr(adaptive.features._Features, "_fit_controls", fit)
+    whole = crandall.simulate(sc, threads=1, **args)
+    # Fitted twice: on the first pilot, then on the refit's.
+    assert fits == [adaptive.PILOT_PATHS, 4 * adaptive.PILOT_PATHS]
+    base = whole.levels[0]
+    # What the base level drew: its two pilots, the paths set aside (a whole batch of the
+    # first round at least) and its estimate.
+    assert whole.cost["path_steps"] > (5 * adaptive.PILOT_PATHS + base["paths"]) \
+        * base["steps_per_path"] + sum(lv["paths"] * lv["steps_per_path"] * 1.5
+                                        for lv in whole.levels[1:])
+    # It meets its target by the run's own rule, error <= rel x |value|.
+    assert whole.error("velocity", "var")[0] <= 0.01 * whole.var("velocity")[0]
+    assert whole.error("distance", "mean")[0] <= 0.01 * whole.mean("distance")[0]
+    real = adaptive._core.run_samples
+    calls = {"n": 0}
+    # Stopped in the first round, at the refit's pilot and after it.
+    for stop_after in (3, 4, 5):
+        ckpt = tmp_path / f"run{stop_after}.json"
+        calls["n"] = 0
+
+        def interrupted(*a, **kw):
+            calls["n"] += a[1] < FILTER_MAX_PATHS - 64
+            if calls["n"] > stop_after:
+                raise KeyboardInterrupt
+            return real(*a, **kw)
+
+        monkeypatch.setattr(adaptive._core, "run_samples", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            crandall.simulate(sc, threads=2, checkpoint=ckpt, **args)
+        monkeypatch.setattr(adaptive._core, "run_samples", real)
+        resumed = crandall.simulate(sc, threads=2, checkpoint=ckpt, **args)
+        for name in ("velocity", "distance"):
+            assert resumed.table(name).tobytes() == whole.table(name).tobytes(), (stop_after,
+                                                                                  name)
+        assert resumed.cost["path_steps"] == whole.cost["path_steps"]

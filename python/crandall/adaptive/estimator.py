@@ -105,6 +105,9 @@ class _Engine(_Features, _Schedule, Estimator):
         self.use_controls = USE_CONTROLS and (
             self.filtered or (self.integrals and scene.drift > 0))
         self.beta = None
+        #: After a refit of the base level's control coefficients (levels.REFIT_PILOT): the
+        #: estimation paths it set aside; None before.
+        self.refit: Optional[int] = None
         self.sums_width = sum(w + w * (w + 1) // 2 for w in self.widths)
         #: What is left of the current round: [level, paths] to grow to, in order.
         self.pending: Optional[List[List[int]]] = None
@@ -286,6 +289,9 @@ class _Engine(_Features, _Schedule, Estimator):
             # searched deeper, or whose coefficients fitted other controls, is another run).
             spec["event_depth"] = _levels.FILTER_EVENT_DEPTH
             spec["controls"] = _core.CONTROLS
+            # When and on how many paths the base level refits them (a checkpoint written
+            # with another rule would carry on as neither run).
+            spec["refit"] = [_levels.REFIT_PILOT, _levels.REFIT_RATIO]
         return spec
 
 

@@ -57,6 +57,16 @@ PILOT_PATHS = 4096
 #: adaptive.md, "A filtered excitation"). The base level keeps PILOT_PATHS (its controls'
 #: coefficients are fitted on them).
 FILTER_LEVEL_PILOT = 1024
+#: A filtered excitation's long runs refit the base level's control coefficients on a second,
+#: larger pilot of this many paths (at most a batch): when a round's estimates ask the base
+#: level for at least REFIT_RATIO times what the refit costs (that pilot and the base level's
+#: estimation paths so far, set aside), the coefficients of the first pilot
+#: (PILOT_PATHS) and the base level's estimate so far are set aside, the coefficients are
+#: fitted again on the next REFIT_PILOT paths and the estimate starts again after them (the
+#: coefficients stay independent of the paths they are applied to): docs/methods/adaptive.md,
+#: "A filtered excitation". The refit costs at most 1/REFIT_RATIO of the base level's paths.
+REFIT_PILOT = 1 << 16
+REFIT_RATIO = 64
 #: The default bound on a run's estimated time (s): past it the run stops with the estimate
 #: (simulate's ``max_seconds`` raises it).
 MAX_SECONDS = 3600.0

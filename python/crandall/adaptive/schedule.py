@@ -19,7 +19,7 @@ from ..driver import Progress
 from ..errors import ParameterError
 from ..methods import ORDERS
 from ..quantities import quantity
-from .levels import _Level, _Sums, FILTER_LEVEL_PILOT, PILOT_PATHS
+from .levels import _Level, _Sums, FILTER_LEVEL_PILOT, PILOT_PATHS, REFIT_PILOT, REFIT_RATIO
 #: Levels beyond the base (the finest grid is 2^MAX_LEVELS times finer than the base).
 MAX_LEVELS = 14
 #: Paths a level can draw (its Philox counters run to 2^62).
@@ -110,11 +110,28 @@ class _Schedule:
             return f"{PILOT_PATHS} paths per level"
         return f"{PILOT_PATHS} paths on the base level and {self._pilot(1)} on each finer one"
 
+    def _control_pilot(self) -> int:
+        """The paths the base level's control coefficients are fitted on: PILOT_PATHS, or
+        after a refit (REFIT_PILOT) a whole batch of at most REFIT_PILOT."""
+        return PILOT_PATHS if self.refit is None else min(self.batch, REFIT_PILOT)
+
+    def _refits(self, want: int) -> bool:
+        """Whether the base level refits its control coefficients now (levels.REFIT_PILOT):
+        a filtered excitation's, once, when the estimates ask it for at least REFIT_RATIO
+        times what the refit costs (the larger pilot and the paths it sets aside), and a batch
+        holds several times the first pilot's."""
+        lev = self.levels[0]
+        pilot = min(self.batch, REFIT_PILOT)
+        return (self.filtered and lev.controls and self.beta is not None and self.refit is None
+                and pilot >= 4 * PILOT_PATHS and want >= REFIT_RATIO * (pilot + lev.sums.n))
+
     def _grow(self, level: int, target: int):
         lev = self._level(level)
         have = lev.sums.n if lev.sums is not None else 0
         if lev.controls and self.beta is None:
-            yield from self._simulate(lev, 0, PILOT_PATHS)  # the pilot: coefficients only
+            # The pilot: coefficients only (the first at path 0, a refit's after the paths
+            # set aside).
+            yield from self._simulate(lev, lev.start, self._control_pilot())
         if target > have:
             yield from self._simulate(lev, lev.start + have, target - have)
 
@@ -258,8 +275,8 @@ class _Schedule:
                 lev = self._level(level)
                 have = lev.sums.n if lev.sums is not None else 0
                 # A level with control variates fits their coefficients on paths of its own.
-                paths = max(n - have, 0) + (PILOT_PATHS if lev.controls and self.beta is None
-                                            else 0)
+                paths = max(n - have, 0) + (self._control_pilot()
+                                            if lev.controls and self.beta is None else 0)
                 if not paths:
                     continue
                 seconds += paths * self.path_seconds(level)
@@ -354,6 +371,17 @@ class _Schedule:
                 n = -(-n // unit) * unit
                 if n > have:
                     self.pending.append([level, n])
+            if self._refits(want[0]):
+                # The base level's estimate so far is set aside (its paths stay counted in
+                # path_steps), the coefficients are fitted again on the next paths, and the
+                # estimate starts again after them with a batch as large as that pilot.
+                base = self.levels[0]
+                self.refit = base.sums.n
+                base.start += base.sums.n
+                base.sums = None
+                self.beta = None
+                self.pending = [[0, self._control_pilot()]] + [p for p in self.pending
+                                                              if p[0] != 0]
 
     def _show(self, worst: float, seconds: float) -> None:
         left = ("done" if seconds == 0 else "estimating" if math.isnan(seconds)
@@ -365,7 +393,8 @@ class _Schedule:
 
     def _state(self) -> Dict:
         return {"centre": None if self.centre is None else [float(c) for c in self.centre],
-                "beta": self.beta, "path_steps": self.path_steps, "rounds": self.round_count,
+                "beta": self.beta, "refit": self.refit, "path_steps": self.path_steps,
+                "rounds": self.round_count,
                 "wall_time": self.wall_before + (time.perf_counter() - self.started),
                 "pending": self.pending,
                 "levels": [{"start": lev.start, "n": 0 if lev.sums is None else lev.sums.n,
@@ -401,12 +430,23 @@ class _Schedule:
         levels = st["levels"]
         if not isinstance(levels, list) or len(levels) > MAX_LEVELS + 1:
             raise ValueError(f"levels: {MAX_LEVELS + 1} at most")
+        # The base level's estimation paths a refit set aside (absent before refits were).
+        refit = st.get("refit")
+        if refit is not None:
+            refit = _nonneg_int(refit, "refit")
+            if not self.filtered or refit > self.max_level_paths:
+                raise ValueError("refit")
+        self.refit = refit
+        first = min(self.batch, PILOT_PATHS)
         steps = 0
         for k, lv in enumerate(levels):
             lev = self._level(k)
             start = _nonneg_int(lv["start"], f"levels[{k}].start")
-            # Only the base level leaves paths out: the first batch of its pilot.
-            if start not in ((0, min(self.batch, PILOT_PATHS)) if k == 0 else (0,)):
+            # Only the base level leaves paths out: the first batch of its pilot; after a
+            # refit, the paths it set aside and (once run) its pilot.
+            allowed = ((0,) if k else (0, first) if refit is None
+                       else (first + refit, first + refit + self._control_pilot()))
+            if start not in allowed:
                 raise ValueError(f"levels[{k}].start")
             n = _nonneg_int(lv["n"], f"levels[{k}].n")
             if n > self.max_level_paths:
