@@ -58,6 +58,8 @@ Writes bench/out/filtered_error.{json,png} (bench/results/ with --publish).
         (STEM's stored per-seed values against the pooled Euler reference, or the controlled one)
     .venv/bin/python bench/filtered_error.py --controlled-euler K [--controlled-paths N]
         [--controlled-dt DT]   (K more controlled Euler blocks)
+    OMP_NUM_THREADS=1 .venv/bin/python bench/filtered_error.py --refit 16384,0.25 ...
+        (the base level's refit forced onto the cases' shorter runs, its count in "refit")
 """
 
 from __future__ import annotations
@@ -734,6 +736,28 @@ def key_name(key, times) -> str:
     return f"{name}_{stat}" + ("" if i is None else f"@{times[i]:g}")
 
 
+#: With --refit: how many runs' rounds asked whether to refit, and how many did.
+REFITS = {"asked": 0, "refitted": 0}
+
+
+def force_refit(rule: str) -> None:
+    """--refit PILOT,RATIO: the base level's refit (docs/methods/adaptive.md, "A refit for
+    long runs") on runs far shorter than its own rule reaches, so that the calibration's cases
+    check its estimates; the refits that happened are counted in REFITS."""
+    from crandall.adaptive import schedule
+    pilot, ratio = rule.split(",")
+    schedule.REFIT_PILOT, schedule.REFIT_RATIO = int(pilot), float(ratio)
+    ask = schedule._Schedule._refits
+
+    def counted(self, want):
+        yes = ask(self, want)
+        REFITS["asked"] += 1
+        REFITS["refitted"] += int(yes)
+        return yes
+
+    schedule._Schedule._refits = counted
+
+
 def run_case(name, case, seeds: int, first_seed: int, threads: int, deadline=None):
     scene, statistics, kind, target, refs = case
     refs = refs()  # computed (or read from the cache) only for the cases run
@@ -843,8 +867,13 @@ def main():
                          "reference for the friction statistics)")
     ap.add_argument("--controlled-paths", type=int, default=500_000)
     ap.add_argument("--controlled-dt", type=float, default=1e-3)
+    ap.add_argument("--refit", default=None, metavar="PILOT,RATIO",
+                    help="force the base level's refit onto these shorter runs: its pilot and "
+                         "ratio (adaptive.levels.REFIT_PILOT, REFIT_RATIO), e.g. 16384,0.25")
     ap.add_argument("--publish", action="store_true")
     a = ap.parse_args()
+    if a.refit:
+        force_refit(a.refit)
     if a.controlled_euler:
         controlled_euler(a.controlled_euler, a.controlled_paths, a.controlled_dt)
         return
@@ -876,6 +905,8 @@ def main():
                                   if k != "references"}
     if any(n.startswith("friction_") for n in chosen):
         data["friction_reference"] = euler_reference()
+    if a.refit:
+        data["refit"] = dict(REFITS, rule=a.refit)
     data["wall_time_total"] = time.perf_counter() - t
     data["command"] = " ".join(["bench/filtered_error.py"] + sys.argv[1:])
     data["crandall"] = crandall.__version__

@@ -429,6 +429,8 @@ def _set(field, value):
     (lambda st: _set(("pending",), [[99, 4096]])(st), "pending"),
     (lambda st: _set(("wall_time",), -1.0)(st), "wall_time"),
     (lambda st: _set(("path_steps",), st["path_steps"] + 1)(st), "path_steps"),
+    # Only a filtered excitation's base level refits its coefficients.
+    (lambda st: _set(("refit",), 0)(st), "refit"),
 ])
 def test_edited_checkpoints_are_refused_naming_the_file_and_the_field(tmp_path, edit, field,
                                                                        reseal):
