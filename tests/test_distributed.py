@@ -108,6 +108,28 @@ def test_a_filtered_run_to_an_accuracy_on_the_cluster_is_bitwise_local(client):
     assert remote.cost["paths"] == local.cost["paths"]
 
 
+def test_a_filtered_run_that_refits_its_controls_on_the_cluster_is_bitwise_local(client,
+                                                                                 monkeypatch):
+    # The refit (adaptive.levels.REFIT_PILOT) forced as in tests/test_filtered_error.py: its
+    # pilot runs here, the batches after it on the workers with the new coefficients.
+    from crandall import adaptive
+    monkeypatch.setattr(adaptive.schedule, "REFIT_PILOT", 4 * adaptive.PILOT_PATHS)
+    monkeypatch.setattr(adaptive.schedule, "REFIT_RATIO", 0.25)
+    sc = crandall.Scene(mu=1.0, g=1.0, t0=10.0, times=[2.0], observe=["velocity", "distance"],
+                        excitation=crandall.KanaiTajimi(omega=2.0, zeta=0.6, h=1.0))
+    args = dict(rel_error=0.01, seed=21, statistics=["velocity:var", "distance:mean"])
+    local = crandall.simulate(sc, threads=2, **args)
+    remote = crandall.simulate(sc, client=client, **args)
+    assert remote.to_pandas().equals(local.to_pandas())
+    assert remote.cost["path_steps"] == local.cost["path_steps"]
+    # It did refit: the base level drew its two pilots (4096 and 16384) and the first round's
+    # estimation paths besides the estimate's.
+    base = local.levels[0]
+    assert local.cost["path_steps"] > (5 * adaptive.PILOT_PATHS + base["paths"]) \
+        * base["steps_per_path"] + sum(lv["paths"] * lv["steps_per_path"] * 1.5
+                                        for lv in local.levels[1:])
+
+
 def test_cluster_histograms_and_peaks_are_bitwise_the_local_ones(client):
     s = crandall.Scene.scaled(tau0=1.0, times=[0.5, 1.5], observe=["velocity", "stop", "peaks"],
                               distributions=True)
