@@ -744,9 +744,9 @@ def force_refit(rule: str) -> None:
     """--refit PILOT,RATIO: the base level's refit (docs/methods/adaptive.md, "A refit for
     long runs") on runs far shorter than its own rule reaches, so that the calibration's cases
     check its estimates; the refits that happened are counted in REFITS."""
-    from crandall.adaptive import schedule
+    from crandall.adaptive import levels, schedule
     pilot, ratio = rule.split(",")
-    schedule.REFIT_PILOT, schedule.REFIT_RATIO = int(pilot), float(ratio)
+    levels.REFIT_PILOT, levels.REFIT_RATIO = int(pilot), float(ratio)
     ask = schedule._Schedule._refits
 
     def counted(self, want):

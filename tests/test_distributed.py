@@ -113,8 +113,8 @@ def test_a_filtered_run_that_refits_its_controls_on_the_cluster_is_bitwise_local
     # The refit (adaptive.levels.REFIT_PILOT) forced as in tests/test_filtered_error.py: its
     # pilot runs here, the batches after it on the workers with the new coefficients.
     from crandall import adaptive
-    monkeypatch.setattr(adaptive.schedule, "REFIT_PILOT", 4 * adaptive.PILOT_PATHS)
-    monkeypatch.setattr(adaptive.schedule, "REFIT_RATIO", 0.25)
+    monkeypatch.setattr(adaptive.levels, "REFIT_PILOT", 4 * adaptive.PILOT_PATHS)
+    monkeypatch.setattr(adaptive.levels, "REFIT_RATIO", 0.25)
     sc = crandall.Scene(mu=1.0, g=1.0, t0=10.0, times=[2.0], observe=["velocity", "distance"],
                         excitation=crandall.KanaiTajimi(omega=2.0, zeta=0.6, h=1.0))
     args = dict(rel_error=0.01, seed=21, statistics=["velocity:var", "distance:mean"])

@@ -279,8 +279,8 @@ def test_a_long_run_refits_its_controls_and_resumes_to_its_bits(tmp_path, monkey
     sc = Scene(mu=1.0, g=1.0, excitation=_kt(), t0=T0, times=[2.0],
                observe=["velocity", "distance"])
     args = dict(rel_error=0.01, seed=21, statistics=["velocity:var", "distance:mean"])
-    monkeypatch.setattr(adaptive.schedule, "REFIT_PILOT", 4 * adaptive.PILOT_PATHS)
-    monkeypatch.setattr(adaptive.schedule, "REFIT_RATIO", 0.25)
+    monkeypatch.setattr(adaptive.levels, "REFIT_PILOT", 4 * adaptive.PILOT_PATHS)
+    monkeypatch.setattr(adaptive.levels, "REFIT_RATIO", 0.25)
     monkeypatch.setattr(adaptive.entry, "CHECKPOINT_SECONDS", 0.0)
     fits = []
     real_fit = adaptive.features._Features._fit_controls

@@ -19,7 +19,8 @@ from ..driver import Progress
 from ..errors import ParameterError
 from ..methods import ORDERS
 from ..quantities import quantity
-from .levels import _Level, _Sums, FILTER_LEVEL_PILOT, PILOT_PATHS, REFIT_PILOT, REFIT_RATIO
+from . import levels as _levels
+from .levels import _Level, _Sums, FILTER_LEVEL_PILOT, PILOT_PATHS
 #: Levels beyond the base (the finest grid is 2^MAX_LEVELS times finer than the base).
 MAX_LEVELS = 14
 #: Paths a level can draw (its Philox counters run to 2^62).
@@ -113,17 +114,19 @@ class _Schedule:
     def _control_pilot(self) -> int:
         """The paths the base level's control coefficients are fitted on: PILOT_PATHS, or
         after a refit (REFIT_PILOT) a whole batch of at most REFIT_PILOT."""
-        return PILOT_PATHS if self.refit is None else min(self.batch, REFIT_PILOT)
+        return PILOT_PATHS if self.refit is None else min(self.batch, _levels.REFIT_PILOT)
 
     def _refits(self, want: int) -> bool:
         """Whether the base level refits its control coefficients now (levels.REFIT_PILOT):
         a filtered excitation's, once, when the estimates ask it for at least REFIT_RATIO
         times what the refit costs (the larger pilot and the paths it sets aside), and a batch
         holds several times the first pilot's."""
+        # Read from the module at each call (as the checkpoint's identity reads them).
         lev = self.levels[0]
-        pilot = min(self.batch, REFIT_PILOT)
+        pilot = min(self.batch, _levels.REFIT_PILOT)
         return (self.filtered and lev.controls and self.beta is not None and self.refit is None
-                and pilot >= 4 * PILOT_PATHS and want >= REFIT_RATIO * (pilot + lev.sums.n))
+                and pilot >= 4 * PILOT_PATHS
+                and want >= _levels.REFIT_RATIO * (pilot + lev.sums.n))
 
     def _grow(self, level: int, target: int):
         lev = self._level(level)
