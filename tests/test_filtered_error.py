@@ -1,8 +1,8 @@
 """Runs to an accuracy of a filtered excitation (simulate(scene, error=EPS) on a Kanai-Tajimi
 scene: crandall.model.FILTERED_LEVELS, docs/methods/adaptive.md). Their calibration over many
 seeds is bench/filtered_error.py's; here a run meets a loose target against references from
-outside the code, says which model it used, refuses what it cannot estimate by name, and
-resumes from a checkpoint to the same bits."""
+outside the code, says which model it used, estimates the stop time (its last rest searched
+for touches), and resumes from a checkpoint to the same bits."""
 
 from __future__ import annotations
 
@@ -205,19 +205,54 @@ def test_an_envelope_has_its_pieces_chosen_and_their_error_in_the_bias():
     assert abs(value - ref) <= 4 * err, (value, ref, err)
 
 
-def test_what_the_filtered_levels_do_not_estimate_is_refused_by_name():
-    sc = Scene(mu=1.0, g=1.0, excitation=_kt(), t0=T0, times=[T0], observe=["distance", "stop"])
-    with pytest.raises(ParameterError, match="stop_time is not available") as exc:
-        crandall.simulate(sc, error=0.1, seed=1, statistics=["stop_time:mean"])
-    assert exc.value.name == "statistics"
-    only_stop = Scene(mu=1.0, g=1.0, excitation=_kt(), t0=T0, times=[T0], observe=["stop"])
-    with pytest.raises(ParameterError, match="estimates no stop time") as exc:
-        crandall.simulate(only_stop, error=0.1, seed=1)
-    assert exc.value.name == "observe"
-    # Without statistics=, a run leaves the stop time out (its result holds no stop_time).
-    assert "stop_time" not in {t.name for t in adaptive._targets(sc)}
-    assert "stop_time" in {t.name for t in adaptive._targets(
-        Scene.scaled(tau0=1.0, times=[1.0], observe=["distance", "stop"]))}
+def _stop_times(sc, paths, seed, depth):
+    """Per path, the walked grid's stop time at event depth `depth` (the same skeleton and
+    bridges at every depth: docs/filtered.md)."""
+    from crandall import _core, engine
+    from crandall.spec import RunSpec
+    spec = RunSpec.create(sc, paths=paths, seed=seed, event_depth=depth)
+    plan = _core.Plan(engine.plan_options(spec, histograms=False))
+    return np.asarray(_core.run_samples(plan, 0, paths, 1))[:, len(sc.times), 0, 0]
+
+
+def test_the_last_rests_touches_make_the_stop_time_all_but_independent_of_the_depth():
+    # omega t* = 1: the body rests for good about 2 s before t0 on average. Before the last
+    # rest's touches were searched (to depth 20 whatever the event depth), depth 8 against
+    # 10 moved the mean stop time by 9.1e-3 +- 1.5e-3 s (docs/filtered.md); now depth 8
+    # against 20 moves it by about -6e-6 +- 4e-7 s, the sliding events' own depth error.
+    # The bound 1e-4 s is 1 % of the old shift and over 100 standard errors of the new one.
+    sc = Scene(mu=1.0, g=1.0, excitation=_kt(omega=0.5), t0=T0, times=[T0], observe=["stop"])
+    shallow, deep = (_stop_times(sc, 4000, 5, d) for d in (8, 20))
+    d = shallow - deep
+    assert abs(d.mean()) < 1e-4, (d.mean(), d.std() / math.sqrt(d.size))
+
+
+def test_a_filtered_fixed_step_checkpoint_names_its_touch_search(tmp_path):
+    # The stop time counts the touches found down to _core.TOUCH_DEPTH: a checkpoint whose
+    # stop times were summed without that search belongs to another run.
+    import json
+    sc = Scene(mu=1.0, g=1.0, excitation=_kt(), t0=2.0, times=[2.0], observe=["stop"])
+    path = tmp_path / "f.ckpt"
+    kw = dict(paths=64, seed=1, threads=1)
+    crandall.simulate(sc, checkpoint=path, **kw)
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    ident = json.loads(str(arrays["identity"]))
+    assert ident["touch_depth"] == crandall._core.TOUCH_DEPTH == 20
+    edited = {k: v for k, v in ident.items() if k != "touch_depth"}
+    with open(path, "wb") as f:
+        np.savez(f, **{**arrays, "identity": np.array(json.dumps(edited))})
+    with pytest.raises(ValueError, match=r"belongs to a different run \(.*touch_depth"):
+        crandall.simulate(sc, checkpoint=path, **kw)
+    # Without the stop observed (or under white noise) the identity has no such field.
+    white = Scene.scaled(tau0=1.0, times=[1.0], observe=["stop"])
+    no_stop = Scene(mu=1.0, g=1.0, excitation=_kt(), t0=2.0, times=[2.0], observe=["distance"])
+    for other in (white, no_stop):
+        p = tmp_path / "o.ckpt"
+        crandall.simulate(other, checkpoint=p, **kw)
+        with np.load(p) as data:
+            assert "touch_depth" not in json.loads(str(data["identity"]))
+        p.unlink()
 
 
 def test_checkpoint_resume_is_bitwise(tmp_path, monkeypatch):

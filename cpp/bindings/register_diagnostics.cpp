@@ -41,6 +41,9 @@ py::list filter_root_levels(const std::vector<double>& a, const std::vector<doub
 
 void register_diagnostics(py::module_& m) {
   m.attr("RANDOM_STREAM") = crandall::kRandomStream;
+  // The depth below a fine step to which a filtered path's last rest is searched for touches
+  // at the stop (filter.hpp, kGrazeDepth): part of a checkpoint's identity.
+  m.attr("TOUCH_DEPTH") = crandall::kGrazeDepth;
 
   m.def(
       "filtered_trajectory",

@@ -571,6 +571,26 @@ void widest_below(const std::vector<RootLevel>& levels, const RMat& c_row, std::
   widest_below(levels, c_row, level + 1, sub - 1, mid, right, node, widest);
 }
 
+// The conditional means of a_g at the points below an interval, given its start z and its xi
+// (the nodes' eta at 0): zs (n x (n + m)) and xi (m x (n + m)) are the interval's start state's
+// and noise coordinates' coefficients on (z_start; sigma xi); out[j] receives c times the
+// coefficients of the point j / 2^sub of the interval of points [lo, hi] (out's indices).
+void means_below(const std::vector<RootLevel>& levels, const RMat& c_row, std::size_t level,
+                 int sub, const RMat& zs, const RMat& xi, int lo, int hi, std::vector<RMat>& out) {
+  if (sub == 0) return;
+  const int n = c_row.cols, m = xi.rows;
+  const RMat split = from_row_major(levels[level].split, 2 * m, 2 * m);
+  const RMat phi = from_row_major(levels[level + 1].phi, m, m);
+  const RMat root = from_row_major(levels[level + 1].root, m, m);
+  const RMat left = block(split, 0, 0, m, m) * xi;
+  const RMat right = block(split, m, 0, m, m) * xi;
+  const RMat mid = block(phi, 0, 0, n, n) * zs + block(root, 0, 0, n, m) * left;
+  const int at = (lo + hi) / 2;
+  out[static_cast<std::size_t>(at)] = c_row * mid;
+  means_below(levels, c_row, level + 1, sub - 1, zs, left, lo, at, out);
+  means_below(levels, c_row, level + 1, sub - 1, mid, right, at, hi, out);
+}
+
 }  // namespace
 
 double widest_spread(const std::vector<RootLevel>& levels, const std::vector<double>& c,
@@ -807,6 +827,60 @@ int FilterModel::table_of(double step) const {
   throw std::logic_error("filtered: no transition was precomputed for a step");
 }
 
+
+static_assert(kRestPoints == 7, "the points j / 8: three levels below an interval");
+static_assert(kGrazeDepth == kMaxEventDepth, "the touches' search reaches the node numbering's limit");
+
+namespace {
+
+// The table of step length h with the noise tree down to the event search's depth `depth`.
+StepTable step_table(const FilterModel& fm, double h, int depth) {
+  const int n = fm.filter.n;
+  const RMat c = from_row_major(fm.filter.c, 1, n);
+  StepTable t;
+  t.step = h;
+  t.skeleton = transition(fm.filter, h);
+  // (kSpreadDepth - 1 levels more than the search uses, for the widest spreads of its finest)
+  t.levels = root_levels(fm.filter, std::ldexp(h, kLevelsUp), depth + kLevelsUp + 1 + kSpreadDepth);
+  const auto widest = [&](int level) {
+    return widest_spread(t.levels, fm.filter.c, static_cast<std::size_t>(level), kSpreadDepth);
+  };
+  for (int d = 0; d <= depth; ++d) t.spread_fine.push_back(widest(kLevelsUp + d));
+  for (int g = 0; g <= kLevelsUp; ++g) t.spread_coarse.push_back(widest(kLevelsUp - g));
+  const std::vector<RootLevel> all = t.levels;
+  t.levels.resize(static_cast<std::size_t>(depth + kLevelsUp + 2));
+  // The midpoint's mean a_g given the start and xi: c Phi(L/2) (z, 0, 0) + c R(L/2) Q_top xi.
+  for (int d = 0; d <= depth; ++d) {
+    const RootLevel& whole = t.levels[static_cast<std::size_t>(kLevelsUp + d)];
+    const RootLevel& half = t.levels[static_cast<std::size_t>(kLevelsUp + d + 1)];
+    const int m = n + 2;
+    const RMat phi = from_row_major(half.phi, m, m), root = from_row_major(half.root, m, m);
+    const RMat q_top = block(from_row_major(whole.split, 2 * m, 2 * m), 0, 0, m, m);
+    const std::vector<double> cz = to_row_major(c * block(phi, 0, 0, n, n));
+    const std::vector<double> cx = to_row_major(c * block(root, 0, 0, n, m) * q_top);
+    t.mid_z.insert(t.mid_z.end(), cz.begin(), cz.end());
+    t.mid_xi.insert(t.mid_xi.end(), cx.begin(), cx.end());
+  }
+  // The means at the points j / 8 (levels down to kLevelsUp + depth + 3: kept until here).
+  for (int d = 0; d <= depth; ++d) {
+    const int m = n + 2;
+    RMat zs(n, n + m), xi(m, n + m);
+    for (int i = 0; i < n; ++i) zs(i, i) = 1.0;
+    for (int i = 0; i < m; ++i) xi(i, n + i) = 1.0;
+    std::vector<RMat> rows(static_cast<std::size_t>(kRestPoints + 2));
+    means_below(all, c, static_cast<std::size_t>(kLevelsUp + d), 3, zs, xi, 0, kRestPoints + 1, rows);
+    for (int j = 1; j <= kRestPoints; ++j) {
+      const std::vector<double> row = to_row_major(rows[static_cast<std::size_t>(j)]);
+      t.pts_z.insert(t.pts_z.end(), row.begin(), row.begin() + n);
+      t.pts_xi.insert(t.pts_xi.end(), row.begin() + n, row.end());
+    }
+  }
+  t.skeleton.root = t.levels[kLevelsUp].root;
+  return t;
+}
+
+}  // namespace
+
 std::shared_ptr<const FilterModel> make_filter_model(const Options& o,
                                                      const std::vector<double>& segment_steps,
                                                      double tail_step) {
@@ -824,31 +898,8 @@ std::shared_ptr<const FilterModel> make_filter_model(const Options& o,
   const auto table = [&](double h) {
     for (std::size_t i = 0; i < fm.tables.size(); ++i)
       if (fm.tables[i].step == h) return static_cast<int>(i);
-    StepTable t;
-    t.step = h;
-    t.skeleton = transition(fm.filter, h);
-    // (kSpreadDepth - 1 levels more than the search uses, for the widest spreads of its finest)
-    t.levels = root_levels(fm.filter, std::ldexp(h, kLevelsUp), fm.depth + kLevelsUp + 1 + kSpreadDepth);
-    const auto widest = [&](int level) {
-      return widest_spread(t.levels, fm.filter.c, static_cast<std::size_t>(level), kSpreadDepth);
-    };
-    for (int d = 0; d <= fm.depth; ++d) t.spread_fine.push_back(widest(kLevelsUp + d));
-    for (int g = 0; g <= kLevelsUp; ++g) t.spread_coarse.push_back(widest(kLevelsUp - g));
-    t.levels.resize(static_cast<std::size_t>(fm.depth + kLevelsUp + 2));
-    // The midpoint's mean a_g given the start and xi: c Phi(L/2) (z, 0, 0) + c R(L/2) Q_top xi.
-    for (int d = 0; d <= fm.depth; ++d) {
-      const RootLevel& whole = t.levels[static_cast<std::size_t>(kLevelsUp + d)];
-      const RootLevel& half = t.levels[static_cast<std::size_t>(kLevelsUp + d + 1)];
-      const int m = n + 2;
-      const RMat phi = from_row_major(half.phi, m, m), root = from_row_major(half.root, m, m);
-      const RMat q_top = block(from_row_major(whole.split, 2 * m, 2 * m), 0, 0, m, m);
-      const std::vector<double> cz = to_row_major(c * block(phi, 0, 0, n, n));
-      const std::vector<double> cx = to_row_major(c * block(root, 0, 0, n, m) * q_top);
-      t.mid_z.insert(t.mid_z.end(), cz.begin(), cz.end());
-      t.mid_xi.insert(t.mid_xi.end(), cx.begin(), cx.end());
-    }
-    t.skeleton.root = t.levels[kLevelsUp].root;
-    fm.tables.push_back(std::move(t));
+    fm.tables.push_back(step_table(fm, h, fm.depth));
+    if (o.stop) fm.deep_tables.push_back(step_table(fm, h, kGrazeDepth));
     return static_cast<int>(fm.tables.size() - 1);
   };
   for (double h : segment_steps) fm.segment_table.push_back(h > 0.0 ? table(h) : -1);

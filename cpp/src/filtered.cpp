@@ -191,12 +191,20 @@ template <int N>
 class Walker {
   static constexpr int M = N + 2;
   using Iv = Interval<N>;
+  // A finest interval at rest (Touches at rest, last_touch).
+  struct Rest {
+    Iv iv;
+    const StepTable* table;
+    double sigma;
+    double after;  // the rest's start when it began inside the interval, else iv.t0
+  };
 
  public:
   Walker(const Plan& plan, int grids, Trajectory* trace, bool features = false)
       : plan_(plan), o_(plan.options()), fm_(*plan.filter()),
         grids_(grids), group_(1 << (grids - 1)), drift_(o_.drift), static_(fm_.static_drift),
-        margin_(event_margin.load()), peaks_(o_.peaks), features_(features), trace_(trace) {
+        margin_(event_margin.load()), peaks_(o_.peaks), features_(features), trace_(trace),
+        graze_depth_(fm_.deep_tables.empty() ? 0 : kGrazeDepth) {
     if (features_) {
       feature_slots_.assign((o_.times.size() + 1) * kFilteredControls, 0.0);
       folded_ = zero_start(fm_);
@@ -217,6 +225,7 @@ class Walker {
     begin(path, o_.seed);
     for (int g = 0; g < grids_; ++g) {
       bodies_[g] = Body{};
+      rests_[g].clear();
       bodies_[g].v = o_.start_velocity;
       bodies_[g].u = o_.start_displacement;
       if (peaks_) bodies_[g].track_peaks();
@@ -254,6 +263,13 @@ class Walker {
       step(tail, 0.0, k, start + static_cast<double>(j) * tail.step);
       all_done = check_done(k + 1);
     }
+    if (graze_depth_ > 0)
+      for (int g = 0; g < grids_; ++g) {
+        Body& b = bodies_[g];
+        if (b.v != 0.0) continue;
+        const double t = last_touch(rests_[g]);
+        if (t > b.rest_since) b.rest_since = t;
+      }
     for (int g = 0; g < grids_; ++g)
       stops[static_cast<std::size_t>(g)] = {bodies_[g].rest_since, bodies_[g].u, bodies_[g].s,
                                             bodies_[g].pv, bodies_[g].pu};
@@ -555,11 +571,36 @@ class Walker {
     const double curve = 0.125 * iv.len * iv.len * std::max(curvature(iv.za), curvature(iv.zb));
     const double band = margin_ * (sigma_ * spread(iv) + curve);
     if (v == 0.0) {
-      const double ua = static_ - aa, ub = static_ - ab, um = static_ - am;
-      const double la = static_ + aa, lb = static_ + ab, lm = static_ + am;
+      if (iv.count >= 2) {  // (each fine step: its own points' means)
+        for (int j = iv.first; j < iv.first + iv.count; ++j) {
+          Iv fine;
+          compose(j, 1, fine);
+          if (possible_event(fine, 0.0)) return true;
+        }
+        return false;
+      }
+      // The means at the points j / 8 are within the band of K (each may lie its spread
+      // away: the points' own values are not known); an end (a known value) when its
+      // distance times its neighbour's is within band^2 (a Brownian bridge's exp(-margin^2 /
+      // 2), as the search always took).
+      const double* wz = table_->pts_z.data() + iv.rel * kRestPoints * N;
+      const double* wx = table_->pts_xi.data() + iv.rel * kRestPoints * M;
+      double lo = std::numeric_limits<double>::infinity(), hi = -lo, first = 0.0, last = 0.0;
+      for (int j = 0; j < kRestPoints; ++j, wz += N, wx += M) {
+        double a = 0.0, x = 0.0;
+        for (int i = 0; i < N; ++i) a += wz[i] * iv.za[i];
+        for (int i = 0; i < M; ++i) x += wx[i] * iv.xi[i];
+        const double p = a + sigma_ * x;
+        lo = p < lo ? p : lo;
+        hi = p > hi ? p : hi;
+        if (j == 0) first = p;
+        last = p;
+      }
       const double b2 = band * band;
-      return ua <= 0.0 || ub <= 0.0 || um <= 0.0 || la <= 0.0 || lb <= 0.0 || lm <= 0.0 ||
-             ua * um < b2 || um * ub < b2 || la * lm < b2 || lm * lb < b2;
+      const double ua = static_ - aa, ub = static_ - ab, la = static_ + aa, lb = static_ + ab;
+      return hi > static_ - band || lo < band - static_ || ua <= 0.0 || ub <= 0.0 || la <= 0.0 ||
+             lb <= 0.0 || ua * (static_ - first) < b2 || ub * (static_ - last) < b2 ||
+             la * (static_ + first) < b2 || lb * (static_ + last) < b2;
     }
     const double s = v > 0.0 ? 1.0 : -1.0;
     const double v1 = v - iv.g - s * drift_ * iv.len;
@@ -674,6 +715,9 @@ class Walker {
   // (newmark's sliding velocity W is -V, its displacement -U).
   void finest(const Iv& iv, Body& b) {
     const double aa = ground(iv.za), ab = ground(iv.zb);
+    const bool resting = b.v == 0.0;
+    bool arrived = false;
+    double arrival = 0.0;
     newmark::Motion mo;
     mo.w = -b.v;
     mo.mode = b.v == 0.0 ? 0 : (b.v < 0.0 ? 1 : -1);
@@ -683,6 +727,8 @@ class Walker {
         mo, aa, ab, iv.len, iv.t0, yield_, [](double, int) {},
         [&](double t) {
           b.rest_since = t;
+          arrived = true;
+          arrival = t;
           if (peaks_) {  // (at rest: V = 0; U there counts)
             const double au = std::abs(u0 - mo.d);
             b.pu = b.pu < au ? au : b.pu;
@@ -698,6 +744,59 @@ class Walker {
     b.s = s0 + dist;
     if (peaks_) b.track_peaks();
     if (trace_grid_) point(iv.t0 + iv.len, ab, b);
+    if (graze_depth_ > 0) {
+      std::vector<Rest>& rests = rests_[&b - bodies_];
+      if (arrived) rests.clear();
+      if (b.v == 0.0 && (resting || arrived) && sigma_ != 0.0)
+        rests.push_back({iv, table_, sigma_, arrived ? arrival : iv.t0});
+    }
+  }
+
+  // Touches at rest (docs/filtered.md, "Events and the stop"). A finest substep takes a_g
+  // linear, but a_g is rough: between two ends below K = static_drift it touches K with a
+  // probability near exp(-(K - a)(K - b) / (2 s^2)) (s its midpoint's spread), and each touch
+  // is a slide too short for the substep that moves the last time the body came to rest. Only
+  // the stop time counts them (a micro-slide moves V, U and S by far less than the substep's
+  // other errors), and only in the last rest: so the finest intervals at rest since the body
+  // last came to rest are kept (rests_), and at the stop they are searched again, latest
+  // first, by the same exact bridges down to graze_depth_ (in the deeper tables, the same tree
+  // up to rounding), for the last time |a_g| reaches K. The first interval with a touch ends
+  // the search. Returns -infinity when no touch is found.
+  double last_touch(const std::vector<Rest>& rests) {
+    const StepTable* table = table_;
+    const double sigma = sigma_;
+    double t = -std::numeric_limits<double>::infinity();
+    for (auto r = rests.rbegin(); r != rests.rend() && t == -std::numeric_limits<double>::infinity(); ++r) {
+      table_ = &fm_.deep_tables[static_cast<std::size_t>(r->table - fm_.tables.data())];
+      sigma_ = r->sigma;
+      t = touch(r->iv, graze_depth_ - r->iv.rel, r->after);
+    }
+    table_ = table;
+    sigma_ = sigma;
+    return t;
+  }
+
+  // The last time after `after` in the interval at which |a_g| reaches static_drift: bisected
+  // (the right half first) while possible_event allows one; on the deepest intervals a_g is
+  // the line between their ends.
+  double touch(const Iv& iv, int depth_left, double after) {
+    constexpr double none = -std::numeric_limits<double>::infinity();
+    const double end = iv.t0 + iv.len;
+    if (end <= after || !possible_event(iv, 0.0)) return none;
+    const double ab = ground(iv.zb);
+    if (std::abs(ab) >= static_) return end;
+    if (depth_left == 0) {
+      const double aa = ground(iv.za);
+      if (std::abs(aa) < static_) return none;
+      // (the line leaves the band |a| >= K where it crosses the side aa is on)
+      const double k = aa > 0.0 ? static_ : -static_;
+      const double t = iv.t0 + iv.len * ((k - aa) / (ab - aa));
+      return t > after ? t : none;
+    }
+    Iv left, right;
+    bisect(iv, left, right);
+    const double t = touch(right, depth_left - 1, after);
+    return t != none ? t : touch(left, depth_left - 1, after);
   }
 
   const Plan& plan_;
@@ -725,6 +824,9 @@ class Walker {
   double batch_[kBatch * M] = {};
   double z_[N] = {};
   Body bodies_[3];
+  // Each grid's finest intervals at rest since its body last came to rest (rests_).
+  std::vector<Rest> rests_[3];
+  const int graze_depth_;  // the depth the touches' search reaches (0: not searched)
   FineStep<N> buffer_[4];
   const StepTable* table_ = nullptr;
   double sigma_ = 0.0;

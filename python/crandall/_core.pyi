@@ -284,6 +284,7 @@ def random_floor(paths: int, steps: int, seed: int, threads: int = 0) -> float:
     """Generate the kernel's noise for paths x steps with no physics (a throughput floor)."""
 
 RANDOM_STREAM: int
+TOUCH_DEPTH: int
 #: Control sums per path and slot of run_samples(controls=True).
 CONTROLS: int
 WHITE_CONTROLS: int

@@ -94,8 +94,16 @@ def run_identity(estimator: str, spec: Dict[str, Any]) -> Dict[str, Any]:
     if estimator not in ESTIMATORS:
         raise ParameterError("estimator", f"estimator: one of {', '.join(ESTIMATORS)}, got "
                                           f"{estimator!r}")
-    return {"format": FORMAT, "format_version": FORMAT_VERSION, "crandall": __version__,
-            "random_stream": int(_core.RANDOM_STREAM), "estimator": estimator, **spec}
+    out = {"format": FORMAT, "format_version": FORMAT_VERSION, "crandall": __version__,
+           "random_stream": int(_core.RANDOM_STREAM), "estimator": estimator, **spec}
+    scene = spec.get("scene")
+    if (isinstance(scene, dict) and isinstance(scene.get("excitation"), dict)
+            and scene["excitation"].get("kind") != "white" and "stop" in scene.get("observe", ())):
+        # A filtered excitation's stop time counts the touches its last rest's search finds
+        # down to this depth (docs/filtered.md, "Events and the stop"): a checkpoint whose
+        # stop times were summed without it (or to another depth) is another run.
+        out["touch_depth"] = int(_core.TOUCH_DEPTH)
+    return out
 
 
 def check_writable(path) -> str:

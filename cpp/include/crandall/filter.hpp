@@ -141,7 +141,19 @@ struct StepTable {
   // The mean of a_g at the midpoint of an interval of length step / 2^d given its start z and
   // its xi (unit intensity): mid_z[d n ..] . z + sigma mid_xi[d m ..] . xi.
   std::vector<double> mid_z, mid_xi;
+  // The same at the points j / 8 of the interval, j = 1 .. 7 (kRestPoints; j = 4 is the
+  // midpoint): rows [(d 7 + j - 1) n ..] and [(d 7 + j - 1) m ..]. The test for an onset at
+  // rest looks at all of them (filtered.cpp, possible_event).
+  std::vector<double> pts_z, pts_xi;
 };
+constexpr int kRestPoints = 7;
+
+// The depth below a fine step (step / 2^kGrazeDepth) that the search of the last rest's missed
+// touches reaches (filtered.cpp, "Touches at rest"): the deepest the node numbering allows
+// (plan.hpp's kMaxEventDepth), whatever the event depth. A touch shorter than its intervals is
+// still missed; what that leaves falls like the square root of their length
+// (docs/filtered.md, "Events and the stop").
+constexpr int kGrazeDepth = 20;
 
 struct FilterModel {
   LinearFilter filter;
@@ -151,6 +163,10 @@ struct FilterModel {
   double static_drift = 0.0;        // the resolved static friction deceleration
   int depth = 0;                    // Options::event_depth
   std::vector<StepTable> tables;
+  // With the stop observed: tables[i]'s step with its tree down to graze_depth(depth), for the
+  // search of the last rest's missed touches (filtered.cpp, "Touches at rest"). The same roots
+  // as tables[i]'s up to rounding (canonical_signs), so a finest interval goes on in it.
+  std::vector<StepTable> deep_tables;
   std::vector<int> segment_table;   // the table of each plan segment (-1: no steps)
   int tail_table = -1;              // the ring-down's steps after the plan's segments
   double tail_step = 0.0;

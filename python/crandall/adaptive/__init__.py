@@ -26,8 +26,8 @@ error estimates are in docs/methods/adaptive.md; in short:
 A filtered excitation (crandall.model.FILTERED_LEVELS) runs on the filtered core's coupled
 grids with none of the white-noise identities or control variates above: every statistic on
 the levels, its bias from the measured ratio of the two finest level means (first order where
-it is not resolved), the stop time left out (docs/methods/adaptive.md, "A filtered
-excitation"); ``levels.levels_model`` chooses the model by the scene's effects.
+it is not resolved; docs/methods/adaptive.md, "A filtered excitation");
+``levels.levels_model`` chooses the model by the scene's effects.
 
 The package's modules: ``levels`` (the levels' grids, batches and sums), ``features`` (the
 control variates), ``schedule`` (estimates, bias, tolerance, the rounds, the checkpoint's

@@ -64,11 +64,6 @@ def simulate_to_error(scene: Scene, *, error: Optional[float] = None,
                              "function, so the piece error a target must include is unknown; "
                              "give envelopes.from_function(...) again")
     chosen = _check_statistics(scene, statistics)
-    if not _targets(scene, chosen):
-        # A filtered excitation's stop time is left out (levels.FILTER_LEFT_OUT).
-        raise ParameterError("observe", "observe: a run to an accuracy of a filtered "
-                             "excitation estimates no stop time, and the scene observes "
-                             "nothing else; observe another quantity, or run with paths=")
     piece_bias = None
     began = time.perf_counter()
     if scene.envelope is not None:

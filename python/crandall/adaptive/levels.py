@@ -32,13 +32,6 @@ BASE_MIN_STEPS = 4
 #: already close: the level means of the mean distance at the stop were 4e-5, 1.3e-5, 6e-6 of
 #: 3.9 (Kanai-Tajimi, omega t* = 4, levels 1-3).
 FILTER_BASE_DT_FACTOR = 4
-#: The quantities a run to an accuracy of a filtered excitation leaves out: the stop time (the
-#: last time the body came to rest) converges slowly on refinement, its level means falling
-#: by only about 1.3-1.5 per halving (Kanai-Tajimi zeta = 0.6, omega t* = 1 and 4, levels 1-5:
-#: 0.038, 0.029, 0.016, 0.014, 0.011 s and 0.0020, 0.0015, 0.0006, 0.0004, 0.0004 s; micro-
-#: slides shorter than a substep, docs/filtered.md), so two noisy finest levels do not measure
-#: what is left, and no reference independent of the core exists to calibrate it against.
-FILTER_LEFT_OUT = ("stop_time",)
 #: The event depth of every level of a filtered excitation's run to an accuracy: the finer
 #: levels measure and correct what a shallow search leaves, so the core's default depth 8
 #: (made for fixed-step runs, where nothing corrects it) is not needed, and depth 4 costs
@@ -128,13 +121,6 @@ def _check_statistics(scene: Scene, statistics) -> Optional[set]:
         if stat not in STATS:
             raise ParameterError("statistics", f"statistics: the statistic of {name!r} must be one of "
                              f"{', '.join(STATS)}, got {stat!r}")
-        if name in FILTER_LEFT_OUT and FILTERED_EXCITATION in scene.effects:
-            raise ParameterError(
-                "statistics", f"statistics: the {stat} of {name} is not available in a run to "
-                "an accuracy of a filtered excitation: its grid bias falls only about 1.3-1.5 "
-                "times per halving of the step, too slowly for the finest levels to estimate "
-                "what is left (docs/methods/adaptive.md); run it with paths= (Result.bias "
-                "estimates its bias from three coupled grids)")
         out.add((name, stat))
     if not out:
         raise ParameterError("statistics", "statistics: name at least one statistic")
@@ -144,10 +130,7 @@ def _check_statistics(scene: Scene, statistics) -> Optional[set]:
 def _targets(scene: Scene, statistics: Optional[set] = None) -> List[_Target]:
     out = []
     n_times = len(scene.times)
-    filtered = FILTERED_EXCITATION in scene.effects
     for name in names_for(scene.observe):
-        if filtered and name in FILTER_LEFT_OUT:
-            continue  # refused by name when asked for (_check_statistics)
         q = quantity(name)
         slots = [(n_times, None)] if q.at_stop else [(i, i) for i in range(n_times)]
         if q.peak:
