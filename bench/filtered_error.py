@@ -48,6 +48,13 @@ References, none from the code under test:
   3-7x smaller, plus a third of the difference to the blocks at twice that step, the
   extrapolation's second-order rest); ``friction_omega_tstar_4_means_error_0.004`` runs the
   two means alone against it.
+- ``stop_time_omega_tstar_4_*`` and ``stop_time_omega_tstar_1_*``: the friction scene at
+  omega = 2 and 0.5 with the stop observed: the mean and the variance of the stop time (the
+  last time at rest) against bench/stop_time_reference.py (bench/results/
+  stop_time_reference.json): the Euler peer with the touches of a body at rest counted by the
+  Brownian bridge's probability, so that its bias is first order, extrapolated per path at
+  three steps (which agree); its finest is the reference, with its standard error (also
+  counted in quadrature, "coverage_with_reference_se").
 
 Writes bench/out/filtered_error.{json,png} (bench/results/ with --publish).
 
@@ -722,7 +729,28 @@ def cases(recompute_reference: bool = False):
     out["friction_omega_tstar_4_means_error_0.004"] = (
         friction, ["distance_at_stop:mean", "distance:mean"], "error", 0.004,
         friction_mean_refs)
+    # The stop time (the last time at rest) against bench/stop_time_reference.py's Euler peer
+    # with the Brownian-bridge touches counted, extrapolated to dt -> 0 (stop_time_references).
+    for tag, omega, kind, target in (("omega_tstar_4", 2.0, "error", 0.01),
+                                     ("omega_tstar_4", 2.0, "error", 0.003),
+                                     ("omega_tstar_1", 0.5, "rel_error", 0.01)):
+        sc = Scene(mu=1.0, g=1.0, excitation=KanaiTajimi(omega=omega, zeta=ZETA, h=1.0), t0=T0,
+                   times=[T0], observe=["distance", "stop"])
+        out[f"stop_time_{tag}_{'error' if kind == 'error' else 'rel'}_{target:g}"] = (
+            sc, ["stop_time:mean", "stop_time:var"], kind, target,
+            lambda omega=omega: stop_time_references(omega))
     return out
+
+
+STOP_TIME_REFERENCE = Path(__file__).resolve().parent / "results" / "stop_time_reference.json"
+
+
+def stop_time_references(omega: float):
+    """The stop time's mean and variance at omega: bench/stop_time_reference.py's finest
+    extrapolated values (an Euler peer, its touches at rest counted by the Brownian bridge's
+    probability), each with its standard error."""
+    ref = json.loads(STOP_TIME_REFERENCE.read_text())["cases"][f"omega_{float(omega)}"]["reference"]
+    return {("stop_time", stat, None): (ref[stat][0], ref[stat][1]) for stat in ("mean", "var")}
 
 
 def clopper_pearson(k: int, n: int):

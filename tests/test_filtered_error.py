@@ -227,6 +227,23 @@ def test_the_last_rests_touches_make_the_stop_time_all_but_independent_of_the_de
     assert abs(d.mean()) < 1e-4, (d.mean(), d.std() / math.sqrt(d.size))
 
 
+def test_the_stop_time_meets_a_target_against_the_touch_counting_euler_reference():
+    # bench/stop_time_reference.py (bench/results/stop_time_reference.json): an Euler peer
+    # that counts a resting body's touches of mu_s g by the Brownian bridge's probability,
+    # extrapolated to dt -> 0 at first order (three steps agree): at omega t* = 4 the mean
+    # stop time is 10.3877 +- 0.0013 s and its variance 0.3624 +- 0.0021 s^2.
+    sc = Scene(mu=1.0, g=1.0, excitation=_kt(), t0=T0, times=[T0], observe=["distance", "stop"])
+    r = crandall.simulate(sc, error=0.01, seed=3, threads=2,
+                          statistics=["stop_time:mean", "stop_time:var"])
+    assert r.model == "filtered_levels"
+    for stat, ref, ref_se in (("mean", 10.3877, 0.0013), ("var", 0.3624, 0.0021)):
+        value = float(r.mean("stop_time") if stat == "mean" else r.var("stop_time"))
+        err = float(r.error("stop_time", stat))
+        assert err <= 0.01 and float(r.bias("stop_time", stat)) != 0.0
+        # 4 of the combined errors: a false failure has probability about 6e-5 each.
+        assert abs(value - ref) <= 4 * math.hypot(err, ref_se), (stat, value, ref, err)
+
+
 def test_a_filtered_fixed_step_checkpoint_names_its_touch_search(tmp_path):
     # The stop time counts the touches found down to _core.TOUCH_DEPTH: a checkpoint whose
     # stop times were summed without that search belongs to another run.

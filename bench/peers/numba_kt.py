@@ -295,3 +295,101 @@ def warm_up() -> None:
     simulate(10, 0.1, t0=1.0, omega=1.0, zeta=0.5, h=1.0, mu_g=1.0)
     coupled(10, 0.1, t0=1.0, omega=1.0, zeta=0.5, h=1.0, mu_g=1.0)
     coupled_at(10, 0.1, 0.4, t0=1.0, omega=1.0, zeta=0.5, h=1.0, mu_g=1.0)
+
+
+# --- The stop time with the at-rest touches of the barrier (bench/stop_time_reference.py) ---
+
+
+@njit(cache=False)
+def _touch_step(urng, x, xd, v, s, last, k, dt, noise, c1, w2, mu_g, mus_g, r, touch):
+    """One Euler step k (from k dt to (k + 1) dt) of the filter and the body, as in
+    ``_kernel``, with the last rest time ``last``; with ``touch``, a body at rest at both ends
+    of the step with |a_g| < mus_g at both ends touches the barrier +-mus_g inside it with the
+    Brownian bridge's probability (a_g's noise has variance rate r), which moves ``last`` to
+    the middle of the step. The body's state is unchanged by a touch."""
+    ag = -(c1 * xd + w2 * x)
+    was_rest = v == 0.0
+    v, s, rest = _body(x, xd, v, s, ag, mu_g, mus_g, dt)
+    xn = x + xd * dt
+    xd = xd + (-w2 * x - c1 * xd) * dt - noise
+    x = xn
+    if rest:
+        last = (k + 1) * dt
+    elif touch and was_rest and v == 0.0:
+        a1 = -(c1 * xd + w2 * x)
+        if abs(ag) < mus_g and abs(a1) < mus_g:
+            q = 2.0 / (r * dt)
+            e1 = q * (mus_g - ag) * (mus_g - a1)
+            e2 = q * (mus_g + ag) * (mus_g + a1)
+            # Below exp(-45) ~ 3e-20 a touch is never drawn in practice: skip the uniform.
+            if e1 < 45.0 or e2 < 45.0:
+                p = math.exp(-e1) + math.exp(-e2)
+                if urng.random() < p:
+                    last = (k + 0.5) * dt
+    return x, xd, v, s, last
+
+
+@njit(cache=False)
+def _coupled_touch(rng, urng, paths, dt, t0, omega, zeta, h, mu_g, mus_g, touch, fine,
+                   coarse):
+    """``_coupled`` (the same paths at dt and 2 dt, the coarse step's noise the sum of the two
+    fine steps') for the stop time: per path the last rest time on each grid (column 0) and
+    the distance at the stop (column 1). With ``touch``, both grids count the barrier touches
+    of a body at rest (``_touch_step``), their uniforms from ``urng``, apart from the noise."""
+    w2 = omega * omega
+    c1 = 2.0 * zeta * omega
+    sq = h * math.sqrt(dt)
+    r = (c1 * h) ** 2
+    n0 = int(round(t0 / dt))
+    dc = 2.0 * dt
+    for p in range(paths):
+        x = xd = v = s = last = 0.0
+        xc = xdc = vc = sc = lastc = 0.0
+        k = 0
+        while k < n0:
+            n1 = sq * rng.standard_normal()
+            n2 = sq * rng.standard_normal()
+            x, xd, v, s, last = _touch_step(urng, x, xd, v, s, last, k, dt, n1, c1, w2,
+                                            mu_g, mus_g, r, touch)
+            x, xd, v, s, last = _touch_step(urng, x, xd, v, s, last, k + 1, dt, n2, c1, w2,
+                                            mu_g, mus_g, r, touch)
+            xc, xdc, vc, sc, lastc = _touch_step(urng, xc, xdc, vc, sc, lastc, k // 2, dc,
+                                                 n1 + n2, c1, w2, mu_g, mus_g, r, touch)
+            k += 2
+        # The shaking has ended (a_g = 0): each slides to rest at its own step.
+        kf = n0
+        while v != 0.0:
+            v, s, rest = _body(x, xd, v, s, 0.0, mu_g, mus_g, dt)
+            kf += 1
+            if rest:
+                last = kf * dt
+        kc = n0 // 2
+        while vc != 0.0:
+            vc, sc, rest = _body(xc, xdc, vc, sc, 0.0, mu_g, mus_g, dc)
+            kc += 1
+            if rest:
+                lastc = kc * dc
+        fine[p, 0] = last
+        fine[p, 1] = s
+        coarse[p, 0] = lastc
+        coarse[p, 1] = sc
+
+
+def coupled_stop_at(paths: int, dt: float, omega: float, seed: int = 0, *, t0: float = 10.0,
+                    zeta: float = 0.6, h: float = 1.0, mu_g: float = 1.0,
+                    mus_g: float = None, touch: bool = True):
+    """Stop times (the last time the body came to rest) of the same ``paths`` paths at steps
+    dt and 2 dt on the same Brownian increments (``_coupled_touch``): arrays (paths, 2) at dt
+    and at 2 dt of the stop time and the distance at the stop. With ``touch`` (the default)
+    a body at rest over a step touches the barrier inside it with the Brownian bridge's
+    probability, drawn from a generator of its own (seeded from ``seed``'s SeedSequence
+    child), which removes Euler's sqrt(dt) bias of the stop time; without it, plain Euler on
+    the very same increments."""
+    if abs(round(t0 / (2 * dt)) * 2 * dt - t0) > 1e-9 * t0:
+        raise ValueError("t0 must be a multiple of 2 dt")
+    rng = np.random.default_rng(seed)
+    urng = np.random.default_rng(np.random.SeedSequence(seed).spawn(1)[0])
+    fine, coarse = np.empty((paths, 2)), np.empty((paths, 2))
+    _coupled_touch(rng, urng, paths, dt, t0, omega, zeta, h, mu_g,
+                   mu_g if mus_g is None else mus_g, touch, fine, coarse)
+    return fine, coarse
