@@ -571,24 +571,30 @@ void widest_below(const std::vector<RootLevel>& levels, const RMat& c_row, std::
   widest_below(levels, c_row, level + 1, sub - 1, mid, right, node, widest);
 }
 
-// The conditional means of a_g at the points below an interval, given its start z and its xi
-// (the nodes' eta at 0): zs (n x (n + m)) and xi (m x (n + m)) are the interval's start state's
-// and noise coordinates' coefficients on (z_start; sigma xi); out[j] receives c times the
-// coefficients of the point j / 2^sub of the interval of points [lo, hi] (out's indices).
-void means_below(const std::vector<RootLevel>& levels, const RMat& c_row, std::size_t level,
-                 int sub, const RMat& zs, const RMat& xi, int lo, int hi, std::vector<RMat>& out) {
+// The conditional law of a_g at the points below an interval, given its start z and its xi:
+// zs (n x (n + m + E)) and xi (m x (n + m + E)) are the interval's start state's and noise
+// coordinates' coefficients on (z_start; sigma xi; the E = m (2^sub - 1) normals eta of the
+// nodes below, `node` the next unused node); out[j] receives c times the coefficients of the
+// point j / 2^sub of the interval of points [lo, hi] (out's indices): its first n + m entries
+// the mean's rows, the rest the spread's (unit intensity).
+void points_below(const std::vector<RootLevel>& levels, const RMat& c_row, std::size_t level,
+                  int sub, const RMat& zs, const RMat& xi, int lo, int hi, int& node,
+                  std::vector<RMat>& out) {
   if (sub == 0) return;
-  const int n = c_row.cols, m = xi.rows;
+  const int n = c_row.cols, m = xi.rows, e = xi.cols;
   const RMat split = from_row_major(levels[level].split, 2 * m, 2 * m);
   const RMat phi = from_row_major(levels[level + 1].phi, m, m);
   const RMat root = from_row_major(levels[level + 1].root, m, m);
-  const RMat left = block(split, 0, 0, m, m) * xi;
-  const RMat right = block(split, m, 0, m, m) * xi;
+  RMat eta(m, e);
+  for (int i = 0; i < m; ++i) eta(i, n + m + node * m + i) = 1.0;
+  ++node;
+  const RMat left = block(split, 0, 0, m, m) * xi + block(split, 0, m, m, m) * eta;
+  const RMat right = block(split, m, 0, m, m) * xi + block(split, m, m, m, m) * eta;
   const RMat mid = block(phi, 0, 0, n, n) * zs + block(root, 0, 0, n, m) * left;
   const int at = (lo + hi) / 2;
   out[static_cast<std::size_t>(at)] = c_row * mid;
-  means_below(levels, c_row, level + 1, sub - 1, zs, left, lo, at, out);
-  means_below(levels, c_row, level + 1, sub - 1, mid, right, at, hi, out);
+  points_below(levels, c_row, level + 1, sub - 1, zs, left, lo, at, node, out);
+  points_below(levels, c_row, level + 1, sub - 1, mid, right, at, hi, node, out);
 }
 
 }  // namespace
@@ -847,7 +853,6 @@ StepTable step_table(const FilterModel& fm, double h, int depth) {
   };
   for (int d = 0; d <= depth; ++d) t.spread_fine.push_back(widest(kLevelsUp + d));
   for (int g = 0; g <= kLevelsUp; ++g) t.spread_coarse.push_back(widest(kLevelsUp - g));
-  const std::vector<RootLevel> all = t.levels;
   t.levels.resize(static_cast<std::size_t>(depth + kLevelsUp + 2));
   // The midpoint's mean a_g given the start and xi: c Phi(L/2) (z, 0, 0) + c R(L/2) Q_top xi.
   for (int d = 0; d <= depth; ++d) {
@@ -861,19 +866,37 @@ StepTable step_table(const FilterModel& fm, double h, int depth) {
     t.mid_z.insert(t.mid_z.end(), cz.begin(), cz.end());
     t.mid_xi.insert(t.mid_xi.end(), cx.begin(), cx.end());
   }
-  // The means at the points j / 8 (levels down to kLevelsUp + depth + 3: kept until here).
+  // The onset test's points j / 8 and its segments' spreads (the widest of each segment's ends
+  // and middle, the points j / 16), from a tree one level deeper than the table's (only these
+  // rows come from it: the same roots up to rounding).
+  const std::vector<RootLevel> deeper =
+      root_levels(fm.filter, std::ldexp(h, kLevelsUp), depth + kLevelsUp + 2 + kSpreadDepth);
+  constexpr int kSub = 4, kPoints = 1 << kSub;
   for (int d = 0; d <= depth; ++d) {
-    const int m = n + 2;
-    RMat zs(n, n + m), xi(m, n + m);
+    const int m = n + 2, e = n + m + m * (kPoints - 1);
+    RMat zs(n, e), xi(m, e);
     for (int i = 0; i < n; ++i) zs(i, i) = 1.0;
     for (int i = 0; i < m; ++i) xi(i, n + i) = 1.0;
-    std::vector<RMat> rows(static_cast<std::size_t>(kRestPoints + 2));
-    means_below(all, c, static_cast<std::size_t>(kLevelsUp + d), 3, zs, xi, 0, kRestPoints + 1, rows);
-    for (int j = 1; j <= kRestPoints; ++j) {
-      const std::vector<double> row = to_row_major(rows[static_cast<std::size_t>(j)]);
-      t.pts_z.insert(t.pts_z.end(), row.begin(), row.begin() + n);
-      t.pts_xi.insert(t.pts_xi.end(), row.begin() + n, row.end());
+    std::vector<RMat> rows(static_cast<std::size_t>(kPoints + 1));
+    int node = 0;
+    points_below(deeper, c, static_cast<std::size_t>(kLevelsUp + d), kSub, zs, xi, 0, kPoints,
+                 node, rows);
+    std::vector<double> spread(static_cast<std::size_t>(kPoints + 1), 0.0);
+    for (int j = 1; j < kPoints; ++j) {
+      const RMat& r = rows[static_cast<std::size_t>(j)];
+      Real sum = 0.0;
+      for (int k = n + m; k < e; ++k) sum += r(0, k) * r(0, k);
+      spread[static_cast<std::size_t>(j)] = static_cast<double>(sqrt(sum));
     }
+    for (int j = 1; j <= kRestPoints; ++j) {
+      const RMat& r = rows[static_cast<std::size_t>(2 * j)];
+      for (int k = 0; k < n; ++k) t.pts_z.push_back(static_cast<double>(r(0, k)));
+      for (int k = n; k < n + m; ++k) t.pts_xi.push_back(static_cast<double>(r(0, k)));
+    }
+    for (int j = 0; j <= kRestPoints; ++j)
+      t.seg_spread.push_back(std::max({spread[static_cast<std::size_t>(2 * j)],
+                                       spread[static_cast<std::size_t>(2 * j + 1)],
+                                       spread[static_cast<std::size_t>(2 * j + 2)]}));
   }
   t.skeleton.root = t.levels[kLevelsUp].root;
   return t;

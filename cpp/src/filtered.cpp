@@ -579,28 +579,32 @@ class Walker {
         }
         return false;
       }
-      // The means at the points j / 8 are within the band of K (each may lie its spread
-      // away: the points' own values are not known); an end (a known value) when its
-      // distance times its neighbour's is within band^2 (a Brownian bridge's exp(-margin^2 /
-      // 2), as the search always took).
+      // The points j / 8 of the interval (its ends, and the conditional means given its start
+      // and xi between them): on each segment between two of them a_g is taken within R_j =
+      // margin (sigma spread_j + curve) of the segment's chord, spread_j the widest spread over
+      // the segment (its ends and middle: seg_spread), so an onset is possible when an end of
+      // a segment is within R_j of +-K. (A point's own value may lie its spread away from its
+      // mean; an end of the interval is a known value, spread 0.)
       const double* wz = table_->pts_z.data() + iv.rel * kRestPoints * N;
       const double* wx = table_->pts_xi.data() + iv.rel * kRestPoints * M;
-      double lo = std::numeric_limits<double>::infinity(), hi = -lo, first = 0.0, last = 0.0;
-      for (int j = 0; j < kRestPoints; ++j, wz += N, wx += M) {
-        double a = 0.0, x = 0.0;
-        for (int i = 0; i < N; ++i) a += wz[i] * iv.za[i];
-        for (int i = 0; i < M; ++i) x += wx[i] * iv.xi[i];
-        const double p = a + sigma_ * x;
-        lo = p < lo ? p : lo;
-        hi = p > hi ? p : hi;
-        if (j == 0) first = p;
-        last = p;
+      const double* sp = table_->seg_spread.data() + iv.rel * (kRestPoints + 1);
+      double prev = aa;
+      for (int j = 0; j <= kRestPoints; ++j) {
+        double p = ab;
+        if (j < kRestPoints) {
+          double a = 0.0, x = 0.0;
+          for (int i = 0; i < N; ++i) a += wz[i] * iv.za[i];
+          for (int i = 0; i < M; ++i) x += wx[i] * iv.xi[i];
+          p = a + sigma_ * x;
+          wz += N;
+          wx += M;
+        }
+        const double r = margin_ * (sigma_ * sp[j] + curve);
+        const double hi = prev > p ? prev : p, lo = prev < p ? prev : p;
+        if (hi > static_ - r || lo < r - static_) return true;
+        prev = p;
       }
-      const double b2 = band * band;
-      const double ua = static_ - aa, ub = static_ - ab, la = static_ + aa, lb = static_ + ab;
-      return hi > static_ - band || lo < band - static_ || ua <= 0.0 || ub <= 0.0 || la <= 0.0 ||
-             lb <= 0.0 || ua * (static_ - first) < b2 || ub * (static_ - last) < b2 ||
-             la * (static_ + first) < b2 || lb * (static_ + last) < b2;
+      return false;
     }
     const double s = v > 0.0 ? 1.0 : -1.0;
     const double v1 = v - iv.g - s * drift_ * iv.len;

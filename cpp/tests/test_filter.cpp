@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <random>
@@ -265,11 +266,14 @@ TEST(FilterRoots, WidestSpreadAndMidpointMeanAreTheClassicBridges) {
   EXPECT_NEAR(got, c.dot(mean), 1e-6 * std::abs(c.dot(mean)));
 }
 
-// The onset test's points (kRestPoints): the table's pts_z . z0 + pts_xi . xi at the points
-// j/8 of an interval is the textbook bridge's E[c.Y(t) | Y(0), Y(L)] = c (Phi_t Y0 + Q_t
-// Phi_(L-t)^T Q_L^-1 (Y(L) - Phi_L Y0)), t = j L / 8, at the step's level and one below; j = 4
-// is the midpoint's row (mid_z, mid_xi).
-TEST(FilterRoots, TheRestTestsPointMeansAreTheClassicBridges) {
+// The onset test's points (kRestPoints) and segments: the table's pts_z . z0 + pts_xi . xi at
+// the points j/8 of an interval is the textbook bridge's E[c.Y(t) | Y(0), Y(L)] = c (Phi_t Y0 +
+// Q_t Phi_(L-t)^T Q_L^-1 (Y(L) - Phi_L Y0)), t = j L / 8, and seg_spread[j] the largest of
+// sqrt(c Var[Y(t) | Y(0), Y(L)] c) = sqrt(c (Q_t - Q_t Phi_(L-t)^T Q_L^-1 Phi_(L-t) Q_t) c) over
+// t = j L / 8, (2 j + 1) L / 16, (j + 1) L / 8 (0 at the interval's ends), at the step's level
+// and one below; j = 4 is the midpoint's row (mid_z, mid_xi, from the table's own tree: the
+// same up to rounding).
+TEST(FilterRoots, TheRestTestsPointsAndSegmentsAreTheClassicBridges) {
   crandall::Options o;
   o.excitation = crandall::Excitation::filtered;
   o.filter_a = kt.a;
@@ -279,7 +283,9 @@ TEST(FilterRoots, TheRestTestsPointMeansAreTheClassicBridges) {
   const double step = 0.08;
   const auto fm = crandall::make_filter_model(o, {step}, step);
   const auto& table = fm->tables[0];
-  ASSERT_EQ(table.pts_z.size(), static_cast<std::size_t>(3 * crandall::kRestPoints * 2));
+  constexpr int kPts = crandall::kRestPoints;
+  ASSERT_EQ(table.pts_z.size(), static_cast<std::size_t>(3 * kPts * 2));
+  ASSERT_EQ(table.seg_spread.size(), static_cast<std::size_t>(3 * (kPts + 1)));
   const Eigen::Vector4d c(kt.c[0], kt.c[1], 0.0, 0.0);
   const Eigen::Vector4d y0(0.3, -1.2, 0.0, 0.0), xi(0.7, -0.4, 1.1, 0.2);
   for (int d = 0; d <= 1; ++d) {
@@ -288,24 +294,38 @@ TEST(FilterRoots, TheRestTestsPointMeansAreTheClassicBridges) {
     const Mat pl = mat(crandall::transition(kt, length).phi, 4, 4);
     const Mat rl = mat(table.levels[static_cast<std::size_t>(crandall::kLevelsUp + d)].root, 4, 4);
     const Eigen::Vector4d yl = pl * y0 + rl * xi;
-    for (int j = 1; j <= crandall::kRestPoints; ++j) {
+    std::vector<double> spread(17, 0.0);
+    for (int k = 1; k < 16; ++k) {
+      const double t = length * k / 16.0;
+      const Mat qt = mat(crandall::transition(kt, t).q, 4, 4);
+      const Mat pr = mat(crandall::transition(kt, length - t).phi, 4, 4);
+      const Mat cond = qt - qt * pr.transpose() * ql.ldlt().solve(pr * qt);
+      spread[static_cast<std::size_t>(k)] = std::sqrt(c.dot(cond * c));
+    }
+    for (int j = 0; j <= kPts; ++j) {
+      const std::size_t k = static_cast<std::size_t>(2 * j);
+      const double want = std::max({spread[k], spread[k + 1], spread[k + 2]});
+      EXPECT_NEAR(table.seg_spread[static_cast<std::size_t>(d * (kPts + 1) + j)], want,
+                  1e-6 * want) << d << " " << j;
+    }
+    for (int j = 1; j <= kPts; ++j) {
       const double t = length * j / 8.0;
       const Mat pt = mat(crandall::transition(kt, t).phi, 4, 4);
       const Mat qt = mat(crandall::transition(kt, t).q, 4, 4);
       const Mat pr = mat(crandall::transition(kt, length - t).phi, 4, 4);
       const Eigen::Vector4d mean = pt * y0 + qt * pr.transpose() * ql.ldlt().solve(yl - pl * y0);
-      const std::size_t row = static_cast<std::size_t>(d * crandall::kRestPoints + j - 1);
+      const std::size_t row = static_cast<std::size_t>(d * kPts + j - 1);
       double got = 0.0;
       for (int i = 0; i < 2; ++i) got += table.pts_z[row * 2 + static_cast<std::size_t>(i)] * y0(i);
       for (int i = 0; i < 4; ++i) got += table.pts_xi[row * 4 + static_cast<std::size_t>(i)] * xi(i);
       EXPECT_NEAR(got, c.dot(mean), 1e-6 * std::abs(c.dot(mean)) + 1e-12) << d << " " << j;
       if (j == 4) {
         for (int i = 0; i < 2; ++i)
-          EXPECT_EQ(table.pts_z[row * 2 + static_cast<std::size_t>(i)],
-                    table.mid_z[static_cast<std::size_t>(d * 2 + i)]);
+          EXPECT_NEAR(table.pts_z[row * 2 + static_cast<std::size_t>(i)],
+                      table.mid_z[static_cast<std::size_t>(d * 2 + i)], 1e-14);
         for (int i = 0; i < 4; ++i)
           EXPECT_NEAR(table.pts_xi[row * 4 + static_cast<std::size_t>(i)],
-                      table.mid_xi[static_cast<std::size_t>(d * 4 + i)], 1e-15);
+                      table.mid_xi[static_cast<std::size_t>(d * 4 + i)], 1e-14);
       }
     }
   }

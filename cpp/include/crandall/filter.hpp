@@ -145,6 +145,9 @@ struct StepTable {
   // midpoint): rows [(d 7 + j - 1) n ..] and [(d 7 + j - 1) m ..]. The test for an onset at
   // rest looks at all of them (filtered.cpp, possible_event).
   std::vector<double> pts_z, pts_xi;
+  // [d (kRestPoints + 1) + j]: the widest spread of a_g (unit intensity) over the segment
+  // between the points j / 8 and (j + 1) / 8 (at its ends and middle) given the start and xi.
+  std::vector<double> seg_spread;
 };
 constexpr int kRestPoints = 7;
 
