@@ -53,8 +53,9 @@ References, none from the code under test:
   last time at rest) against bench/stop_time_reference.py (bench/results/
   stop_time_reference.json): the Euler peer with the touches of a body at rest counted by the
   Brownian bridge's probability, so that its bias is first order, extrapolated per path at
-  three steps (which agree); its finest is the reference, with its standard error (also
-  counted in quadrature, "coverage_with_reference_se").
+  three steps (which agree); its finest (pooled with more paths there at omega = 0.5) is the
+  reference, with its standard error (also counted in quadrature,
+  "coverage_with_reference_se").
 
 Writes bench/out/filtered_error.{json,png} (bench/results/ with --publish).
 
@@ -746,9 +747,10 @@ STOP_TIME_REFERENCE = Path(__file__).resolve().parent / "results" / "stop_time_r
 
 
 def stop_time_references(omega: float):
-    """The stop time's mean and variance at omega: bench/stop_time_reference.py's finest
-    extrapolated values (an Euler peer, its touches at rest counted by the Brownian bridge's
-    probability), each with its standard error."""
+    """The stop time's mean and variance at omega: bench/stop_time_reference.py's reference
+    (an Euler peer, its touches at rest counted by the Brownian bridge's probability; the
+    finest step's extrapolated values, pooled with the paths of its --more where run), each
+    with its standard error."""
     ref = json.loads(STOP_TIME_REFERENCE.read_text())["cases"][f"omega_{float(omega)}"]["reference"]
     return {("stop_time", stat, None): (ref[stat][0], ref[stat][1]) for stat in ("mean", "var")}
 

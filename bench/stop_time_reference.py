@@ -32,6 +32,9 @@ Writes bench/results/stop_time_reference.json and prints a table. One core, abou
 
     OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1 .venv/bin/python bench/stop_time_reference.py
         [--cases 2.0,0.5] [--paths 2.0:200000,0.5:1000000] [--chunk 100000]
+    OMP_NUM_THREADS=1 NUMBA_NUM_THREADS=1 .venv/bin/python bench/stop_time_reference.py
+        --more 0.5:2000000   (that many more paths at a case's finest step, pooled into its
+        reference)
 """
 
 from __future__ import annotations
@@ -127,6 +130,35 @@ def run(kt, omega: float, dt: float, paths: int, chunk: int, step_index: int, to
     return np.concatenate(fines), np.concatenate(coarses), seeds, time.perf_counter() - t
 
 
+#: The step index of --more's seeds (the cases' own steps are 0, 1, 2).
+MORE_INDEX = 9
+
+
+def pooled(a, b):
+    """The inverse-variance weighted mean of two independent estimates (value, se)."""
+    wa, wb = 1.0 / a[1] ** 2, 1.0 / b[1] ** 2
+    return [(wa * a[0] + wb * b[0]) / (wa + wb), 1.0 / math.sqrt(wa + wb)]
+
+
+def more(kt, data, omega: float, paths: int, chunk: int) -> None:
+    """--more: paths more at the finest step of a case already run, on seeds 10000 case + 1000
+    MORE_INDEX + chunk, summarised as the case's rows are; the reference becomes the pool of the
+    finest row and these (both the same estimator at the same step, independent)."""
+    case = data["cases"][f"omega_{omega}"]
+    fin = case["per_dt"][-1]
+    fine, coarse, seeds, sec = run(kt, omega, fin["dt"], paths, chunk, MORE_INDEX, True)
+    row = {"dt": fin["dt"], "coarse_dt": 2 * fin["dt"], "paths": paths, "seeds": seeds,
+           "seconds": round(sec, 1), **summarise(fine, coarse)}
+    case["finest_more"] = row
+    case["reference"] = {"dt": fin["dt"], "paths": fin["paths"] + paths,
+                         "mean": pooled(fin["extrapolated_mean"], row["extrapolated_mean"]),
+                         "var": pooled(fin["extrapolated_var"], row["extrapolated_var"]),
+                         "note": "the finest row pooled with finest_more (--more)"}
+    print(f"omega {omega} dt {fin['dt']:g}, {paths} more paths ({sec:.0f} s): extrapolated mean "
+          f"{fmt(row['extrapolated_mean'])}, var {fmt(row['extrapolated_var'])}; pooled "
+          f"{fmt(case['reference']['mean'])}, {fmt(case['reference']['var'])}", flush=True)
+
+
 def fmt(x: tuple[float, float]) -> str:
     return f"{x[0]:.5f} +- {x[1]:.5f}"
 
@@ -136,6 +168,9 @@ def main() -> None:
     ap.add_argument("--cases", default="2.0,0.5")
     ap.add_argument("--paths", default="", help="omega:paths,... overriding the defaults")
     ap.add_argument("--chunk", type=int, default=100_000)
+    ap.add_argument("--more", default="",
+                    help="omega:paths: that many more paths at the case's finest step, on seeds "
+                         "of their own, pooled into its reference (the cases already run)")
     args = ap.parse_args()
     sys.path.insert(0, str(HERE))
     from peers import numba_kt as kt
@@ -151,6 +186,12 @@ def main() -> None:
                  "script": "bench/stop_time_reference.py",
                  "peer": "bench/peers/numba_kt.py coupled_stop_at"})
     data.setdefault("cases", {})
+    if args.more:
+        omega, paths = float(args.more.split(":")[0]), int(args.more.split(":")[1])
+        more(kt, data, omega, paths, args.chunk)
+        OUT.write_text(json.dumps(data, indent=1))
+        print(f"wrote {OUT}")
+        return
     for omega in (float(c) for c in args.cases.split(",")):
         spec = CASES[omega]
         paths = paths_over.get(omega, spec["paths"])
