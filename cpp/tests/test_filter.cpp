@@ -6,6 +6,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <stdexcept>
 #include <random>
 #include <string>
@@ -225,6 +226,17 @@ TEST(FilterRoots, SpreadIsTheConditionalSpreadOfTheClassicBridge) {
   }
 }
 
+// The filter model of the Kanai-Tajimi filter kt at event depth `depth`, one step length.
+std::shared_ptr<const crandall::FilterModel> kt_model(int depth, double step) {
+  crandall::Options o;
+  o.excitation = crandall::Excitation::filtered;
+  o.filter_a = kt.a;
+  o.filter_b = kt.b;
+  o.filter_c = kt.c;
+  o.event_depth = depth;
+  return crandall::make_filter_model(o, {step}, step);
+}
+
 // The event search's widest spread and midpoint mean against the textbook bridge (full-rank Q,
 // moderate omega L as above): Var[c.Y(t) | Y(0), Y(L)] = c (Q_t - Q_t Phi_{L-t}^T Q_L^-1
 // Phi_{L-t} Q_t) c, its widest over t = L/4, L/2, 3L/4 is widest_spread(.., 2); and
@@ -246,13 +258,7 @@ TEST(FilterRoots, WidestSpreadAndMidpointMeanAreTheClassicBridges) {
   EXPECT_NEAR(crandall::widest_spread(levels, kt.c, 0, 2), widest, 1e-6 * widest);
   EXPECT_GT(widest, levels[0].spread);
 
-  crandall::Options o;
-  o.excitation = crandall::Excitation::filtered;
-  o.filter_a = kt.a;
-  o.filter_b = kt.b;
-  o.filter_c = kt.c;
-  o.event_depth = 1;
-  const auto fm = crandall::make_filter_model(o, {length}, length);
+  const auto fm = kt_model(1, length);
   const auto& table = fm->tables[0];
   const Mat ph = mat(crandall::transition(kt, 0.5 * length).phi, 4, 4);
   const Mat qh = mat(crandall::transition(kt, 0.5 * length).q, 4, 4);
@@ -274,14 +280,8 @@ TEST(FilterRoots, WidestSpreadAndMidpointMeanAreTheClassicBridges) {
 // and one below; j = 4 is the midpoint's row (mid_z, mid_xi, from the table's own tree: the
 // same up to rounding).
 TEST(FilterRoots, TheRestTestsPointsAndSegmentsAreTheClassicBridges) {
-  crandall::Options o;
-  o.excitation = crandall::Excitation::filtered;
-  o.filter_a = kt.a;
-  o.filter_b = kt.b;
-  o.filter_c = kt.c;
-  o.event_depth = 2;
   const double step = 0.08;
-  const auto fm = crandall::make_filter_model(o, {step}, step);
+  const auto fm = kt_model(2, step);
   const auto& table = fm->tables[0];
   constexpr int kPts = crandall::kRestPoints;
   ASSERT_EQ(table.pts_z.size(), static_cast<std::size_t>(3 * kPts * 2));
