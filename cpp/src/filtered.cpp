@@ -756,7 +756,7 @@ class Walker {
     }
   }
 
-  // Touches at rest (docs/filtered.md, "Events and the stop"). A finest substep takes a_g
+  // Touches at rest (docs/filtered.md, "Touches at rest and the stop"). A finest substep takes a_g
   // linear, but a_g is rough: between two ends below K = static_drift it touches K with a
   // probability near exp(-(K - a)(K - b) / (2 s^2)) (s its midpoint's spread), and each touch
   // is a slide too short for the substep that moves the last time the body came to rest. Only
